@@ -1,0 +1,20 @@
+//! Colour constants and conversions, kept in one place (SPEC §2–§4).
+
+/// BT.709 / sRGB luminance weights (SPEC §2).
+pub const BT709: [f64; 3] = [0.2126, 0.7152, 0.0722];
+/// pfstools' weights, from its sRGB→XYZ matrix (the `reinhard02` preset).
+pub const PFS: [f64; 3] = [0.212656, 0.715158, 0.072186];
+/// Seed 004's saturation weights.
+pub const SEED004_SATURATION: [f64; 3] = [0.2125, 0.7154, 0.0721];
+
+/// Y of a linear RGB triple with the given weights.
+#[inline]
+pub fn luminance_with(rgb: [f64; 3], w: [f64; 3]) -> f64 {
+    w[0] * rgb[0] + w[1] * rgb[1] + w[2] * rgb[2]
+}
+
+/// Y of a linear RGB triple with BT.709 weights.
+#[inline]
+pub fn luminance(rgb: [f64; 3]) -> f64 {
+    luminance_with(rgb, BT709)
+}

@@ -1,0 +1,12 @@
+//! tonegate: headless regression and image-quality validation for a GPU HDR tone mapper.
+//!
+//! The CPU reference (`reference`) is the oracle; the stage plan (`plan`) is the
+//! shared contract both renderers execute; `metrics` judges the outputs.
+
+pub mod color;
+pub mod error;
+pub mod image;
+pub mod io;
+pub mod metrics;
+
+pub use error::{Error, Result};
