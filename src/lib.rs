@@ -4,9 +4,14 @@
 //! shared contract both renderers execute; `metrics` judges the outputs.
 
 pub mod color;
+pub mod conventions;
+pub mod env;
 pub mod error;
 pub mod image;
 pub mod io;
 pub mod metrics;
+pub mod plan;
+pub mod reference;
+pub mod scene;
 
 pub use error::{Error, Result};

@@ -1,0 +1,328 @@
+//! The stage plan: the ordered list of stages a scene needs, and nothing else.
+//!
+//! Both renderers execute a plan; a stage that is not in it is neither built,
+//! dispatched nor timed. `tonegate plan scene.toml` prints it.
+
+use crate::scene::{
+    BrightPass, ColourPath, Encoding, Grade, Key, Operator, Scene,
+};
+use serde::Serialize;
+use std::fmt;
+
+/// Which luminance statistics a frame needs (seed 000 / 001 reductions).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct StatsNeeds {
+    /// exp(mean ln(δ + Y)) over all pixels.
+    pub log_average: bool,
+    /// Seed 001's exp(Σ w·ln(δ + Y) / Σ w), w = 1 − e^(−Y).
+    pub weighted_log_average: bool,
+    pub min: bool,
+    pub max: bool,
+}
+
+impl StatsNeeds {
+    pub fn any(&self) -> bool {
+        self.log_average || self.weighted_log_average || self.min || self.max
+    }
+}
+
+/// Where the bright pass reads from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BloomSource {
+    /// The HDR frame (seed 001).
+    Hdr,
+    /// The tone-mapped frame (seed 004).
+    Toned,
+}
+
+/// One stage. Names are the WGSL file names, the CPU reference function names
+/// and the GPU pipeline labels (`tonegate.<name>`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "stage", rename_all = "snake_case")]
+pub enum Stage {
+    /// Renders the view of the rotating sphere (absent for flat images).
+    Sphere { spp: u32 },
+    /// Reduces the HDR frame to the statistics the operator needs.
+    LuminanceStats(StatsNeeds),
+    Tonemap { colour: ColourPath },
+    BloomBright { source: BloomSource },
+    BloomDownsample { factor: u32 },
+    /// Two 1-D passes, horizontal then vertical.
+    BloomBlur { radius: u32 },
+    BloomComposite,
+    /// Mean luminance of the frame entering the grade (contrast needs it).
+    GradeStats,
+    Grade,
+    Encode,
+}
+
+impl Stage {
+    pub fn name(&self) -> &'static str {
+        match self {
+            Stage::Sphere { .. } => "sphere",
+            Stage::LuminanceStats(_) => "luminance_stats",
+            Stage::Tonemap { .. } => "tonemap",
+            Stage::BloomBright { .. } => "bloom_bright",
+            Stage::BloomDownsample { .. } => "bloom_downsample",
+            Stage::BloomBlur { .. } => "bloom_blur",
+            Stage::BloomComposite => "bloom_composite",
+            Stage::GradeStats => "grade_stats",
+            Stage::Grade => "grade",
+            Stage::Encode => "encode",
+        }
+    }
+}
+
+/// Where the frame comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Input {
+    /// A view of the rotating environment sphere.
+    Sphere { spp: u32 },
+    /// A flat HDR image, tone-mapped as it is.
+    Flat,
+}
+
+/// The ordered stages of one frame.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct StagePlan {
+    pub stages: Vec<Stage>,
+}
+
+/// What the operator needs measured; fixed parameters need nothing.
+pub fn stats_needs(op: &Operator, bloom: Option<&crate::scene::Bloom>) -> StatsNeeds {
+    let mut needs = StatsNeeds::default();
+    match op {
+        Operator::Seed000 {
+            log_average,
+            max_luminance,
+            ..
+        } => {
+            needs.log_average = log_average.is_none();
+            needs.max = max_luminance.is_none();
+        }
+        Operator::Seed001 { key, .. } => {
+            needs.weighted_log_average = true;
+            needs.max = true;
+            needs.min = matches!(key, Key::Auto);
+        }
+        Operator::Reinhard02 {
+            white,
+            log_average,
+            ..
+        } => {
+            needs.log_average = log_average.is_none();
+            needs.max = white.is_none();
+        }
+    }
+    if let Some(b) = bloom {
+        if b.bright_pass == BrightPass::Seed001 {
+            needs.max = true;
+        }
+    }
+    needs
+}
+
+impl StagePlan {
+    /// The plan for `scene` rendered from `input` (a sphere at the given spp,
+    /// or a flat image).
+    pub fn build(
+        input: Input,
+        operator: &Operator,
+        bloom: Option<&crate::scene::Bloom>,
+        grade: Option<&Grade>,
+    ) -> StagePlan {
+        let mut stages = Vec::new();
+        if let Input::Sphere { spp } = input {
+            stages.push(Stage::Sphere { spp });
+        }
+        let needs = stats_needs(operator, bloom);
+        if needs.any() {
+            stages.push(Stage::LuminanceStats(needs));
+        }
+        stages.push(Stage::Tonemap {
+            colour: operator.colour(),
+        });
+        if let Some(b) = bloom.filter(|b| b.strength.get() > 0.0) {
+            let source = match b.bright_pass {
+                BrightPass::Seed001 => BloomSource::Hdr,
+                BrightPass::Threshold => BloomSource::Toned,
+            };
+            stages.push(Stage::BloomBright { source });
+            stages.push(Stage::BloomDownsample {
+                factor: b.downsample.get(),
+            });
+            stages.push(Stage::BloomBlur {
+                radius: b.radius.get(),
+            });
+            stages.push(Stage::BloomComposite);
+        }
+        if let Some(g) = grade.filter(|g| !g.is_neutral()) {
+            if g.contrast.get() != 1.0 {
+                stages.push(Stage::GradeStats);
+            }
+            stages.push(Stage::Grade);
+        }
+        stages.push(Stage::Encode);
+        StagePlan { stages }
+    }
+
+    /// The plan of one scene frame at `spp` samples per pixel.
+    pub fn for_scene(scene: &Scene, spp: u32) -> StagePlan {
+        StagePlan::build(
+            Input::Sphere { spp },
+            &scene.operator,
+            scene.bloom.as_ref(),
+            scene.grade.as_ref(),
+        )
+    }
+
+    pub fn contains(&self, name: &str) -> bool {
+        self.stages.iter().any(|s| s.name() == name)
+    }
+
+    pub fn names(&self) -> Vec<&'static str> {
+        self.stages.iter().map(Stage::name).collect()
+    }
+}
+
+impl fmt::Display for StagePlan {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for (i, s) in self.stages.iter().enumerate() {
+            let detail = match s {
+                Stage::Sphere { spp } => format!("{spp} spp"),
+                Stage::LuminanceStats(n) => {
+                    let mut parts = Vec::new();
+                    if n.log_average {
+                        parts.push("log_average");
+                    }
+                    if n.weighted_log_average {
+                        parts.push("weighted_log_average");
+                    }
+                    if n.min {
+                        parts.push("min");
+                    }
+                    if n.max {
+                        parts.push("max");
+                    }
+                    parts.join(", ")
+                }
+                Stage::Tonemap { colour } => format!("colour {colour:?}").to_lowercase(),
+                Stage::BloomBright { source } => format!("from {source:?}").to_lowercase(),
+                Stage::BloomDownsample { factor } => format!("1/{factor}"),
+                Stage::BloomBlur { radius } => format!("radius {radius}, 2 passes"),
+                _ => String::new(),
+            };
+            writeln!(f, "{:>2}. {:<17} {}", i + 1, s.name(), detail)?;
+        }
+        Ok(())
+    }
+}
+
+/// The encoding as a short label for reports.
+pub fn encoding_label(e: &Encoding) -> String {
+    match e {
+        Encoding::Srgb => "srgb".into(),
+        Encoding::Gamma(g) => format!("gamma {}", g.get()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{Bloom, Factor, NonNegative, Positive, Radius};
+
+    fn bloom(bright_pass: BrightPass, strength: f64) -> Bloom {
+        Bloom {
+            bright_pass,
+            threshold: NonNegative::try_from(1.0).unwrap(),
+            downsample: Factor::try_from(2).unwrap(),
+            radius: Radius::try_from(4).unwrap(),
+            sigma: Positive::try_from(2.0).unwrap(),
+            strength: NonNegative::try_from(strength).unwrap(),
+        }
+    }
+
+    fn reinhard02(white: Option<f64>, log_average: Option<f64>) -> Operator {
+        Operator::Reinhard02 {
+            key: Positive::try_from(0.18).unwrap(),
+            white: white.map(|w| Positive::try_from(w).unwrap()),
+            log_average: log_average.map(|w| Positive::try_from(w).unwrap()),
+            colour: ColourPath::Ratio,
+            pfs_compatible: false,
+        }
+    }
+
+    #[test]
+    fn fixed_parameters_need_no_statistics() {
+        let plan = StagePlan::build(Input::Flat, &reinhard02(Some(4.0), Some(0.5)), None, None);
+        assert_eq!(plan.names(), ["tonemap", "encode"]);
+    }
+
+    #[test]
+    fn flat_images_have_no_sphere_stage() {
+        let plan = StagePlan::build(Input::Flat, &Operator::default(), None, None);
+        assert!(!plan.contains("sphere"));
+        let plan = StagePlan::build(Input::Sphere { spp: 1 }, &Operator::default(), None, None);
+        assert_eq!(plan.stages[0], Stage::Sphere { spp: 1 });
+    }
+
+    #[test]
+    fn weighted_sums_and_min_only_when_seed001_needs_them() {
+        let needs = stats_needs(&Operator::default(), None);
+        assert!(needs.log_average && needs.max && !needs.weighted_log_average && !needs.min);
+        let auto = Operator::Seed001 {
+            key: Key::Auto,
+            colour: ColourPath::Ratio,
+        };
+        let needs = stats_needs(&auto, None);
+        assert!(needs.weighted_log_average && needs.min && needs.max && !needs.log_average);
+        let fixed = Operator::Seed001 {
+            key: Key::Fixed(Positive::try_from(0.2).unwrap()),
+            colour: ColourPath::Ratio,
+        };
+        assert!(!stats_needs(&fixed, None).min);
+        // Lwhite unset needs the max; an absolute one does not.
+        assert!(stats_needs(&reinhard02(None, None), None).max);
+        assert!(!stats_needs(&reinhard02(Some(3.0), None), None).max);
+        // Seed 001's bright pass normalises by Lmax.
+        assert!(stats_needs(&reinhard02(Some(3.0), None), Some(&bloom(BrightPass::Seed001, 0.2))).max);
+    }
+
+    #[test]
+    fn bloom_and_grade_appear_only_when_active() {
+        let op = Operator::default();
+        let off = StagePlan::build(Input::Flat, &op, Some(&bloom(BrightPass::Seed001, 0.0)), None);
+        assert!(!off.names().iter().any(|n| n.starts_with("bloom")));
+        let on = StagePlan::build(Input::Flat, &op, Some(&bloom(BrightPass::Threshold, 0.3)), None);
+        assert_eq!(
+            on.names(),
+            [
+                "luminance_stats",
+                "tonemap",
+                "bloom_bright",
+                "bloom_downsample",
+                "bloom_blur",
+                "bloom_composite",
+                "encode"
+            ]
+        );
+        let neutral = Grade {
+            brightness: NonNegative::try_from(1.0).unwrap(),
+            contrast: NonNegative::try_from(1.0).unwrap(),
+            saturation: NonNegative::try_from(1.0).unwrap(),
+        };
+        assert!(!StagePlan::build(Input::Flat, &op, None, Some(&neutral)).contains("grade"));
+        let saturate = Grade {
+            saturation: NonNegative::try_from(1.2).unwrap(),
+            ..neutral.clone()
+        };
+        let plan = StagePlan::build(Input::Flat, &op, None, Some(&saturate));
+        assert!(plan.contains("grade") && !plan.contains("grade_stats"));
+        let contrast = Grade {
+            contrast: NonNegative::try_from(1.2).unwrap(),
+            ..neutral
+        };
+        assert!(StagePlan::build(Input::Flat, &op, None, Some(&contrast)).contains("grade_stats"));
+    }
+}

@@ -1,0 +1,40 @@
+//! `bloom_bright`: which pixels feed the bloom.
+
+use crate::color::luminance_with;
+use crate::image::LinearImage;
+use crate::scene::BrightPass;
+use rayon::prelude::*;
+
+/// Seed 001: C·(Y/Lmax) where Y > threshold, else 0 (on the HDR frame; the
+/// factor brings the brightest pixel's contribution to its own colour scale
+/// over Lmax). Seed 004 (`Threshold`): C where Y > threshold, else 0 (on the
+/// tone-mapped frame).
+pub fn bloom_bright(
+    src: &LinearImage,
+    pass: BrightPass,
+    threshold: f64,
+    max_luminance: f64,
+    weights: [f64; 3],
+) -> LinearImage {
+    let inv_max = if max_luminance > 0.0 && max_luminance.is_finite() {
+        1.0 / max_luminance
+    } else {
+        0.0
+    };
+    let mut out = src.clone();
+    out.pixels.par_iter_mut().for_each(|c| {
+        let y = luminance_with(*c, weights);
+        *c = if y > threshold {
+            match pass {
+                BrightPass::Seed001 => {
+                    let k = y * inv_max;
+                    [c[0] * k, c[1] * k, c[2] * k]
+                }
+                BrightPass::Threshold => *c,
+            }
+        } else {
+            [0.0; 3]
+        };
+    });
+    out
+}

@@ -1,0 +1,178 @@
+//! The CPU reference renderer: one function per stage, in f64, named as the
+//! WGSL files and GPU passes are. `run_plan` executes a [`StagePlan`] and keeps
+//! every stage's output so each can be compared with the GPU's on its own.
+
+pub mod bloom_blur;
+pub mod bloom_bright;
+pub mod bloom_composite;
+pub mod bloom_downsample;
+pub mod encode;
+pub mod grade;
+pub mod luminance_stats;
+pub mod sphere;
+pub mod tonemap;
+
+use crate::conventions::{rotation_matrix, Camera};
+use crate::image::{HdrImage, LinearImage, Rgb8Image};
+use crate::plan::{BloomSource, Stage, StagePlan};
+use crate::scene::{Bloom, Encoding, Grade, Operator, Scene};
+use luminance_stats::LuminanceStats;
+use serde::Serialize;
+use tonemap::ToneParams;
+
+/// Bump when any reference stage changes its output: the golden manifest
+/// records it, and goldens of another version are stale.
+pub const REFERENCE_VERSION: u32 = 1;
+
+/// The parameters of the stages after `sphere`.
+#[derive(Clone, Copy, Debug)]
+pub struct Pipeline<'a> {
+    pub operator: &'a Operator,
+    pub bloom: Option<&'a Bloom>,
+    pub grade: Option<&'a Grade>,
+    pub encoding: Encoding,
+}
+
+impl<'a> Pipeline<'a> {
+    pub fn of_scene(scene: &'a Scene) -> Self {
+        Pipeline {
+            operator: &scene.operator,
+            bloom: scene.bloom.as_ref(),
+            grade: scene.grade.as_ref(),
+            encoding: scene.encoding,
+        }
+    }
+}
+
+/// Every stage's output for one frame.
+#[derive(Clone, Debug)]
+pub struct FrameOutputs {
+    /// The HDR input of the statistics and operator (the `sphere` output, or
+    /// the flat image).
+    pub hdr: LinearImage,
+    pub stats: LuminanceStats,
+    pub tone: ToneParams,
+    /// `tonemap`'s output.
+    pub toned: LinearImage,
+    /// `bloom_blur`'s output at low resolution, when bloom runs.
+    pub bloom: Option<LinearImage>,
+    /// `grade_stats`'s mean luminance, when contrast needs it.
+    pub grade_mean: Option<f64>,
+    /// Linear display-referred frame entering `encode`.
+    pub display: LinearImage,
+    /// `encode`'s 8-bit frame.
+    pub frame: Rgb8Image,
+}
+
+/// Summary of a frame for reports.
+#[derive(Clone, Debug, Serialize)]
+pub struct FrameSummary {
+    pub stats: LuminanceStats,
+    pub tone: ToneParams,
+}
+
+/// Executes the stages of `plan` after `sphere` on `hdr`.
+pub fn run_plan(plan: &StagePlan, hdr: LinearImage, p: &Pipeline) -> FrameOutputs {
+    let (weights, delta) = tonemap::operator_constants(p.operator);
+    let mut stats = LuminanceStats::default();
+    let mut tone = None;
+    let mut toned = None;
+    let mut bright = None;
+    let mut low = None;
+    let mut bloom = None;
+    let mut display: Option<LinearImage> = None;
+    let mut grade_mean = None;
+    let mut frame = None;
+    for stage in &plan.stages {
+        match stage {
+            Stage::Sphere { .. } => {}
+            Stage::LuminanceStats(needs) => {
+                stats = luminance_stats::luminance_stats(&hdr, *needs, weights, delta);
+            }
+            Stage::Tonemap { .. } => {
+                let params = tonemap::resolve(p.operator, &stats);
+                let out = tonemap::tonemap(&hdr, &params);
+                tone = Some(params);
+                display = Some(out.clone());
+                toned = Some(out);
+            }
+            Stage::BloomBright { source } => {
+                let b = p.bloom.expect("plan has bloom stages only with bloom");
+                let src = match source {
+                    BloomSource::Hdr => &hdr,
+                    BloomSource::Toned => toned.as_ref().expect("tonemap runs before bloom"),
+                };
+                let lmax = stats.max.unwrap_or(0.0);
+                bright = Some(bloom_bright::bloom_bright(
+                    src,
+                    b.bright_pass,
+                    b.threshold.get(),
+                    lmax,
+                    weights,
+                ));
+            }
+            Stage::BloomDownsample { factor } => {
+                let src = bright.take().expect("bright pass runs first");
+                low = Some(bloom_downsample::bloom_downsample(&src, *factor));
+            }
+            Stage::BloomBlur { radius } => {
+                let b = p.bloom.expect("plan has bloom stages only with bloom");
+                let src = low.take().expect("downsample runs first");
+                bloom = Some(bloom_blur::bloom_blur(&src, *radius, b.sigma.get()));
+            }
+            Stage::BloomComposite => {
+                let b = p.bloom.expect("plan has bloom stages only with bloom");
+                let base = display.as_ref().expect("tonemap runs first");
+                let blurred = bloom.as_ref().expect("blur runs first");
+                display = Some(bloom_composite::bloom_composite(base, blurred, b.strength.get()));
+            }
+            Stage::GradeStats => {
+                grade_mean = Some(grade::grade_stats(display.as_ref().expect("tonemap runs first")));
+            }
+            Stage::Grade => {
+                let g = p.grade.expect("plan has grade only with a grade");
+                let base = display.as_ref().expect("tonemap runs first");
+                // Without contrast the mean is not used, and not measured.
+                display = Some(grade::grade(base, g, grade_mean.unwrap_or(0.0)));
+            }
+            Stage::Encode => {
+                frame = Some(encode::encode(display.as_ref().expect("tonemap runs first"), p.encoding));
+            }
+        }
+    }
+    let toned = toned.expect("every plan tone-maps");
+    FrameOutputs {
+        tone: tone.expect("every plan tone-maps"),
+        display: display.unwrap_or_else(|| toned.clone()),
+        frame: frame.expect("every plan encodes"),
+        hdr,
+        stats,
+        toned,
+        bloom,
+        grade_mean,
+    }
+}
+
+/// The camera of a scene.
+pub fn scene_camera(scene: &Scene) -> Camera {
+    Camera {
+        width: scene.size.width,
+        height: scene.size.height,
+        fov_y_deg: scene.fov_y,
+    }
+}
+
+/// Renders frame `n` of `scene` over `env` at `spp` samples per pixel.
+pub fn render_frame(scene: &Scene, env: &HdrImage, n: u32, spp: u32) -> FrameOutputs {
+    let plan = StagePlan::for_scene(scene, spp);
+    let rotation = rotation_matrix(scene.rotation.axis, scene.angle(n));
+    let hdr = sphere::sphere(env, &scene_camera(scene), &rotation, spp);
+    run_plan(&plan, hdr, &Pipeline::of_scene(scene))
+}
+
+/// Tone-maps a flat HDR image (no sphere stage).
+pub fn render_flat(img: &HdrImage, p: &Pipeline) -> (StagePlan, FrameOutputs) {
+    let plan = StagePlan::build(crate::plan::Input::Flat, p.operator, p.bloom, p.grade);
+    let out = run_plan(&plan, img.to_linear(), p);
+    (plan, out)
+}
