@@ -1,3 +1,5 @@
-fn main() {
-    println!("tonegate");
+//! The `tonegate` binary: everything lives in the library's `cli` module.
+
+fn main() -> std::process::ExitCode {
+    tonegate::cli::main()
 }

@@ -1,0 +1,17 @@
+#!/usr/bin/env bash
+# Installs the Debian packages tonegate's jobs need, when they are missing.
+# Sourced by ci/main.sh and ci/test.sh; idempotent, and quiet when all is there.
+#   pfstools, pfstmo   - the peer tone mapper the reinhard02 preset is locked to
+#   python3-venv       - the scikit-image venv that regenerates tests/skimage/vectors.json
+set -euo pipefail
+
+need=()
+command -v pfstmo_reinhard02 >/dev/null 2>&1 || need+=(pfstools pfstmo)
+python3 -c 'import ensurepip, venv' >/dev/null 2>&1 || need+=(python3-venv)
+if [ "${#need[@]}" -gt 0 ]; then
+  sudo=""
+  [ "$(id -u)" -eq 0 ] || sudo="sudo"
+  echo "installing: ${need[*]}"
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq "${need[@]}" >/dev/null
+fi

@@ -1,0 +1,582 @@
+//! The command line: argument definitions and the commands that call the library.
+//!
+//! Exit codes: 0 success, 1 a check or verification failed, 2 the run could
+//! not happen (bad arguments, unreadable files, missing goldens).
+
+use crate::error::{Error, Result};
+use crate::scene::{
+    Bloom, BrightPass, ColourPath, Encoding, Factor, Grade, Key, NonNegative, Operator, Positive,
+    Radius, Scene, Size,
+};
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(name = "tonegate", version, about = "Headless regression and image-quality validation for a GPU HDR tone mapper")]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand)]
+pub enum Command {
+    /// Render the built-in suite on the CPU path and compare every frame with its golden.
+    Suite(SuiteArgs),
+    /// Tone-map one HDR image (.hdr, .exr, .pfm); output format from the extension.
+    Tonemap(TonemapArgs),
+    /// Compare two 8-bit images: MSE, RMSE, PSNR, SNR, SSIM, max abs diff.
+    Compare(CompareArgs),
+    /// Print the stage plan of a scene: the stages it needs and nothing else.
+    Plan(PlanArgs),
+    /// Render a scene's frames with the CPU reference.
+    Render(RenderArgs),
+    /// Bless or verify the golden images.
+    #[command(subcommand)]
+    Golden(GoldenCommand),
+    /// Export a built-in HDR environment, or list them.
+    Env(EnvArgs),
+}
+
+#[derive(Args)]
+pub struct SuiteArgs {
+    /// The suite file.
+    #[arg(long, default_value = "golden/suite.toml")]
+    pub suite: PathBuf,
+    /// Samples per pixel of the render under test (1 = the plain path).
+    #[arg(long, default_value_t = 1)]
+    pub spp: u32,
+    /// Also write the full results as JSON to this file ("-" for stdout).
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+pub enum OperatorKind {
+    Seed000,
+    Seed001,
+    Reinhard02,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+pub enum Preset {
+    /// pfstmo_reinhard02 in global mode: pfstools' luminance, δ = 1e-5, Lwhite = max scaled.
+    Reinhard02,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+pub enum ColourArg {
+    Ratio,
+    Xyy,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+pub enum BrightPassArg {
+    Seed001,
+    Threshold,
+}
+
+#[derive(Args)]
+pub struct TonemapArgs {
+    /// Input HDR image.
+    pub input: PathBuf,
+    /// Output: .png (8-bit encoded), .exr / .pfm / .hdr (linear, before encoding).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// A preset that fixes the operator (overrides --operator and --colour).
+    #[arg(long, value_enum)]
+    pub preset: Option<Preset>,
+    #[arg(long, value_enum, default_value = "seed000")]
+    pub operator: OperatorKind,
+    /// Key a (a number, or "auto" for seed001's automatic key).
+    #[arg(long)]
+    pub key: Option<String>,
+    /// Seed000: fraction of the scene maximum that maps to white, (0, 1].
+    #[arg(long)]
+    pub white_fraction: Option<f64>,
+    /// Reinhard02: absolute Lwhite (default: the maximum scaled luminance).
+    #[arg(long)]
+    pub white: Option<f64>,
+    /// Fixed adaptation luminance instead of the measured log-average.
+    #[arg(long)]
+    pub log_average: Option<f64>,
+    #[arg(long, value_enum, default_value = "ratio")]
+    pub colour: ColourArg,
+    /// Bloom strength k (0 = no bloom).
+    #[arg(long, default_value_t = 0.0)]
+    pub bloom: f64,
+    #[arg(long, value_enum, default_value = "seed001")]
+    pub bloom_pass: BrightPassArg,
+    #[arg(long, default_value_t = 1.0)]
+    pub bloom_threshold: f64,
+    #[arg(long, default_value_t = 2)]
+    pub bloom_downsample: u32,
+    #[arg(long, default_value_t = 6)]
+    pub bloom_radius: u32,
+    #[arg(long, default_value_t = 3.0)]
+    pub bloom_sigma: f64,
+    #[arg(long, default_value_t = 1.0)]
+    pub brightness: f64,
+    #[arg(long, default_value_t = 1.0)]
+    pub contrast: f64,
+    #[arg(long, default_value_t = 1.0)]
+    pub saturation: f64,
+    /// Encode with a 1/γ power instead of the sRGB OETF.
+    #[arg(long)]
+    pub gamma: Option<f64>,
+    /// Set NaN and ±Inf input values to 0 (and count them) instead of refusing the file.
+    #[arg(long)]
+    pub sanitize: bool,
+    /// Largest accepted input, in pixels.
+    #[arg(long, default_value_t = crate::io::LoadOptions::default().max_pixels)]
+    pub max_pixels: u64,
+    /// Print a JSON report (load report, plan, statistics, parameters) on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Args)]
+pub struct CompareArgs {
+    /// The image under test.
+    pub a: PathBuf,
+    /// The reference image.
+    pub b: PathBuf,
+    /// Write the per-pixel SSIM map as a greyscale PNG.
+    #[arg(long)]
+    pub ssim_map: Option<PathBuf>,
+    /// Write a heat map of the absolute differences.
+    #[arg(long)]
+    pub diff: Option<PathBuf>,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Args)]
+pub struct PlanArgs {
+    pub scene: PathBuf,
+    /// Samples per pixel of the sphere stage.
+    #[arg(long, default_value_t = 1)]
+    pub spp: u32,
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Args)]
+pub struct RenderArgs {
+    pub scene: PathBuf,
+    /// Output directory for NNN.png frames and frames.json.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Samples per pixel (default: the scene's reference_spp).
+    #[arg(long)]
+    pub spp: Option<u32>,
+}
+
+#[derive(Subcommand)]
+pub enum GoldenCommand {
+    /// Re-render goldens with the CPU reference (all scenes, or the named ones).
+    Bless {
+        scenes: Vec<String>,
+        #[arg(long, default_value = "golden/suite.toml")]
+        suite: PathBuf,
+    },
+    /// Re-render and require bit-identical frames and an up-to-date manifest.
+    Verify {
+        scenes: Vec<String>,
+        #[arg(long, default_value = "golden/suite.toml")]
+        suite: PathBuf,
+    },
+}
+
+#[derive(Args)]
+pub struct EnvArgs {
+    /// sky, interior, night or grid.
+    pub name: Option<String>,
+    #[arg(long, default_value = "1024x512")]
+    pub size: Size,
+    /// Output file (.exr, .pfm, .hdr).
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// List the built-in environments.
+    #[arg(long)]
+    pub list: bool,
+}
+
+/// Parses the process arguments and runs the command.
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+pub fn run(cli: Cli) -> Result<ExitCode> {
+    match cli.command {
+        Command::Suite(a) => suite(a),
+        Command::Tonemap(a) => tonemap(a),
+        Command::Compare(a) => compare(a),
+        Command::Plan(a) => plan(a),
+        Command::Render(a) => render(a),
+        Command::Golden(GoldenCommand::Bless { scenes, suite }) => golden_bless(&suite, &scenes),
+        Command::Golden(GoldenCommand::Verify { scenes, suite }) => golden_verify(&suite, &scenes),
+        Command::Env(a) => env(a),
+    }
+}
+
+fn invalid(msg: impl Into<String>) -> Error {
+    Error::Invalid(msg.into())
+}
+
+fn positive(name: &str, v: f64) -> Result<Positive> {
+    Positive::try_from(v).map_err(|e| invalid(format!("--{name}: {e}")))
+}
+
+fn non_negative(name: &str, v: f64) -> Result<NonNegative> {
+    NonNegative::try_from(v).map_err(|e| invalid(format!("--{name}: {e}")))
+}
+
+fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<()> {
+    let text = serde_json::to_string_pretty(value).map_err(|e| invalid(e.to_string()))?;
+    if path == Path::new("-") {
+        println!("{text}");
+        Ok(())
+    } else {
+        std::fs::write(path, text).map_err(|source| Error::File {
+            path: path.to_owned(),
+            source,
+        })
+    }
+}
+
+/// The operator the tonemap flags describe.
+pub fn operator_from_args(a: &TonemapArgs) -> Result<Operator> {
+    let colour = match a.colour {
+        ColourArg::Ratio => ColourPath::Ratio,
+        ColourArg::Xyy => ColourPath::Xyy,
+    };
+    let key = match a.key.as_deref() {
+        None => None,
+        Some("auto") => Some(Key::Auto),
+        Some(s) => {
+            let v: f64 = s
+                .parse()
+                .map_err(|_| invalid(format!("--key: expected a number or \"auto\", got {s:?}")))?;
+            Some(Key::Fixed(positive("key", v)?))
+        }
+    };
+    let fixed_key = |k: Option<Key>| -> Result<Positive> {
+        match k {
+            None => positive("key", 0.18),
+            Some(Key::Fixed(v)) => Ok(v),
+            Some(Key::Auto) => Err(invalid("--key auto applies to --operator seed001 only")),
+        }
+    };
+    let log_average = a.log_average.map(|v| positive("log-average", v)).transpose()?;
+    if let Some(Preset::Reinhard02) = a.preset {
+        let op = Operator::reinhard02_preset(fixed_key(key)?.get()).map_err(invalid)?;
+        return Ok(op);
+    }
+    Ok(match a.operator {
+        OperatorKind::Seed000 => {
+            let w = a.white_fraction.unwrap_or(0.8);
+            if !(w > 0.0 && w <= 1.0) {
+                return Err(invalid(format!("--white-fraction: must be in (0, 1], got {w}")));
+            }
+            Operator::Seed000 {
+                key: fixed_key(key)?,
+                white_fraction: positive("white-fraction", w)?,
+                log_average,
+                max_luminance: None,
+                colour,
+            }
+        }
+        OperatorKind::Seed001 => Operator::Seed001 {
+            key: key.unwrap_or(Key::Auto),
+            colour,
+        },
+        OperatorKind::Reinhard02 => Operator::Reinhard02 {
+            key: fixed_key(key)?,
+            white: a.white.map(|w| positive("white", w)).transpose()?,
+            log_average,
+            colour,
+            pfs_compatible: false,
+        },
+    })
+}
+
+fn bloom_from_args(a: &TonemapArgs) -> Result<Option<Bloom>> {
+    if a.bloom == 0.0 {
+        return Ok(None);
+    }
+    Ok(Some(Bloom {
+        bright_pass: match a.bloom_pass {
+            BrightPassArg::Seed001 => BrightPass::Seed001,
+            BrightPassArg::Threshold => BrightPass::Threshold,
+        },
+        threshold: non_negative("bloom-threshold", a.bloom_threshold)?,
+        downsample: Factor::try_from(a.bloom_downsample)
+            .map_err(|e| invalid(format!("--bloom-downsample: {e}")))?,
+        radius: Radius::try_from(a.bloom_radius).map_err(|e| invalid(format!("--bloom-radius: {e}")))?,
+        sigma: positive("bloom-sigma", a.bloom_sigma)?,
+        strength: non_negative("bloom", a.bloom)?,
+    }))
+}
+
+fn tonemap(a: TonemapArgs) -> Result<ExitCode> {
+    let operator = operator_from_args(&a)?;
+    let bloom = bloom_from_args(&a)?;
+    let grade = Grade {
+        brightness: non_negative("brightness", a.brightness)?,
+        contrast: non_negative("contrast", a.contrast)?,
+        saturation: non_negative("saturation", a.saturation)?,
+    };
+    let encoding = match a.gamma {
+        Some(g) => Encoding::Gamma(positive("gamma", g)?),
+        None => Encoding::Srgb,
+    };
+    let opts = crate::io::LoadOptions {
+        sanitize: a.sanitize,
+        max_pixels: a.max_pixels,
+    };
+    let (img, load_report) = crate::io::load_hdr(&a.input, &opts)?;
+    let pipeline = crate::reference::Pipeline {
+        operator: &operator,
+        bloom: bloom.as_ref(),
+        grade: Some(&grade),
+        encoding,
+    };
+    let (plan, out) = crate::reference::render_flat(&img, &pipeline);
+    let ext = a
+        .output
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    if ext == "png" {
+        crate::io::write_png8(&a.output, &out.frame)?;
+    } else {
+        crate::io::write_image_hdr(&a.output, &out.display.to_hdr())?;
+    }
+    if a.json {
+        let report = serde_json::json!({
+            "input": load_report,
+            "output": a.output,
+            "renderer": "cpu-reference",
+            "plan": plan.names(),
+            "stats": out.stats,
+            "tone": out.tone,
+        });
+        write_json(Path::new("-"), &report)?;
+    } else {
+        eprintln!(
+            "{}: {}x{}, Y {:.4e} .. {:.4e} ({:.1} stops), key {:.4}, log-average {:.4e} -> {}",
+            a.input.display(),
+            load_report.width,
+            load_report.height,
+            load_report.min_luminance,
+            load_report.max_luminance,
+            load_report.dynamic_range_stops,
+            out.tone.key,
+            out.tone.log_average,
+            a.output.display()
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn compare(a: CompareArgs) -> Result<ExitCode> {
+    let img_a = crate::io::read_png8(&a.a)?;
+    let img_b = crate::io::read_png8(&a.b)?;
+    let m = crate::metrics::compare(img_a.raster(), img_b.raster())?;
+    if let Some(path) = &a.ssim_map {
+        let s = crate::metrics::ssim(img_a.raster(), img_b.raster())?;
+        crate::io::write_png8(path, &crate::metrics::ssim_map_image(&s))?;
+    }
+    if let Some(path) = &a.diff {
+        crate::io::write_png8(path, &crate::metrics::diff_heatmap(img_a.raster(), img_b.raster())?)?;
+    }
+    if a.json {
+        write_json(Path::new("-"), &m)?;
+    } else {
+        println!("{m}");
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn plan(a: PlanArgs) -> Result<ExitCode> {
+    let scene = Scene::load(&a.scene).map_err(|e| invalid(e.to_string()))?;
+    let plan = crate::plan::StagePlan::for_scene(&scene, a.spp);
+    if a.json {
+        write_json(Path::new("-"), &plan)?;
+    } else {
+        println!("{} ({} frames, {}):", scene.name, scene.frames, scene.size);
+        print!("{plan}");
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn render(a: RenderArgs) -> Result<ExitCode> {
+    let scene = Scene::load(&a.scene).map_err(|e| invalid(e.to_string()))?;
+    let spp = a.spp.unwrap_or(scene.reference_spp);
+    if spp == 0 || spp > crate::scene::MAX_SPP {
+        return Err(invalid(format!("--spp: must be between 1 and {}, got {spp}", crate::scene::MAX_SPP)));
+    }
+    let env = crate::golden::scene_environment(&scene).map_err(|e| invalid(e.to_string()))?;
+    std::fs::create_dir_all(&a.out).map_err(|source| Error::File {
+        path: a.out.clone(),
+        source,
+    })?;
+    let bar = crate::golden::progress_bar(scene.frames as u64, "render");
+    let mut frames = Vec::new();
+    for n in 0..scene.frames {
+        let t = std::time::Instant::now();
+        let out = crate::reference::render_frame(&scene, &env, n, spp);
+        let ms = t.elapsed().as_secs_f64() * 1e3;
+        crate::io::write_png8(&a.out.join(crate::golden::frame_file(n)), &out.frame)?;
+        frames.push(serde_json::json!({
+            "frame": n, "file": crate::golden::frame_file(n), "ms": ms,
+            "stats": out.stats, "tone": out.tone,
+        }));
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    let report = serde_json::json!({
+        "scene": scene.name, "renderer": "cpu-reference", "spp": spp,
+        "plan": crate::plan::StagePlan::for_scene(&scene, spp).names(), "frames": frames,
+    });
+    write_json(&a.out.join("frames.json"), &report)?;
+    println!("{} frames of {} written to {}", scene.frames, scene.name, a.out.display());
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The suite's scenes, or only the named ones (an unknown name is an error).
+fn select_scenes(suite: &Path, names: &[String]) -> Result<Vec<Scene>> {
+    let all = crate::scene::load_suite(suite).map_err(|e| invalid(e.to_string()))?;
+    if names.is_empty() {
+        return Ok(all);
+    }
+    names
+        .iter()
+        .map(|n| {
+            all.iter().find(|s| &s.name == n).cloned().ok_or_else(|| {
+                let known: Vec<&str> = all.iter().map(|s| s.name.as_str()).collect();
+                invalid(format!("no scene {n:?} in {}; known: {}", suite.display(), known.join(", ")))
+            })
+        })
+        .collect()
+}
+
+fn golden_root(suite: &Path) -> PathBuf {
+    suite.parent().map(Path::to_path_buf).unwrap_or_else(|| PathBuf::from("."))
+}
+
+fn golden_bless(suite: &Path, names: &[String]) -> Result<ExitCode> {
+    let scenes = select_scenes(suite, names)?;
+    let root = golden_root(suite);
+    crate::golden::bless(&root, &scenes, true).map_err(|e| invalid(e.to_string()))?;
+    let frames: u32 = scenes.iter().map(|s| s.frames).sum();
+    println!(
+        "blessed {} scenes, {frames} frames; golden/ is {:.1} MB",
+        scenes.len(),
+        crate::golden::directory_bytes(&root) as f64 / 1e6
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+fn golden_verify(suite: &Path, names: &[String]) -> Result<ExitCode> {
+    let scenes = select_scenes(suite, names)?;
+    let root = golden_root(suite);
+    let problems = crate::golden::verify(&root, &scenes, true).map_err(|e| invalid(e.to_string()))?;
+    if problems.is_empty() {
+        let frames: u32 = scenes.iter().map(|s| s.frames).sum();
+        println!("{} scenes, {frames} frames: bit-identical to their goldens", scenes.len());
+        Ok(ExitCode::SUCCESS)
+    } else {
+        for p in &problems {
+            println!("{p}");
+        }
+        Ok(ExitCode::from(1))
+    }
+}
+
+fn env(a: EnvArgs) -> Result<ExitCode> {
+    use crate::env::BuiltinEnv;
+    if a.list || a.name.is_none() {
+        for e in BuiltinEnv::ALL {
+            println!("{:<9} {}", e.name(), e.description());
+        }
+        return Ok(ExitCode::SUCCESS);
+    }
+    let name = a.name.unwrap_or_default();
+    let env = BuiltinEnv::from_name(&name).ok_or_else(|| {
+        invalid(format!("unknown environment {name:?}; built-in: sky, interior, night, grid"))
+    })?;
+    let output = a
+        .output
+        .ok_or_else(|| invalid("-o/--output is required to export an environment"))?;
+    let img = env.generate(a.size.width, a.size.height);
+    crate::io::write_image_hdr(&output, &img)?;
+    println!("{name} {} -> {}", a.size, output.display());
+    Ok(ExitCode::SUCCESS)
+}
+
+fn suite(a: SuiteArgs) -> Result<ExitCode> {
+    let scenes = crate::scene::load_suite(&a.suite).map_err(|e| invalid(e.to_string()))?;
+    let root = golden_root(&a.suite);
+    let problems = crate::golden::check_manifest(&root, &scenes).map_err(|e| invalid(e.to_string()))?;
+    if !problems.is_empty() {
+        for p in &problems {
+            eprintln!("{p}");
+        }
+        return Err(invalid("the golden set is incomplete or stale (see above)"));
+    }
+    let total: u64 = scenes.iter().map(|s| s.frames as u64).sum();
+    let bar = crate::golden::progress_bar(total, "suite");
+    let mut results = Vec::new();
+    for scene in &scenes {
+        bar.set_message(scene.name.clone());
+        let r = crate::suite::run_scene_cpu(&root, scene, a.spp).map_err(|e| invalid(e.to_string()))?;
+        bar.inc(scene.frames as u64);
+        results.push(r);
+    }
+    bar.finish_and_clear();
+    println!(
+        "{:<36} {:>6} {:>22} {:>22} {:>7}",
+        "scene", "frames", "PSNR dB worst/mean", "SSIM worst/mean", "checks"
+    );
+    for r in &results {
+        let applied = r.checks.iter().filter(|c| c.passed.is_some()).count();
+        let failed = r.checks.iter().filter(|c| c.passed == Some(false)).count();
+        println!(
+            "{:<36} {:>6} {:>10.2} @{:<3} {:>6.2} {:>10.5} @{:<3} {:>6.4} {:>7}",
+            r.scene,
+            r.frames.len(),
+            r.psnr.worst,
+            r.psnr.worst_frame,
+            r.psnr.mean,
+            r.ssim.worst,
+            r.ssim.worst_frame,
+            r.ssim.mean,
+            if failed == 0 { format!("{applied} ok") } else { format!("{failed} FAIL") }
+        );
+        for c in r.checks.iter().filter(|c| c.passed == Some(false)) {
+            println!("    FAIL {}", c.detail);
+        }
+    }
+    println!(
+        "renderer: cpu-reference at {} spp against {}-spp goldens; SSIM: {}",
+        a.spp,
+        scenes.first().map(|s| s.reference_spp).unwrap_or(16),
+        crate::metrics::SSIM_DEFINITION
+    );
+    if let Some(path) = &a.json {
+        write_json(path, &results)?;
+    }
+    let failed = results.iter().any(|r| !r.passed());
+    Ok(if failed { ExitCode::from(1) } else { ExitCode::SUCCESS })
+}

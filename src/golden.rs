@@ -1,0 +1,342 @@
+//! Goldens: the CPU reference's 8-bit frames of the built-in suite, and their
+//! manifest. Goldens never update themselves: only `tonegate golden bless`
+//! writes them, and a missing or stale golden is an error everywhere else.
+
+use crate::image::Rgb8Image;
+use crate::reference::{render_frame, REFERENCE_VERSION};
+use crate::scene::Scene;
+use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// File name of the manifest inside the golden directory.
+pub const MANIFEST: &str = "manifest.toml";
+/// Cap on everything under golden/ (kept small so the repository stays light).
+pub const MAX_GOLDEN_BYTES: u64 = 20 * 1024 * 1024;
+
+#[derive(Debug, thiserror::Error)]
+pub enum GoldenError {
+    /// The manifest is missing or unreadable.
+    #[error("{path}: cannot read the golden manifest ({detail}); run `tonegate golden bless` to create it")]
+    Manifest { path: PathBuf, detail: String },
+    /// Writing a golden or the manifest failed.
+    #[error("{path}: cannot write: {detail}")]
+    Write { path: PathBuf, detail: String },
+    /// The scene's environment could not be loaded.
+    #[error("scene {scene}: {detail}")]
+    Environment { scene: String, detail: String },
+    /// A golden frame could not be read.
+    #[error("{path}: cannot read golden frame: {detail}")]
+    Frame { path: PathBuf, detail: String },
+}
+
+/// What the manifest records about one scene.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneEntry {
+    /// `render_hash` of the scene when it was blessed.
+    pub scene_hash: String,
+    pub reference_version: u32,
+    pub spp: u32,
+    pub frames: u32,
+    pub size: [u32; 2],
+    /// The scene as it was blessed, for humans reading a diff.
+    pub parameters: toml::Value,
+    /// File name → SHA-256 of its bytes.
+    pub files: BTreeMap<String, String>,
+}
+
+/// golden/manifest.toml.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Manifest {
+    pub scenes: BTreeMap<String, SceneEntry>,
+}
+
+/// One thing wrong with the golden set.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "problem", rename_all = "snake_case")]
+pub enum Problem {
+    NotInManifest { scene: String },
+    StaleScene { scene: String, blessed: String, now: String },
+    StaleReference { scene: String, blessed: u32, now: u32 },
+    MissingFile { scene: String, file: String },
+    FileChanged { scene: String, file: String },
+    PixelsDiffer { scene: String, file: String, pixels: usize },
+}
+
+impl std::fmt::Display for Problem {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Problem::NotInManifest { scene } => write!(f, "{scene}: no golden (not in the manifest); bless it with `tonegate golden bless {scene}`"),
+            Problem::StaleScene { scene, .. } => write!(f, "{scene}: stale golden: the scene changed since it was blessed; review and re-bless"),
+            Problem::StaleReference { scene, blessed, now } => write!(f, "{scene}: stale golden: blessed with reference version {blessed}, now {now}"),
+            Problem::MissingFile { scene, file } => write!(f, "{scene}: golden frame {file} is missing"),
+            Problem::FileChanged { scene, file } => write!(f, "{scene}: golden frame {file} does not match its manifest SHA-256"),
+            Problem::PixelsDiffer { scene, file, pixels } => write!(f, "{scene}: re-rendered {file} differs from the golden in {pixels} pixels"),
+        }
+    }
+}
+
+/// Hash of everything that changes a scene's rendered frames: the scene minus
+/// its checks and description, plus the bytes of an environment file.
+pub fn render_hash(scene: &Scene) -> Result<String, GoldenError> {
+    let mut s = scene.clone();
+    s.checks.clear();
+    s.description.clear();
+    let mut h = Sha256::new();
+    h.update(serde_json::to_vec(&s).unwrap_or_default());
+    if let Some(path) = &scene.environment.path {
+        let bytes = std::fs::read(path).map_err(|e| GoldenError::Environment {
+            scene: scene.name.clone(),
+            detail: format!("{}: {e}", path.display()),
+        })?;
+        h.update(Sha256::digest(&bytes));
+    }
+    Ok(hex::encode(h.finalize()))
+}
+
+/// File name of frame `n`.
+pub fn frame_file(n: u32) -> String {
+    format!("{n:03}.png")
+}
+
+pub fn frame_path(root: &Path, scene: &str, n: u32) -> PathBuf {
+    root.join(scene).join(frame_file(n))
+}
+
+pub fn load_manifest(root: &Path) -> Result<Manifest, GoldenError> {
+    let path = root.join(MANIFEST);
+    let text = std::fs::read_to_string(&path).map_err(|e| GoldenError::Manifest {
+        path: path.clone(),
+        detail: e.to_string(),
+    })?;
+    toml::from_str(&text).map_err(|e| GoldenError::Manifest {
+        path,
+        detail: e.to_string(),
+    })
+}
+
+fn sha256_file(path: &Path) -> Option<String> {
+    std::fs::read(path).ok().map(|b| hex::encode(Sha256::digest(&b)))
+}
+
+/// Reads golden frame `n` of `scene`.
+pub fn read_frame(root: &Path, scene: &str, n: u32) -> Result<Rgb8Image, GoldenError> {
+    let path = frame_path(root, scene, n);
+    crate::io::read_png8(&path).map_err(|e| GoldenError::Frame {
+        path,
+        detail: e.to_string(),
+    })
+}
+
+/// The manifest-level checks, without rendering: every scene blessed, not
+/// stale, every file present with its recorded SHA-256.
+pub fn check_manifest(root: &Path, scenes: &[Scene]) -> Result<Vec<Problem>, GoldenError> {
+    let manifest = load_manifest(root)?;
+    let mut problems = Vec::new();
+    for scene in scenes {
+        let name = scene.name.clone();
+        let Some(entry) = manifest.scenes.get(&name) else {
+            problems.push(Problem::NotInManifest { scene: name });
+            continue;
+        };
+        let now = render_hash(scene)?;
+        if entry.scene_hash != now {
+            problems.push(Problem::StaleScene {
+                scene: name.clone(),
+                blessed: entry.scene_hash.clone(),
+                now,
+            });
+        }
+        if entry.reference_version != REFERENCE_VERSION {
+            problems.push(Problem::StaleReference {
+                scene: name.clone(),
+                blessed: entry.reference_version,
+                now: REFERENCE_VERSION,
+            });
+        }
+        for n in 0..scene.frames {
+            let file = frame_file(n);
+            let path = frame_path(root, &name, n);
+            match (entry.files.get(&file), sha256_file(&path)) {
+                (_, None) | (None, _) => problems.push(Problem::MissingFile {
+                    scene: name.clone(),
+                    file,
+                }),
+                (Some(want), Some(got)) if *want != got => problems.push(Problem::FileChanged {
+                    scene: name.clone(),
+                    file,
+                }),
+                _ => {}
+            }
+        }
+    }
+    Ok(problems)
+}
+
+/// The environment map of a scene: generated, or loaded with the default policy.
+pub fn scene_environment(scene: &Scene) -> Result<crate::image::HdrImage, GoldenError> {
+    match (&scene.environment.builtin, &scene.environment.path) {
+        (Some(env), _) => {
+            let size = scene.environment.size.unwrap_or(crate::scene::Size {
+                width: 1024,
+                height: 512,
+            });
+            Ok(env.generate(size.width, size.height))
+        }
+        (None, Some(path)) => crate::io::load_hdr(path, &crate::io::LoadOptions::default())
+            .map(|(img, _)| img)
+            .map_err(|e| GoldenError::Environment {
+                scene: scene.name.clone(),
+                detail: e.to_string(),
+            }),
+        (None, None) => Err(GoldenError::Environment {
+            scene: scene.name.clone(),
+            detail: "no environment".into(),
+        }),
+    }
+}
+
+/// A progress bar over `total` frames, hidden when not on a terminal.
+pub fn progress_bar(total: u64, what: &str) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(total);
+    if let Ok(style) = indicatif::ProgressStyle::with_template(
+        "{prefix:>8} [{bar:30}] {pos}/{len} frames {msg} ({elapsed})",
+    ) {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar.set_prefix(what.to_owned());
+    bar
+}
+
+/// Renders `scenes` with the reference and writes their goldens and manifest
+/// entries (other scenes' entries are kept). The only writer of goldens.
+pub fn bless(root: &Path, scenes: &[Scene], show_progress: bool) -> Result<(), GoldenError> {
+    let mut manifest = load_manifest(root).unwrap_or_default();
+    let total: u64 = scenes.iter().map(|s| s.frames as u64).sum();
+    let bar = progress_bar(total, "bless");
+    if !show_progress {
+        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
+    for scene in scenes {
+        bar.set_message(scene.name.clone());
+        let env = scene_environment(scene)?;
+        let dir = root.join(&scene.name);
+        std::fs::create_dir_all(&dir).map_err(|e| GoldenError::Write {
+            path: dir.clone(),
+            detail: e.to_string(),
+        })?;
+        let mut files = BTreeMap::new();
+        for n in 0..scene.frames {
+            let out = render_frame(scene, &env, n, scene.reference_spp);
+            let path = frame_path(root, &scene.name, n);
+            crate::io::write_png8(&path, &out.frame).map_err(|e| GoldenError::Write {
+                path: path.clone(),
+                detail: e.to_string(),
+            })?;
+            let sha = sha256_file(&path).ok_or_else(|| GoldenError::Write {
+                path: path.clone(),
+                detail: "written file cannot be read back".into(),
+            })?;
+            files.insert(frame_file(n), sha);
+            bar.inc(1);
+        }
+        // Frames of a longer earlier sequence would be left behind: remove them.
+        if let Ok(entries) = std::fs::read_dir(&dir) {
+            for e in entries.flatten() {
+                let name = e.file_name().to_string_lossy().into_owned();
+                if name.ends_with(".png") && !files.contains_key(&name) {
+                    let _ = std::fs::remove_file(e.path());
+                }
+            }
+        }
+        let parameters = toml::Value::try_from(scene).map_err(|e| GoldenError::Write {
+            path: root.join(MANIFEST),
+            detail: e.to_string(),
+        })?;
+        manifest.scenes.insert(
+            scene.name.clone(),
+            SceneEntry {
+                scene_hash: render_hash(scene)?,
+                reference_version: REFERENCE_VERSION,
+                spp: scene.reference_spp,
+                frames: scene.frames,
+                size: [scene.size.width, scene.size.height],
+                parameters,
+                files,
+            },
+        );
+    }
+    bar.finish_and_clear();
+    write_manifest(root, &manifest)
+}
+
+fn write_manifest(root: &Path, manifest: &Manifest) -> Result<(), GoldenError> {
+    let path = root.join(MANIFEST);
+    let err = |detail: String| GoldenError::Write {
+        path: path.clone(),
+        detail,
+    };
+    let body = toml::to_string(manifest).map_err(|e| err(e.to_string()))?;
+    let text = format!("# Written by `tonegate golden bless`; do not edit by hand.\n{body}");
+    let tmp = root.join(format!(".{MANIFEST}.tmp"));
+    std::fs::write(&tmp, text).map_err(|e| err(e.to_string()))?;
+    std::fs::rename(&tmp, &path).map_err(|e| err(e.to_string()))
+}
+
+/// The manifest checks, then a full re-render of every frame, which must
+/// match the golden pixel for pixel.
+pub fn verify(root: &Path, scenes: &[Scene], show_progress: bool) -> Result<Vec<Problem>, GoldenError> {
+    let mut problems = check_manifest(root, scenes)?;
+    let total: u64 = scenes.iter().map(|s| s.frames as u64).sum();
+    let bar = progress_bar(total, "verify");
+    if !show_progress {
+        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
+    for scene in scenes {
+        bar.set_message(scene.name.clone());
+        let env = scene_environment(scene)?;
+        for n in 0..scene.frames {
+            bar.inc(1);
+            let Ok(golden) = read_frame(root, &scene.name, n) else {
+                continue; // already reported as missing
+            };
+            let out = render_frame(scene, &env, n, scene.reference_spp);
+            let pixels = if (golden.width, golden.height) != (out.frame.width, out.frame.height) {
+                out.frame.pixel_count()
+            } else {
+                golden.pixels.iter().zip(&out.frame.pixels).filter(|(a, b)| a != b).count()
+            };
+            if pixels > 0 {
+                problems.push(Problem::PixelsDiffer {
+                    scene: scene.name.clone(),
+                    file: frame_file(n),
+                    pixels,
+                });
+            }
+        }
+    }
+    bar.finish_and_clear();
+    Ok(problems)
+}
+
+/// Total bytes of the files under `root`.
+pub fn directory_bytes(root: &Path) -> u64 {
+    let mut total = 0;
+    let mut stack = vec![root.to_path_buf()];
+    while let Some(dir) = stack.pop() {
+        let Ok(entries) = std::fs::read_dir(&dir) else {
+            continue;
+        };
+        for e in entries.flatten() {
+            match e.file_type() {
+                Ok(t) if t.is_dir() => stack.push(e.path()),
+                Ok(_) => total += e.metadata().map(|m| m.len()).unwrap_or(0),
+                Err(_) => {}
+            }
+        }
+    }
+    total
+}

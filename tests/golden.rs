@@ -1,0 +1,141 @@
+//! The golden set: complete, fresh, reproducible bit for bit, and small.
+//! Goldens never update themselves: these tests only read golden/.
+
+use std::path::{Path, PathBuf};
+use tonegate::golden::{self, Problem};
+use tonegate::scene::{load_suite, Scene};
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("golden")
+}
+
+fn suite() -> Vec<Scene> {
+    load_suite(&root().join("suite.toml")).expect("golden/suite.toml loads")
+}
+
+#[test]
+fn every_suite_scene_has_fresh_goldens() {
+    let problems = golden::check_manifest(&root(), &suite()).expect("manifest readable");
+    let text: Vec<String> = problems.iter().map(|p| p.to_string()).collect();
+    assert!(problems.is_empty(), "golden set is incomplete or stale:\n{}", text.join("\n"));
+}
+
+#[test]
+fn goldens_re_render_bit_identically() {
+    let problems = golden::verify(&root(), &suite(), false).expect("verify runs");
+    let text: Vec<String> = problems.iter().map(|p| p.to_string()).collect();
+    assert!(problems.is_empty(), "{}", text.join("\n"));
+}
+
+#[test]
+fn golden_directory_stays_under_its_cap() {
+    let bytes = golden::directory_bytes(&root());
+    assert!(bytes > 0 && bytes < golden::MAX_GOLDEN_BYTES, "golden/ is {bytes} bytes");
+}
+
+#[test]
+fn suite_covers_what_the_gate_needs() {
+    use tonegate::scene::{ColourPath, Operator};
+    let scenes = suite();
+    let has = |f: &dyn Fn(&Scene) -> bool| scenes.iter().any(f);
+    assert!(has(&|s| matches!(s.operator, Operator::Seed000 { .. })));
+    assert!(has(&|s| matches!(s.operator, Operator::Seed001 { .. })));
+    assert!(has(&|s| matches!(s.operator, Operator::Reinhard02 { .. })));
+    assert!(has(&|s| s.operator.colour() == ColourPath::Ratio));
+    assert!(has(&|s| s.operator.colour() == ColourPath::Xyy));
+    assert!(has(&|s| s.bloom.is_some()) && has(&|s| s.bloom.is_none()));
+    assert!(has(&|s| s.grade.is_some()));
+    assert!(has(&|s| s.is_static()));
+    for env in tonegate::env::BuiltinEnv::ALL {
+        assert!(has(&|s| s.environment.builtin == Some(env)), "no scene uses {env}");
+    }
+    for s in &scenes {
+        assert!(!s.checks.is_empty(), "{} has no checks", s.name);
+    }
+}
+
+/// A scrap golden directory with one small scene, blessed into it.
+fn scratch() -> (tempfile::TempDir, Vec<Scene>) {
+    let dir = tempfile::tempdir().unwrap();
+    let text = r#"
+name = "tiny"
+size = [24, 16]
+frames = 2
+reference_spp = 4
+[environment]
+builtin = "grid"
+size = [64, 32]
+[rotation]
+degrees_per_frame = 10.0
+[[checks]]
+min_psnr = 20.0
+"#;
+    let path = dir.path().join("tiny.toml");
+    std::fs::write(&path, text).unwrap();
+    let scene = Scene::load(&path).unwrap();
+    golden::bless(dir.path(), std::slice::from_ref(&scene), false).unwrap();
+    (dir, vec![scene])
+}
+
+#[test]
+fn a_missing_golden_fails_verification() {
+    let (dir, scenes) = scratch();
+    assert_eq!(golden::verify(dir.path(), &scenes, false).unwrap(), vec![]);
+    std::fs::remove_file(golden::frame_path(dir.path(), "tiny", 1)).unwrap();
+    let problems = golden::verify(dir.path(), &scenes, false).unwrap();
+    assert!(
+        problems.contains(&Problem::MissingFile { scene: "tiny".into(), file: "001.png".into() }),
+        "{problems:?}"
+    );
+}
+
+#[test]
+fn a_changed_scene_makes_its_golden_stale() {
+    let (dir, mut scenes) = scratch();
+    scenes[0].fov_y = 50.0;
+    let problems = golden::check_manifest(dir.path(), &scenes).unwrap();
+    assert!(matches!(problems.as_slice(), [Problem::StaleScene { .. }]), "{problems:?}");
+    // Checks and description are not part of the render: they do not stale it.
+    let (dir, mut scenes) = scratch();
+    scenes[0].checks.clear();
+    scenes[0].description = "changed".into();
+    assert_eq!(golden::check_manifest(dir.path(), &scenes).unwrap(), vec![]);
+}
+
+#[test]
+fn a_tampered_golden_is_caught_by_hash_and_by_pixels() {
+    let (dir, scenes) = scratch();
+    let path = golden::frame_path(dir.path(), "tiny", 0);
+    let mut img = tonegate::io::read_png8(&path).unwrap();
+    img.pixels[5][1] ^= 1;
+    tonegate::io::write_png8(&path, &img).unwrap();
+    let problems = golden::verify(dir.path(), &scenes, false).unwrap();
+    assert!(problems.iter().any(|p| matches!(p, Problem::FileChanged { .. })), "{problems:?}");
+    assert!(
+        problems.contains(&Problem::PixelsDiffer { scene: "tiny".into(), file: "000.png".into(), pixels: 1 }),
+        "{problems:?}"
+    );
+}
+
+#[test]
+fn an_unblessed_scene_is_reported_not_invented() {
+    let (dir, mut scenes) = scratch();
+    scenes[0].name = "other".into();
+    let problems = golden::check_manifest(dir.path(), &scenes).unwrap();
+    assert_eq!(problems, vec![Problem::NotInManifest { scene: "other".into() }]);
+    assert!(!dir.path().join("other").exists());
+}
+
+#[test]
+fn reference_does_not_depend_on_the_thread_count() {
+    let scenes = suite();
+    let scene = scenes.iter().find(|s| s.bloom.is_some()).unwrap();
+    let env = golden::scene_environment(scene).unwrap();
+    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    let three = rayon::ThreadPoolBuilder::new().num_threads(3).build().unwrap();
+    let a = one.install(|| tonegate::reference::render_frame(scene, &env, 3, 4));
+    let b = three.install(|| tonegate::reference::render_frame(scene, &env, 3, 4));
+    assert_eq!(a.frame, b.frame);
+    assert_eq!(a.display, b.display);
+    assert_eq!(a.stats, b.stats);
+}
