@@ -141,7 +141,7 @@ const HDR_OUTPUTS: &str = ".exr (f32 RGB, ZIP16), .pfm (f32 RGB), .hdr (Radiance
 
 /// Writes an HDR image, the format chosen by the extension: `.exr` (f32 RGB,
 /// lossless ZIP16), `.pfm` (f32 RGB, little-endian) or `.hdr` (RGBE, lossy:
-/// within 2^-8 of each pixel's largest component). EXR and PFM store any f32,
+/// each component within 1/255.5 of its pixel's largest component). EXR and PFM store any f32,
 /// NaN and negatives included; RGBE refuses what it cannot store.
 pub fn write_image_hdr(path: &Path, img: &HdrImage) -> Result<(), HdrIoError> {
     let file = path.display().to_string();

@@ -9,11 +9,13 @@
 //!
 //! Writing by hand, because `image`'s encoder truncates mantissas (relative
 //! error up to 2^-7 instead of 2^-8) and wraps the exponent of values ≥ 2^127
-//! round to tiny ones. This encoder rounds to nearest, so a component c of a
-//! pixel whose largest component is m decodes within 2^-8 · m of c (the
-//! shared 8-bit mantissa of m lies in [128, 256) units of 2^(e−8), and
-//! rounding is off by at most half a unit). Scan lines are run-length encoded
-//! ("new" RLE) where the format allows it (8 ≤ width ≤ 32767), flat otherwise.
+//! round to tiny ones. This encoder rounds to nearest, so every component of
+//! a pixel whose largest component is m decodes within m / 255.5 (about
+//! 2^-8 · m) of its value: the components share one exponent, m's mantissa
+//! is at least 128 units, and rounding is off by half a unit; when m itself
+//! rounds up to 256 units the exponent grows by one, the unit doubles, and
+//! half of it is m / 255.5 at most. Scan lines are run-length encoded ("new"
+//! RLE) where the format allows it (8 ≤ width ≤ 32767), flat otherwise.
 
 use std::io::{BufRead, Write};
 
@@ -184,19 +186,20 @@ mod tests {
     }
 
     #[test]
-    fn encoding_rounds_within_two_to_the_minus_eight_of_the_largest_component() {
+    fn encoding_rounds_within_the_largest_component_over_255_5() {
         for pixel in [
             [1.0f32, 0.5, 0.25],
             [0.999, 1e-3, 0.3],
             [1.0e-30, 3.0e-31, 0.0],
             [65504.0, 1.0, 7.5],
             [0.998_046_9, 0.0, 0.0], // rounds up to 1.0: the carry path
+            [7.995, 0.031_25, 0.0],  // carry, and 0.03125 is half a new unit
         ] {
             let max = pixel.iter().fold(0.0f64, |m, &c| m.max(f64::from(c)));
             let decoded = decode_rgbe(to_rgbe(pixel).unwrap());
             for (c, d) in pixel.iter().zip(decoded) {
                 assert!(
-                    (f64::from(*c) - d).abs() <= max / 256.0,
+                    (f64::from(*c) - d).abs() <= max / 255.5,
                     "{pixel:?} -> {decoded:?}"
                 );
             }
