@@ -1,7 +1,257 @@
-//! HDR and LDR image files: reading with a validation policy, writing.
+//! HDR and LDR image files: reading with a validation policy, writing
+//! atomically.
+//!
+//! HDR input (`load_hdr`, `decode_hdr`) is OpenEXR, Radiance RGBE or PFM,
+//! recognised by its first bytes, never by its extension (a renamed or
+//! mis-named file still loads, and a non-image is refused with what it starts
+//! with). Every load goes through the policy in [`validate`]: size checked
+//! from the header before allocation, NaN/±Inf refused (or zeroed with
+//! `sanitize`), negatives clamped, all counted in the [`LoadReport`]. Decoders
+//! run under `catch_unwind`, so a corrupt file is an error, never a crash.
+//!
+//! Output is chosen by extension (`.exr`, `.pfm`, `.hdr`; `.png` for the PNG
+//! writers) and always goes through a temporary file and a rename, so a failed
+//! write leaves the previous file intact.
 
-#[derive(Debug, thiserror::Error)]
-pub enum HdrIoError {
-    #[error("not implemented yet")]
-    Placeholder,
+mod atomic;
+mod error;
+mod openexr;
+mod pfm;
+mod png;
+mod radiance;
+mod validate;
+
+use std::fs::File;
+use std::io::{BufRead, BufReader, Read, Seek, SeekFrom};
+use std::path::Path;
+
+use serde::Serialize;
+
+pub use self::error::HdrIoError;
+pub use self::png::Rgb16Image;
+pub use self::validate::{LoadOptions, LoadReport, DEFAULT_MAX_PIXELS, LOG_AVERAGE_DELTA};
+
+use self::atomic::write_atomically;
+use self::error::{catch_decoder_panic, hex_prefix};
+use crate::image::{HdrImage, Rgb8Image};
+
+/// The HDR file formats `load_hdr` reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum HdrFormat {
+    /// OpenEXR: f16/f32/u32 channels, any compression the `exr` crate reads.
+    Exr,
+    /// Radiance RGBE (`.hdr`, `.pic`): 8-bit mantissas with a shared exponent.
+    Radiance,
+    /// Portable Float Map: raw f32, rows bottom to top.
+    Pfm,
+}
+
+impl HdrFormat {
+    /// The human-readable name used in messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Exr => "OpenEXR",
+            Self::Radiance => "Radiance RGBE",
+            Self::Pfm => "PFM",
+        }
+    }
+
+    /// Recognises a format from the first bytes of a file (16 are plenty).
+    pub fn detect(first_bytes: &[u8]) -> Option<Self> {
+        if first_bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
+            Some(Self::Exr)
+        } else if first_bytes.starts_with(b"#?RADIANCE") || first_bytes.starts_with(b"#?RGBE") {
+            Some(Self::Radiance)
+        } else if (first_bytes.starts_with(b"PF") || first_bytes.starts_with(b"Pf"))
+            && first_bytes.get(2).is_some_and(u8::is_ascii_whitespace)
+        {
+            Some(Self::Pfm)
+        } else {
+            None
+        }
+    }
+}
+
+/// Loads an HDR image file and applies the validation policy.
+pub fn load_hdr(path: &Path, opts: &LoadOptions) -> Result<(HdrImage, LoadReport), HdrIoError> {
+    let file = path.display().to_string();
+    let io_error = |action| {
+        let file = file.clone();
+        move |source| HdrIoError::Io {
+            file,
+            action,
+            source,
+        }
+    };
+    let handle = File::open(path).map_err(io_error("open"))?;
+    let len = handle.metadata().map_err(io_error("read"))?.len();
+    decode_stream(BufReader::with_capacity(1 << 16, handle), len, &file, opts)
+}
+
+/// Decodes an HDR image held in memory (an HTTP upload, say); `source_name`
+/// stands for the file name in errors and in the report.
+pub fn decode_hdr(
+    bytes: &[u8],
+    source_name: &str,
+    opts: &LoadOptions,
+) -> Result<(HdrImage, LoadReport), HdrIoError> {
+    decode_stream(
+        std::io::Cursor::new(bytes),
+        bytes.len() as u64,
+        source_name,
+        opts,
+    )
+}
+
+fn decode_stream<R: BufRead + Seek>(
+    mut reader: R,
+    len: u64,
+    file: &str,
+    opts: &LoadOptions,
+) -> Result<(HdrImage, LoadReport), HdrIoError> {
+    let io_error = |source| HdrIoError::Io {
+        file: file.to_string(),
+        action: "read",
+        source,
+    };
+    let mut head = Vec::with_capacity(16);
+    reader
+        .by_ref()
+        .take(16)
+        .read_to_end(&mut head)
+        .map_err(io_error)?;
+    reader.seek(SeekFrom::Start(0)).map_err(io_error)?;
+    let format = HdrFormat::detect(&head).ok_or_else(|| HdrIoError::UnknownFormat {
+        file: file.to_string(),
+        first_bytes: hex_prefix(&head),
+    })?;
+    let decoded = catch_decoder_panic(file, format.name(), || match format {
+        HdrFormat::Exr => openexr::decode(reader, len, file, opts),
+        HdrFormat::Radiance => {
+            radiance::decode(reader, head.starts_with(b"#?RADIANCE"), file, opts)
+        }
+        HdrFormat::Pfm => pfm::decode(reader, len, file, opts),
+    })?;
+    validate::apply_policy(decoded, format, file, opts)
+}
+
+/// The extensions `write_image_hdr` understands.
+const HDR_OUTPUTS: &str = ".exr (f32 RGB, ZIP16), .pfm (f32 RGB), .hdr (Radiance RGBE)";
+
+/// Writes an HDR image, the format chosen by the extension: `.exr` (f32 RGB,
+/// lossless ZIP16), `.pfm` (f32 RGB, little-endian) or `.hdr` (RGBE, lossy:
+/// each component within 1/255.5 of its pixel's largest component). EXR and PFM store any f32,
+/// NaN and negatives included; RGBE refuses what it cannot store.
+pub fn write_image_hdr(path: &Path, img: &HdrImage) -> Result<(), HdrIoError> {
+    let file = path.display().to_string();
+    let extension = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    if !matches!(extension.as_str(), "exr" | "pfm" | "hdr") {
+        return Err(HdrIoError::UnsupportedExtension {
+            file,
+            supported: HDR_OUTPUTS,
+        });
+    }
+    png::check_consistent(&file, img)?;
+    let write_error = |source| HdrIoError::Io {
+        file: file.clone(),
+        action: "write",
+        source,
+    };
+    write_atomically(path, |writer| match extension.as_str() {
+        "exr" => openexr::encode(writer, img).map_err(|e| match e {
+            exr::error::Error::Io(source) => write_error(source),
+            other => HdrIoError::Encode {
+                file: file.clone(),
+                format: "OpenEXR",
+                detail: other.to_string(),
+            },
+        }),
+        "pfm" => pfm::encode(writer, img).map_err(write_error),
+        _ => {
+            let bad = radiance::encode(writer, img).map_err(write_error)?;
+            match bad.first {
+                None => Ok(()),
+                Some((x, y)) => Err(HdrIoError::Unrepresentable {
+                    file: file.clone(),
+                    format: "Radiance RGBE",
+                    detail: format!(
+                        "{} components are negative, NaN, ±Inf or above {:.3e}, first at ({x}, {y}); write .exr or .pfm instead",
+                        bad.count,
+                        radiance::MAX_RGBE
+                    ),
+                }),
+            }
+        }
+    })
+}
+
+/// Writes an 8-bit RGB PNG (the path must end in `.png`).
+pub fn write_png8(path: &Path, img: &Rgb8Image) -> Result<(), HdrIoError> {
+    png::write_png8(path, img)
+}
+
+/// Writes a 16-bit RGB PNG (the path must end in `.png`).
+pub fn write_png16(path: &Path, img: &Rgb16Image) -> Result<(), HdrIoError> {
+    png::write_png16(path, img)
+}
+
+/// Reads an 8-bit PNG (RGB, grey, or opaque RGBA/grey-alpha) as RGB.
+pub fn read_png8(path: &Path) -> Result<Rgb8Image, HdrIoError> {
+    png::read_png8(path)
+}
+
+/// Reads a 16-bit PNG (RGB, grey, or opaque RGBA/grey-alpha) as RGB.
+pub fn read_png16(path: &Path) -> Result<Rgb16Image, HdrIoError> {
+    png::read_png16(path)
+}
+
+/// Encodes an 8-bit RGB PNG in memory (for HTTP responses and hashing).
+pub fn encode_png8(img: &Rgb8Image) -> Result<Vec<u8>, HdrIoError> {
+    png::encode_png8(img)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::error::SUPPORTED_INPUTS;
+    use super::*;
+
+    #[test]
+    fn formats_are_recognised_by_their_first_bytes() {
+        assert_eq!(
+            HdrFormat::detect(&[0x76, 0x2f, 0x31, 0x01, 2]),
+            Some(HdrFormat::Exr)
+        );
+        assert_eq!(
+            HdrFormat::detect(b"#?RADIANCE\n"),
+            Some(HdrFormat::Radiance)
+        );
+        assert_eq!(HdrFormat::detect(b"#?RGBE\n"), Some(HdrFormat::Radiance));
+        assert_eq!(HdrFormat::detect(b"PF\n1 1"), Some(HdrFormat::Pfm));
+        assert_eq!(HdrFormat::detect(b"Pf 1 1"), Some(HdrFormat::Pfm));
+        assert_eq!(HdrFormat::detect(b"PFX"), None);
+        assert_eq!(HdrFormat::detect(b"\x89PNG\r\n\x1a\n"), None);
+        assert_eq!(HdrFormat::detect(b""), None);
+    }
+
+    #[test]
+    fn an_unknown_format_lists_what_is_supported() {
+        let error =
+            decode_hdr(b"\x89PNG\r\n\x1a\nrest", "x.png", &LoadOptions::default()).unwrap_err();
+        let message = error.to_string();
+        assert!(message.starts_with("x.png: not an HDR image"), "{message}");
+        assert!(message.contains("89 50 4e 47"), "{message}");
+        assert!(message.contains(SUPPORTED_INPUTS), "{message}");
+    }
+
+    #[test]
+    fn the_report_serialises_the_format_in_lowercase() {
+        assert_eq!(
+            serde_json::to_string(&HdrFormat::Radiance).unwrap(),
+            "\"radiance\""
+        );
+    }
 }

@@ -1,0 +1,233 @@
+//! PNG in and out: 8-bit RGB (the pipeline's output and the goldens) and
+//! 16-bit RGB (finer diagnostics), through the `image` crate.
+//!
+//! Reading accepts grey (expanded to RGB), RGB, and RGBA or grey-alpha only
+//! when every alpha sample is opaque: a golden with transparency would be
+//! compared against an output that has none, so it is refused rather than
+//! silently flattened. The bit depth must match the function (no silent
+//! 8 ↔ 16 conversion that would change what "equal" means in a comparison).
+
+use std::fs::File;
+use std::io::{BufReader, Cursor, Write};
+use std::path::Path;
+
+use image::codecs::png::{PngDecoder, PngEncoder};
+use image::{DynamicImage, ExtendedColorType, ImageEncoder};
+
+use super::atomic::write_atomically;
+use super::error::{catch_decoder_panic, from_image, HdrIoError};
+use super::validate::{check_dimensions, DEFAULT_MAX_PIXELS};
+use crate::image::{Image, Rgb8Image};
+
+const FORMAT: &str = "PNG";
+
+/// A 16-bit-per-channel RGB image, as written by `write_png16`.
+pub type Rgb16Image = Image<[u16; 3]>;
+
+pub(crate) fn read_png8(path: &Path) -> Result<Rgb8Image, HdrIoError> {
+    let file = path.display().to_string();
+    match read_png(path, &file)? {
+        DynamicImage::ImageRgb8(rgb) => Ok(from_raw(rgb.width(), rgb.height(), &rgb.into_raw())),
+        DynamicImage::ImageLuma8(grey) => {
+            Ok(grey_to_rgb(grey.width(), grey.height(), &grey.into_raw()))
+        }
+        DynamicImage::ImageRgba8(rgba) => {
+            let (w, h) = rgba.dimensions();
+            let rgb = opaque_rgb(&file, rgba.into_raw().as_slice(), 4, 255)?;
+            Ok(from_raw(w, h, &rgb))
+        }
+        DynamicImage::ImageLumaA8(grey) => {
+            let (w, h) = grey.dimensions();
+            let luma = opaque_rgb(&file, grey.into_raw().as_slice(), 2, 255)?;
+            Ok(grey_to_rgb(w, h, &luma))
+        }
+        _ => Err(wrong_depth(&file, "16-bit", "read_png16")),
+    }
+}
+
+pub(crate) fn read_png16(path: &Path) -> Result<Rgb16Image, HdrIoError> {
+    let file = path.display().to_string();
+    match read_png(path, &file)? {
+        DynamicImage::ImageRgb16(rgb) => Ok(from_raw(rgb.width(), rgb.height(), &rgb.into_raw())),
+        DynamicImage::ImageLuma16(grey) => {
+            Ok(grey_to_rgb(grey.width(), grey.height(), &grey.into_raw()))
+        }
+        DynamicImage::ImageRgba16(rgba) => {
+            let (w, h) = rgba.dimensions();
+            let rgb = opaque_rgb(&file, rgba.into_raw().as_slice(), 4, u16::MAX)?;
+            Ok(from_raw(w, h, &rgb))
+        }
+        DynamicImage::ImageLumaA16(grey) => {
+            let (w, h) = grey.dimensions();
+            let luma = opaque_rgb(&file, grey.into_raw().as_slice(), 2, u16::MAX)?;
+            Ok(grey_to_rgb(w, h, &luma))
+        }
+        _ => Err(wrong_depth(&file, "8-bit", "read_png8")),
+    }
+}
+
+/// Decodes after checking the header's size against the default pixel limit.
+fn read_png(path: &Path, file: &str) -> Result<DynamicImage, HdrIoError> {
+    let handle = File::open(path).map_err(|source| HdrIoError::Io {
+        file: file.to_string(),
+        action: "open",
+        source,
+    })?;
+    catch_decoder_panic(file, FORMAT, || {
+        let decoder =
+            PngDecoder::new(BufReader::new(handle)).map_err(|e| from_image(file, FORMAT, e))?;
+        let (width, height) = image::ImageDecoder::dimensions(&decoder);
+        check_dimensions(
+            file,
+            u64::from(width),
+            u64::from(height),
+            DEFAULT_MAX_PIXELS,
+        )?;
+        DynamicImage::from_decoder(decoder).map_err(|e| from_image(file, FORMAT, e))
+    })
+}
+
+fn wrong_depth(file: &str, depth: &str, other: &str) -> HdrIoError {
+    HdrIoError::Unsupported {
+        file: file.to_string(),
+        format: FORMAT,
+        detail: format!("it is a {depth} PNG; read it with {other}"),
+    }
+}
+
+/// Drops the alpha channel after checking that it is opaque everywhere.
+fn opaque_rgb<T: Copy + PartialEq>(
+    file: &str,
+    samples: &[T],
+    stride: usize,
+    opaque: T,
+) -> Result<Vec<T>, HdrIoError> {
+    if let Some(index) = samples
+        .chunks_exact(stride)
+        .position(|p| p[stride - 1] != opaque)
+    {
+        return Err(HdrIoError::Unsupported {
+            file: file.to_string(),
+            format: FORMAT,
+            detail: format!(
+                "pixel {index} (in row-major order) is not opaque; goldens and references must have no transparency"
+            ),
+        });
+    }
+    Ok(samples
+        .chunks_exact(stride)
+        .flat_map(|p| p[..stride - 1].iter().copied())
+        .collect())
+}
+
+fn from_raw<T: Copy>(width: u32, height: u32, samples: &[T]) -> Image<[T; 3]> {
+    Image {
+        width,
+        height,
+        pixels: samples
+            .chunks_exact(3)
+            .map(|c| [c[0], c[1], c[2]])
+            .collect(),
+    }
+}
+
+fn grey_to_rgb<T: Copy>(width: u32, height: u32, samples: &[T]) -> Image<[T; 3]> {
+    Image {
+        width,
+        height,
+        pixels: samples.iter().map(|&v| [v; 3]).collect(),
+    }
+}
+
+/// Checks that the image is non-empty and its buffer matches its size: the
+/// fields are public, and the encoder would otherwise panic or misread.
+pub(crate) fn check_consistent<P>(file: &str, image: &Image<P>) -> Result<(), HdrIoError> {
+    let expected = image.width as usize * image.height as usize;
+    if expected == 0 || image.pixels.len() != expected {
+        return Err(HdrIoError::BadImage {
+            file: file.to_string(),
+            width: image.width,
+            height: image.height,
+            pixel_count: image.pixels.len(),
+        });
+    }
+    Ok(())
+}
+
+fn encode(
+    writer: impl Write,
+    file: &str,
+    bytes: &[u8],
+    width: u32,
+    height: u32,
+    color: ExtendedColorType,
+) -> Result<(), HdrIoError> {
+    PngEncoder::new(writer)
+        .write_image(bytes, width, height, color)
+        .map_err(|e| from_image(file, FORMAT, e))
+}
+
+pub(crate) fn encode_png8(image: &Rgb8Image) -> Result<Vec<u8>, HdrIoError> {
+    const NAME: &str = "<in-memory PNG>";
+    check_consistent(NAME, image)?;
+    let mut bytes = Cursor::new(Vec::new());
+    encode(
+        &mut bytes,
+        NAME,
+        image.as_bytes(),
+        image.width,
+        image.height,
+        ExtendedColorType::Rgb8,
+    )?;
+    Ok(bytes.into_inner())
+}
+
+pub(crate) fn write_png8(path: &Path, image: &Rgb8Image) -> Result<(), HdrIoError> {
+    let file = path.display().to_string();
+    check_png_extension(path, &file)?;
+    check_consistent(&file, image)?;
+    write_atomically(path, |w| {
+        encode(
+            w,
+            &file,
+            image.as_bytes(),
+            image.width,
+            image.height,
+            ExtendedColorType::Rgb8,
+        )
+    })
+}
+
+pub(crate) fn write_png16(path: &Path, image: &Rgb16Image) -> Result<(), HdrIoError> {
+    let file = path.display().to_string();
+    check_png_extension(path, &file)?;
+    check_consistent(&file, image)?;
+    // `image` takes 16-bit samples in native byte order and writes them big-endian.
+    let bytes: &[u8] = bytemuck::cast_slice(&image.pixels);
+    write_atomically(path, |w| {
+        encode(
+            w,
+            &file,
+            bytes,
+            image.width,
+            image.height,
+            ExtendedColorType::Rgb16,
+        )
+    })
+}
+
+/// PNG writers insist on `.png` so that a golden is never written under a
+/// name that says it is something else.
+fn check_png_extension(path: &Path, file: &str) -> Result<(), HdrIoError> {
+    let is_png = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+    if is_png {
+        Ok(())
+    } else {
+        Err(HdrIoError::UnsupportedExtension {
+            file: file.to_string(),
+            supported: ".png",
+        })
+    }
+}
