@@ -13,7 +13,11 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(name = "tonegate", version, about = "Headless regression and image-quality validation for a GPU HDR tone mapper")]
+#[command(
+    name = "tonegate",
+    version,
+    about = "Headless regression and image-quality validation for a GPU HDR tone mapper"
+)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,
@@ -276,7 +280,10 @@ pub fn operator_from_args(a: &TonemapArgs) -> Result<Operator> {
             Some(Key::Auto) => Err(invalid("--key auto applies to --operator seed001 only")),
         }
     };
-    let log_average = a.log_average.map(|v| positive("log-average", v)).transpose()?;
+    let log_average = a
+        .log_average
+        .map(|v| positive("log-average", v))
+        .transpose()?;
     if let Some(Preset::Reinhard02) = a.preset {
         let op = Operator::reinhard02_preset(fixed_key(key)?.get()).map_err(invalid)?;
         return Ok(op);
@@ -285,7 +292,9 @@ pub fn operator_from_args(a: &TonemapArgs) -> Result<Operator> {
         OperatorKind::Seed000 => {
             let w = a.white_fraction.unwrap_or(0.8);
             if !(w > 0.0 && w <= 1.0) {
-                return Err(invalid(format!("--white-fraction: must be in (0, 1], got {w}")));
+                return Err(invalid(format!(
+                    "--white-fraction: must be in (0, 1], got {w}"
+                )));
             }
             Operator::Seed000 {
                 key: fixed_key(key)?,
@@ -321,7 +330,8 @@ fn bloom_from_args(a: &TonemapArgs) -> Result<Option<Bloom>> {
         threshold: non_negative("bloom-threshold", a.bloom_threshold)?,
         downsample: Factor::try_from(a.bloom_downsample)
             .map_err(|e| invalid(format!("--bloom-downsample: {e}")))?,
-        radius: Radius::try_from(a.bloom_radius).map_err(|e| invalid(format!("--bloom-radius: {e}")))?,
+        radius: Radius::try_from(a.bloom_radius)
+            .map_err(|e| invalid(format!("--bloom-radius: {e}")))?,
         sigma: positive("bloom-sigma", a.bloom_sigma)?,
         strength: non_negative("bloom", a.bloom)?,
     }))
@@ -398,7 +408,10 @@ fn compare(a: CompareArgs) -> Result<ExitCode> {
         crate::io::write_png8(path, &crate::metrics::ssim_map_image(&s))?;
     }
     if let Some(path) = &a.diff {
-        crate::io::write_png8(path, &crate::metrics::diff_heatmap(img_a.raster(), img_b.raster())?)?;
+        crate::io::write_png8(
+            path,
+            &crate::metrics::diff_heatmap(img_a.raster(), img_b.raster())?,
+        )?;
     }
     if a.json {
         write_json(Path::new("-"), &m)?;
@@ -424,7 +437,10 @@ fn render(a: RenderArgs) -> Result<ExitCode> {
     let scene = Scene::load(&a.scene).map_err(|e| invalid(e.to_string()))?;
     let spp = a.spp.unwrap_or(scene.reference_spp);
     if spp == 0 || spp > crate::scene::MAX_SPP {
-        return Err(invalid(format!("--spp: must be between 1 and {}, got {spp}", crate::scene::MAX_SPP)));
+        return Err(invalid(format!(
+            "--spp: must be between 1 and {}, got {spp}",
+            crate::scene::MAX_SPP
+        )));
     }
     let env = crate::golden::scene_environment(&scene).map_err(|e| invalid(e.to_string()))?;
     std::fs::create_dir_all(&a.out).map_err(|source| Error::File {
@@ -450,7 +466,12 @@ fn render(a: RenderArgs) -> Result<ExitCode> {
         "plan": crate::plan::StagePlan::for_scene(&scene, spp).names(), "frames": frames,
     });
     write_json(&a.out.join("frames.json"), &report)?;
-    println!("{} frames of {} written to {}", scene.frames, scene.name, a.out.display());
+    println!(
+        "{} frames of {} written to {}",
+        scene.frames,
+        scene.name,
+        a.out.display()
+    );
     Ok(ExitCode::SUCCESS)
 }
 
@@ -465,14 +486,21 @@ fn select_scenes(suite: &Path, names: &[String]) -> Result<Vec<Scene>> {
         .map(|n| {
             all.iter().find(|s| &s.name == n).cloned().ok_or_else(|| {
                 let known: Vec<&str> = all.iter().map(|s| s.name.as_str()).collect();
-                invalid(format!("no scene {n:?} in {}; known: {}", suite.display(), known.join(", ")))
+                invalid(format!(
+                    "no scene {n:?} in {}; known: {}",
+                    suite.display(),
+                    known.join(", ")
+                ))
             })
         })
         .collect()
 }
 
 fn golden_root(suite: &Path) -> PathBuf {
-    suite.parent().map(Path::to_path_buf).unwrap_or_else(|| PathBuf::from("."))
+    suite
+        .parent()
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| PathBuf::from("."))
 }
 
 fn golden_bless(suite: &Path, names: &[String]) -> Result<ExitCode> {
@@ -491,10 +519,14 @@ fn golden_bless(suite: &Path, names: &[String]) -> Result<ExitCode> {
 fn golden_verify(suite: &Path, names: &[String]) -> Result<ExitCode> {
     let scenes = select_scenes(suite, names)?;
     let root = golden_root(suite);
-    let problems = crate::golden::verify(&root, &scenes, true).map_err(|e| invalid(e.to_string()))?;
+    let problems =
+        crate::golden::verify(&root, &scenes, true).map_err(|e| invalid(e.to_string()))?;
     if problems.is_empty() {
         let frames: u32 = scenes.iter().map(|s| s.frames).sum();
-        println!("{} scenes, {frames} frames: bit-identical to their goldens", scenes.len());
+        println!(
+            "{} scenes, {frames} frames: bit-identical to their goldens",
+            scenes.len()
+        );
         Ok(ExitCode::SUCCESS)
     } else {
         for p in &problems {
@@ -514,7 +546,9 @@ fn env(a: EnvArgs) -> Result<ExitCode> {
     }
     let name = a.name.unwrap_or_default();
     let env = BuiltinEnv::from_name(&name).ok_or_else(|| {
-        invalid(format!("unknown environment {name:?}; built-in: sky, interior, night, grid"))
+        invalid(format!(
+            "unknown environment {name:?}; built-in: sky, interior, night, grid"
+        ))
     })?;
     let output = a
         .output
@@ -528,7 +562,8 @@ fn env(a: EnvArgs) -> Result<ExitCode> {
 fn suite(a: SuiteArgs) -> Result<ExitCode> {
     let scenes = crate::scene::load_suite(&a.suite).map_err(|e| invalid(e.to_string()))?;
     let root = golden_root(&a.suite);
-    let problems = crate::golden::check_manifest(&root, &scenes).map_err(|e| invalid(e.to_string()))?;
+    let problems =
+        crate::golden::check_manifest(&root, &scenes).map_err(|e| invalid(e.to_string()))?;
     if !problems.is_empty() {
         for p in &problems {
             eprintln!("{p}");
@@ -540,7 +575,8 @@ fn suite(a: SuiteArgs) -> Result<ExitCode> {
     let mut results = Vec::new();
     for scene in &scenes {
         bar.set_message(scene.name.clone());
-        let r = crate::suite::run_scene_cpu(&root, scene, a.spp).map_err(|e| invalid(e.to_string()))?;
+        let r =
+            crate::suite::run_scene_cpu(&root, scene, a.spp).map_err(|e| invalid(e.to_string()))?;
         bar.inc(scene.frames as u64);
         results.push(r);
     }
@@ -562,7 +598,11 @@ fn suite(a: SuiteArgs) -> Result<ExitCode> {
             r.ssim.worst,
             r.ssim.worst_frame,
             r.ssim.mean,
-            if failed == 0 { format!("{applied} ok") } else { format!("{failed} FAIL") }
+            if failed == 0 {
+                format!("{applied} ok")
+            } else {
+                format!("{failed} FAIL")
+            }
         );
         for c in r.checks.iter().filter(|c| c.passed == Some(false)) {
             println!("    FAIL {}", c.detail);
@@ -578,5 +618,9 @@ fn suite(a: SuiteArgs) -> Result<ExitCode> {
         write_json(path, &results)?;
     }
     let failed = results.iter().any(|r| !r.passed());
-    Ok(if failed { ExitCode::from(1) } else { ExitCode::SUCCESS })
+    Ok(if failed {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
+    })
 }

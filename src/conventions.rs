@@ -130,13 +130,20 @@ mod tests {
     fn equirect_round_trip() {
         for &(u, v) in &[(0.1, 0.2), (0.5, 0.5), (0.9, 0.7), (0.25, 0.99)] {
             let (u2, v2) = equirect_uv(equirect_direction(u, v));
-            assert!((u - u2).abs() < 1e-12 && (v - v2).abs() < 1e-12, "{u},{v} -> {u2},{v2}");
+            assert!(
+                (u - u2).abs() < 1e-12 && (v - v2).abs() < 1e-12,
+                "{u},{v} -> {u2},{v2}"
+            );
         }
     }
 
     #[test]
     fn centre_ray_looks_down_minus_z_at_u_half() {
-        let cam = Camera { width: 4, height: 2, fov_y_deg: 60.0 };
+        let cam = Camera {
+            width: 4,
+            height: 2,
+            fov_y_deg: 60.0,
+        };
         let d = cam.ray(2.0, 1.0);
         assert_eq!(d, [0.0, 0.0, -1.0]);
         assert_eq!(equirect_uv(d), (0.5, 0.5));
@@ -148,7 +155,10 @@ mod tests {
         // Rotating the sphere +90° about x brings what was at +y... the view
         // direction −z meets the map at Rᵀ(−z).
         let d = sphere_direction(&r, [0.0, 0.0, -1.0]);
-        assert!((d[0]).abs() < 1e-15 && (d[1] + 1.0).abs() < 1e-15 && d[2].abs() < 1e-15, "{d:?}");
+        assert!(
+            (d[0]).abs() < 1e-15 && (d[1] + 1.0).abs() < 1e-15 && d[2].abs() < 1e-15,
+            "{d:?}"
+        );
         for i in 0..3 {
             for j in 0..3 {
                 let dot: f64 = (0..3).map(|k| r[i][k] * r[j][k]).sum();

@@ -155,7 +155,10 @@ fn interior(d: [f64; 3]) -> [f64; 3] {
     // Walls lit by the window: brighter facing it, with panel seams.
     let facing = 0.5 * (1.0 + dot(d, dir(0.3, 0.0)));
     let mut wall = 0.005 + 0.045 * facing * facing;
-    let seam = (libm::fmod((az + std::f64::consts::PI) * 12.0 / std::f64::consts::PI, 1.0)) < 0.04;
+    let seam = (libm::fmod(
+        (az + std::f64::consts::PI) * 12.0 / std::f64::consts::PI,
+        1.0,
+    )) < 0.04;
     if seam {
         wall *= 0.5;
     }
@@ -236,8 +239,15 @@ mod tests {
         for (env, lo, hi, range) in cases {
             let img = env.generate(1024, 512);
             let (min, max) = y_range(&img);
-            assert!(min >= lo && max >= hi && max / min >= range, "{env}: Y {min} .. {max}");
-            assert!(img.pixels.iter().flatten().all(|c| c.is_finite() && *c > 0.0));
+            assert!(
+                min >= lo && max >= hi && max / min >= range,
+                "{env}: Y {min} .. {max}"
+            );
+            assert!(img
+                .pixels
+                .iter()
+                .flatten()
+                .all(|c| c.is_finite() && *c > 0.0));
         }
     }
 

@@ -58,12 +58,32 @@ pub struct Manifest {
 #[derive(Clone, Debug, PartialEq, Serialize)]
 #[serde(tag = "problem", rename_all = "snake_case")]
 pub enum Problem {
-    NotInManifest { scene: String },
-    StaleScene { scene: String, blessed: String, now: String },
-    StaleReference { scene: String, blessed: u32, now: u32 },
-    MissingFile { scene: String, file: String },
-    FileChanged { scene: String, file: String },
-    PixelsDiffer { scene: String, file: String, pixels: usize },
+    NotInManifest {
+        scene: String,
+    },
+    StaleScene {
+        scene: String,
+        blessed: String,
+        now: String,
+    },
+    StaleReference {
+        scene: String,
+        blessed: u32,
+        now: u32,
+    },
+    MissingFile {
+        scene: String,
+        file: String,
+    },
+    FileChanged {
+        scene: String,
+        file: String,
+    },
+    PixelsDiffer {
+        scene: String,
+        file: String,
+        pixels: usize,
+    },
 }
 
 impl std::fmt::Display for Problem {
@@ -119,7 +139,9 @@ pub fn load_manifest(root: &Path) -> Result<Manifest, GoldenError> {
 }
 
 fn sha256_file(path: &Path) -> Option<String> {
-    std::fs::read(path).ok().map(|b| hex::encode(Sha256::digest(&b)))
+    std::fs::read(path)
+        .ok()
+        .map(|b| hex::encode(Sha256::digest(&b)))
 }
 
 /// Reads golden frame `n` of `scene`.
@@ -288,7 +310,11 @@ fn write_manifest(root: &Path, manifest: &Manifest) -> Result<(), GoldenError> {
 
 /// The manifest checks, then a full re-render of every frame, which must
 /// match the golden pixel for pixel.
-pub fn verify(root: &Path, scenes: &[Scene], show_progress: bool) -> Result<Vec<Problem>, GoldenError> {
+pub fn verify(
+    root: &Path,
+    scenes: &[Scene],
+    show_progress: bool,
+) -> Result<Vec<Problem>, GoldenError> {
     let mut problems = check_manifest(root, scenes)?;
     let total: u64 = scenes.iter().map(|s| s.frames as u64).sum();
     let bar = progress_bar(total, "verify");
@@ -307,7 +333,12 @@ pub fn verify(root: &Path, scenes: &[Scene], show_progress: bool) -> Result<Vec<
             let pixels = if (golden.width, golden.height) != (out.frame.width, out.frame.height) {
                 out.frame.pixel_count()
             } else {
-                golden.pixels.iter().zip(&out.frame.pixels).filter(|(a, b)| a != b).count()
+                golden
+                    .pixels
+                    .iter()
+                    .zip(&out.frame.pixels)
+                    .filter(|(a, b)| a != b)
+                    .count()
             };
             if pixels > 0 {
                 problems.push(Problem::PixelsDiffer {

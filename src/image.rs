@@ -75,10 +75,7 @@ impl Rgb8Image {
         Some(Self {
             width,
             height,
-            pixels: bytes
-                .chunks_exact(3)
-                .map(|c| [c[0], c[1], c[2]])
-                .collect(),
+            pixels: bytes.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
         })
     }
 }

@@ -3,15 +3,18 @@
 //! The CPU reference (`reference`) is the oracle; the stage plan (`plan`) is the
 //! shared contract both renderers execute; `metrics` judges the outputs.
 
+pub mod cli;
 pub mod color;
 pub mod conventions;
 pub mod env;
 pub mod error;
+pub mod golden;
 pub mod image;
 pub mod io;
 pub mod metrics;
 pub mod plan;
 pub mod reference;
 pub mod scene;
+pub mod suite;
 
 pub use error::{Error, Result};

@@ -3,9 +3,7 @@
 //! Both renderers execute a plan; a stage that is not in it is neither built,
 //! dispatched nor timed. `tonegate plan scene.toml` prints it.
 
-use crate::scene::{
-    BrightPass, ColourPath, Encoding, Grade, Key, Operator, Scene,
-};
+use crate::scene::{BrightPass, ColourPath, Encoding, Grade, Key, Operator, Scene};
 use serde::Serialize;
 use std::fmt;
 
@@ -42,14 +40,24 @@ pub enum BloomSource {
 #[serde(tag = "stage", rename_all = "snake_case")]
 pub enum Stage {
     /// Renders the view of the rotating sphere (absent for flat images).
-    Sphere { spp: u32 },
+    Sphere {
+        spp: u32,
+    },
     /// Reduces the HDR frame to the statistics the operator needs.
     LuminanceStats(StatsNeeds),
-    Tonemap { colour: ColourPath },
-    BloomBright { source: BloomSource },
-    BloomDownsample { factor: u32 },
+    Tonemap {
+        colour: ColourPath,
+    },
+    BloomBright {
+        source: BloomSource,
+    },
+    BloomDownsample {
+        factor: u32,
+    },
     /// Two 1-D passes, horizontal then vertical.
-    BloomBlur { radius: u32 },
+    BloomBlur {
+        radius: u32,
+    },
     BloomComposite,
     /// Mean luminance of the frame entering the grade (contrast needs it).
     GradeStats,
@@ -107,9 +115,7 @@ pub fn stats_needs(op: &Operator, bloom: Option<&crate::scene::Bloom>) -> StatsN
             needs.min = matches!(key, Key::Auto);
         }
         Operator::Reinhard02 {
-            white,
-            log_average,
-            ..
+            white, log_average, ..
         } => {
             needs.log_average = log_average.is_none();
             needs.max = white.is_none();
@@ -286,15 +292,31 @@ mod tests {
         assert!(stats_needs(&reinhard02(None, None), None).max);
         assert!(!stats_needs(&reinhard02(Some(3.0), None), None).max);
         // Seed 001's bright pass normalises by Lmax.
-        assert!(stats_needs(&reinhard02(Some(3.0), None), Some(&bloom(BrightPass::Seed001, 0.2))).max);
+        assert!(
+            stats_needs(
+                &reinhard02(Some(3.0), None),
+                Some(&bloom(BrightPass::Seed001, 0.2))
+            )
+            .max
+        );
     }
 
     #[test]
     fn bloom_and_grade_appear_only_when_active() {
         let op = Operator::default();
-        let off = StagePlan::build(Input::Flat, &op, Some(&bloom(BrightPass::Seed001, 0.0)), None);
+        let off = StagePlan::build(
+            Input::Flat,
+            &op,
+            Some(&bloom(BrightPass::Seed001, 0.0)),
+            None,
+        );
         assert!(!off.names().iter().any(|n| n.starts_with("bloom")));
-        let on = StagePlan::build(Input::Flat, &op, Some(&bloom(BrightPass::Threshold, 0.3)), None);
+        let on = StagePlan::build(
+            Input::Flat,
+            &op,
+            Some(&bloom(BrightPass::Threshold, 0.3)),
+            None,
+        );
         assert_eq!(
             on.names(),
             [

@@ -212,7 +212,9 @@ impl<'de> Deserialize<'de> for Key {
                 if v == "auto" {
                     Ok(Key::Auto)
                 } else {
-                    Err(E::custom(format!("expected a number > 0 or \"auto\", got {v:?}")))
+                    Err(E::custom(format!(
+                        "expected a number > 0 or \"auto\", got {v:?}"
+                    )))
                 }
             }
         }
@@ -239,10 +241,7 @@ pub enum Operator {
     },
     /// Seed 001: weighted log-average (w = 1 − e^(−Y)), so large near-black
     /// areas do not drag the exposure up; automatic key; white = scaled Lmax.
-    Seed001 {
-        key: Key,
-        colour: ColourPath,
-    },
+    Seed001 { key: Key, colour: ColourPath },
     /// Reinhard 2002 global (pfstmo_reinhard02 without --scales): key a, an
     /// absolute Lwhite, or the maximum scaled luminance when unset.
     Reinhard02 {
@@ -295,7 +294,9 @@ impl TryFrom<OperatorTable> for Operator {
         let kind = format!("{:?}", t.kind).to_lowercase();
         let refuse = |present: bool, key: &str| -> Result<(), String> {
             if present {
-                Err(format!("key `{key}` does not apply to operator kind `{kind}`"))
+                Err(format!(
+                    "key `{key}` does not apply to operator kind `{kind}`"
+                ))
             } else {
                 Ok(())
             }
@@ -540,8 +541,14 @@ pub enum Check {
     MaxMse(f64),
     MaxAbsDiff(u8),
     /// At most `fraction` of pixels may be off by more than `lsb`.
-    MaxFractionOver { lsb: u8, fraction: f64 },
-    MaxStageMs { stage: String, ms: f64 },
+    MaxFractionOver {
+        lsb: u8,
+        fraction: f64,
+    },
+    MaxStageMs {
+        stage: String,
+        ms: f64,
+    },
     MinFps(f64),
 }
 
@@ -604,10 +611,12 @@ impl Scene {
             path: path.to_owned(),
             message: e.to_string().trim_end().to_owned(),
         })?;
-        scene.validate(text).map_err(|message| SceneError::Invalid {
-            path: path.to_owned(),
-            message,
-        })?;
+        scene
+            .validate(text)
+            .map_err(|message| SceneError::Invalid {
+                path: path.to_owned(),
+                message,
+            })?;
         if let Some(p) = &scene.environment.path {
             if p.is_relative() {
                 if let Some(dir) = path.parent() {
@@ -697,7 +706,11 @@ impl Scene {
                 Check::MaxAbsDiff(_) => true,
             };
             if !ok {
-                return Err(format!("{}: bound out of range in {:?}", at("checks"), c.check));
+                return Err(format!(
+                    "{}: bound out of range in {:?}",
+                    at("checks"),
+                    c.check
+                ));
             }
         }
         Ok(())
@@ -723,14 +736,15 @@ impl Scene {
 
 /// 1-based line of the first `key =` or `[key` in `text`.
 fn line_of(text: &str, key: &str) -> Option<usize> {
-    text.lines().position(|l| {
-        let t = l.trim_start();
-        t.strip_prefix(key)
-            .map(|rest| rest.trim_start().starts_with('='))
-            .unwrap_or(false)
-            || t.starts_with(&format!("[{key}]"))
-    })
-    .map(|i| i + 1)
+    text.lines()
+        .position(|l| {
+            let t = l.trim_start();
+            t.strip_prefix(key)
+                .map(|rest| rest.trim_start().starts_with('='))
+                .unwrap_or(false)
+                || t.starts_with(&format!("[{key}]"))
+        })
+        .map(|i| i + 1)
 }
 
 /// A suite: an ordered list of scene files.
@@ -798,7 +812,10 @@ degrees_per_frame = 5.0
     fn unknown_key_names_key_file_and_line() {
         let text = MINIMAL.replace("frames = 2", "frames = 2\nfrobnicate = 1");
         let e = parse(&text).unwrap_err().to_string();
-        assert!(e.contains("scene.toml") && e.contains("frobnicate") && e.contains("line 5"), "{e}");
+        assert!(
+            e.contains("scene.toml") && e.contains("frobnicate") && e.contains("line 5"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -812,7 +829,10 @@ degrees_per_frame = 5.0
     fn out_of_range_values_name_their_line() {
         let text = format!("{MINIMAL}\n[operator]\nkind = \"reinhard02\"\nkey = -1.0\n");
         let e = parse(&text).unwrap_err().to_string();
-        assert!(e.contains("must be a finite number > 0") && e.contains("line 13"), "{e}");
+        assert!(
+            e.contains("must be a finite number > 0") && e.contains("line 13"),
+            "{e}"
+        );
         let text = MINIMAL.replace("size = [32, 18]", "size = [0, 18]");
         let e = parse(&text).unwrap_err().to_string();
         assert!(e.contains("at least 1x1") && e.contains("line 3"), "{e}");
@@ -820,31 +840,50 @@ degrees_per_frame = 5.0
         let e = parse(&text).unwrap_err().to_string();
         assert!(e.contains("frames") && e.contains("line 4"), "{e}");
         let text = format!("{MINIMAL}\n[operator]\nkind = \"seed000\"\nwhite_fraction = 1.5\n");
-        assert!(parse(&text).unwrap_err().to_string().contains("white_fraction"));
+        assert!(parse(&text)
+            .unwrap_err()
+            .to_string()
+            .contains("white_fraction"));
         let text = format!("{MINIMAL}\n[operator]\nkind = \"seed001\"\nwhite = 2.0\n");
         let e = parse(&text).unwrap_err().to_string();
-        assert!(e.contains("`white` does not apply") && e.contains("line 11"), "{e}");
+        assert!(
+            e.contains("`white` does not apply") && e.contains("line 11"),
+            "{e}"
+        );
         let text = format!("{MINIMAL}\n[operator]\nkind = \"seed000\"\nkey = \"auto\"\n");
-        assert!(parse(&text).unwrap_err().to_string().contains("needs a number"));
+        assert!(parse(&text)
+            .unwrap_err()
+            .to_string()
+            .contains("needs a number"));
     }
 
     #[test]
     fn absurd_output_size_is_refused() {
         let text = MINIMAL.replace("size = [32, 18]", "size = [100000, 100000]");
-        assert!(parse(&text).unwrap_err().to_string().contains("exceeds the limit"));
+        assert!(parse(&text)
+            .unwrap_err()
+            .to_string()
+            .contains("exceeds the limit"));
     }
 
     #[test]
     fn operator_variants_and_auto_key_parse() {
-        let text = format!("{MINIMAL}\n[operator]\nkind = \"seed001\"\nkey = \"auto\"\ncolour = \"xyy\"\n");
+        let text = format!(
+            "{MINIMAL}\n[operator]\nkind = \"seed001\"\nkey = \"auto\"\ncolour = \"xyy\"\n"
+        );
         let s = parse(&text).unwrap();
         assert_eq!(
             s.operator,
-            Operator::Seed001 { key: Key::Auto, colour: ColourPath::Xyy }
+            Operator::Seed001 {
+                key: Key::Auto,
+                colour: ColourPath::Xyy
+            }
         );
         let text = format!("{MINIMAL}\n[operator]\nkind = \"seed001\"\nkey = 0.3\n");
         let s = parse(&text).unwrap();
-        assert!(matches!(s.operator, Operator::Seed001 { key: Key::Fixed(k), .. } if k.get() == 0.3));
+        assert!(
+            matches!(s.operator, Operator::Seed001 { key: Key::Fixed(k), .. } if k.get() == 0.3)
+        );
     }
 
     #[test]
@@ -870,14 +909,23 @@ degrees_per_frame = 5.0
     #[test]
     fn environment_needs_exactly_one_source() {
         let text = MINIMAL.replace("builtin = \"sky\"", "");
-        assert!(parse(&text).unwrap_err().to_string().contains("exactly one"));
+        assert!(parse(&text)
+            .unwrap_err()
+            .to_string()
+            .contains("exactly one"));
         let text = MINIMAL.replace("builtin = \"sky\"", "builtin = \"moon\"");
         assert!(parse(&text).unwrap_err().to_string().contains("moon"));
     }
 
     #[test]
     fn size_parses_from_command_line_form() {
-        assert_eq!("320x180".parse::<Size>(), Ok(Size { width: 320, height: 180 }));
+        assert_eq!(
+            "320x180".parse::<Size>(),
+            Ok(Size {
+                width: 320,
+                height: 180
+            })
+        );
         assert!("320".parse::<Size>().is_err());
         assert!("0x5".parse::<Size>().is_err());
     }

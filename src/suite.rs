@@ -48,8 +48,16 @@ impl Summary {
         let mut worst = values[0];
         let mut sum = 0.0;
         for &(f, v) in values {
-            let better = if higher_is_better { v > best.1 } else { v < best.1 };
-            let worse = if higher_is_better { v < worst.1 } else { v > worst.1 };
+            let better = if higher_is_better {
+                v > best.1
+            } else {
+                v < best.1
+            };
+            let worse = if higher_is_better {
+                v < worst.1
+            } else {
+                v > worst.1
+            };
             if better {
                 best = (f, v);
             }
@@ -127,26 +135,44 @@ pub fn evaluate(spec: &CheckSpec, frames: &[FrameResult], adapter: &str) -> Chec
     let (passed, detail) = match &spec.check {
         Check::MinPsnr(bound) => {
             let (v, f) = worst(&|r| r.metrics.psnr, true);
-            (v >= *bound, format!("worst PSNR {v:.2} dB at frame {f} (min {bound})"))
+            (
+                v >= *bound,
+                format!("worst PSNR {v:.2} dB at frame {f} (min {bound})"),
+            )
         }
         Check::MinSsim(bound) => {
             let (v, f) = worst(&|r| r.metrics.ssim, true);
-            (v >= *bound, format!("worst SSIM {v:.5} at frame {f} (min {bound})"))
+            (
+                v >= *bound,
+                format!("worst SSIM {v:.5} at frame {f} (min {bound})"),
+            )
         }
         Check::MaxMse(bound) => {
             let (v, f) = worst(&|r| r.metrics.mse, false);
-            (v <= *bound, format!("worst MSE {v:.4} at frame {f} (max {bound})"))
+            (
+                v <= *bound,
+                format!("worst MSE {v:.4} at frame {f} (max {bound})"),
+            )
         }
         Check::MaxAbsDiff(bound) => {
             let (v, f) = worst(&|r| r.metrics.max_abs_diff as f64, false);
-            (v <= *bound as f64, format!("worst max abs diff {v} at frame {f} (max {bound})"))
+            (
+                v <= *bound as f64,
+                format!("worst max abs diff {v} at frame {f} (max {bound})"),
+            )
         }
         Check::MaxFractionOver { lsb, fraction } => {
             if *lsb != 1 {
-                return result(None, "only 1 LSB fractions are measured on this path".into());
+                return result(
+                    None,
+                    "only 1 LSB fractions are measured on this path".into(),
+                );
             }
             let (v, f) = worst(&|r| r.fraction_over_1lsb, false);
-            (v <= *fraction, format!("worst fraction over {lsb} LSB {v:.5} at frame {f} (max {fraction})"))
+            (
+                v <= *fraction,
+                format!("worst fraction over {lsb} LSB {v:.5} at frame {f} (max {fraction})"),
+            )
         }
         Check::MaxStageMs { .. } | Check::MinFps(_) => {
             return result(None, "timing checks apply to the GPU renderer".into());
@@ -179,7 +205,11 @@ pub fn run_scene_cpu(root: &Path, scene: &Scene, spp: u32) -> Result<SceneResult
     }
     let psnr: Vec<(u32, f64)> = frames.iter().map(|f| (f.frame, f.metrics.psnr)).collect();
     let ssim: Vec<(u32, f64)> = frames.iter().map(|f| (f.frame, f.metrics.ssim)).collect();
-    let checks = scene.checks.iter().map(|c| evaluate(c, &frames, "cpu-reference")).collect();
+    let checks = scene
+        .checks
+        .iter()
+        .map(|c| evaluate(c, &frames, "cpu-reference"))
+        .collect();
     Ok(SceneResult {
         scene: scene.name.clone(),
         renderer,

@@ -17,7 +17,11 @@ fn suite() -> Vec<Scene> {
 fn every_suite_scene_has_fresh_goldens() {
     let problems = golden::check_manifest(&root(), &suite()).expect("manifest readable");
     let text: Vec<String> = problems.iter().map(|p| p.to_string()).collect();
-    assert!(problems.is_empty(), "golden set is incomplete or stale:\n{}", text.join("\n"));
+    assert!(
+        problems.is_empty(),
+        "golden set is incomplete or stale:\n{}",
+        text.join("\n")
+    );
 }
 
 #[test]
@@ -30,7 +34,10 @@ fn goldens_re_render_bit_identically() {
 #[test]
 fn golden_directory_stays_under_its_cap() {
     let bytes = golden::directory_bytes(&root());
-    assert!(bytes > 0 && bytes < golden::MAX_GOLDEN_BYTES, "golden/ is {bytes} bytes");
+    assert!(
+        bytes > 0 && bytes < golden::MAX_GOLDEN_BYTES,
+        "golden/ is {bytes} bytes"
+    );
 }
 
 #[test]
@@ -47,7 +54,10 @@ fn suite_covers_what_the_gate_needs() {
     assert!(has(&|s| s.grade.is_some()));
     assert!(has(&|s| s.is_static()));
     for env in tonegate::env::BuiltinEnv::ALL {
-        assert!(has(&|s| s.environment.builtin == Some(env)), "no scene uses {env}");
+        assert!(
+            has(&|s| s.environment.builtin == Some(env)),
+            "no scene uses {env}"
+        );
     }
     for s in &scenes {
         assert!(!s.checks.is_empty(), "{} has no checks", s.name);
@@ -84,7 +94,10 @@ fn a_missing_golden_fails_verification() {
     std::fs::remove_file(golden::frame_path(dir.path(), "tiny", 1)).unwrap();
     let problems = golden::verify(dir.path(), &scenes, false).unwrap();
     assert!(
-        problems.contains(&Problem::MissingFile { scene: "tiny".into(), file: "001.png".into() }),
+        problems.contains(&Problem::MissingFile {
+            scene: "tiny".into(),
+            file: "001.png".into()
+        }),
         "{problems:?}"
     );
 }
@@ -94,7 +107,10 @@ fn a_changed_scene_makes_its_golden_stale() {
     let (dir, mut scenes) = scratch();
     scenes[0].fov_y = 50.0;
     let problems = golden::check_manifest(dir.path(), &scenes).unwrap();
-    assert!(matches!(problems.as_slice(), [Problem::StaleScene { .. }]), "{problems:?}");
+    assert!(
+        matches!(problems.as_slice(), [Problem::StaleScene { .. }]),
+        "{problems:?}"
+    );
     // Checks and description are not part of the render: they do not stale it.
     let (dir, mut scenes) = scratch();
     scenes[0].checks.clear();
@@ -110,9 +126,18 @@ fn a_tampered_golden_is_caught_by_hash_and_by_pixels() {
     img.pixels[5][1] ^= 1;
     tonegate::io::write_png8(&path, &img).unwrap();
     let problems = golden::verify(dir.path(), &scenes, false).unwrap();
-    assert!(problems.iter().any(|p| matches!(p, Problem::FileChanged { .. })), "{problems:?}");
     assert!(
-        problems.contains(&Problem::PixelsDiffer { scene: "tiny".into(), file: "000.png".into(), pixels: 1 }),
+        problems
+            .iter()
+            .any(|p| matches!(p, Problem::FileChanged { .. })),
+        "{problems:?}"
+    );
+    assert!(
+        problems.contains(&Problem::PixelsDiffer {
+            scene: "tiny".into(),
+            file: "000.png".into(),
+            pixels: 1
+        }),
         "{problems:?}"
     );
 }
@@ -122,7 +147,12 @@ fn an_unblessed_scene_is_reported_not_invented() {
     let (dir, mut scenes) = scratch();
     scenes[0].name = "other".into();
     let problems = golden::check_manifest(dir.path(), &scenes).unwrap();
-    assert_eq!(problems, vec![Problem::NotInManifest { scene: "other".into() }]);
+    assert_eq!(
+        problems,
+        vec![Problem::NotInManifest {
+            scene: "other".into()
+        }]
+    );
     assert!(!dir.path().join("other").exists());
 }
 
@@ -131,8 +161,14 @@ fn reference_does_not_depend_on_the_thread_count() {
     let scenes = suite();
     let scene = scenes.iter().find(|s| s.bloom.is_some()).unwrap();
     let env = golden::scene_environment(scene).unwrap();
-    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
-    let three = rayon::ThreadPoolBuilder::new().num_threads(3).build().unwrap();
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    let three = rayon::ThreadPoolBuilder::new()
+        .num_threads(3)
+        .build()
+        .unwrap();
     let a = one.install(|| tonegate::reference::render_frame(scene, &env, 3, 4));
     let b = three.install(|| tonegate::reference::render_frame(scene, &env, 3, 4));
     assert_eq!(a.frame, b.frame);

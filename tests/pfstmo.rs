@@ -16,7 +16,10 @@ use tonegate::io::{load_hdr, write_image_hdr, LoadOptions};
 
 fn have_pfstmo() -> bool {
     Command::new("sh")
-        .args(["-c", "command -v pfsin && command -v pfstmo_reinhard02 && command -v pfsout"])
+        .args([
+            "-c",
+            "command -v pfsin && command -v pfstmo_reinhard02 && command -v pfsout",
+        ])
         .output()
         .map(|o| o.status.success())
         .unwrap_or(false)
@@ -28,8 +31,15 @@ fn pfstmo(input: &Path, output: &Path, key: f64) {
         input.display(),
         output.display()
     );
-    let out = Command::new("sh").args(["-c", &script]).output().expect("sh runs");
-    assert!(out.status.success(), "pfstmo failed: {}", String::from_utf8_lossy(&out.stderr));
+    let out = Command::new("sh")
+        .args(["-c", &script])
+        .output()
+        .expect("sh runs");
+    assert!(
+        out.status.success(),
+        "pfstmo failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
 fn ours(input: &Path, output: &Path, key: f64) {
@@ -41,7 +51,11 @@ fn ours(input: &Path, output: &Path, key: f64) {
         .args(["--preset", "reinhard02", "--key", &key.to_string()])
         .output()
         .expect("tonegate runs");
-    assert!(out.status.success(), "tonegate failed: {}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "tonegate failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
 fn max_abs_diff(a: &HdrImage, b: &HdrImage) -> (f64, (u32, u32)) {
@@ -51,7 +65,10 @@ fn max_abs_diff(a: &HdrImage, b: &HdrImage) -> (f64, (u32, u32)) {
         for c in 0..3 {
             let d = (p[c] as f64 - q[c] as f64).abs();
             if !(d <= worst.0) {
-                worst = (d, ((i % a.width as usize) as u32, (i / a.width as usize) as u32));
+                worst = (
+                    d,
+                    ((i % a.width as usize) as u32, (i / a.width as usize) as u32),
+                );
             }
         }
     }
@@ -82,7 +99,10 @@ fn reinhard02_preset_matches_pfstmo() {
         let (mine, _) = load_hdr(&ours_path, &opts).unwrap();
         let (d, at) = max_abs_diff(&mine, &theirs);
         println!("{env}: max abs diff {d:.3e} at {at:?}");
-        assert!(d <= 1e-5, "{env}: max abs diff {d:.3e} at {at:?} exceeds 1e-5");
+        assert!(
+            d <= 1e-5,
+            "{env}: max abs diff {d:.3e} at {at:?} exceeds 1e-5"
+        );
     }
 }
 
@@ -106,10 +126,17 @@ fn a_wrong_preset_would_be_caught() {
         .args(["--operator", "reinhard02", "--key", "0.18"])
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let opts = LoadOptions::default();
     let (theirs, _) = load_hdr(&theirs_path, &opts).unwrap();
     let (mine, _) = load_hdr(&plain, &opts).unwrap();
     let (d, _) = max_abs_diff(&mine, &theirs);
-    assert!(d > 1e-5, "BT.709/δ=1e-4 differs from pfstmo by only {d:.3e}: the test cannot tell");
+    assert!(
+        d > 1e-5,
+        "BT.709/δ=1e-4 differs from pfstmo by only {d:.3e}: the test cannot tell"
+    );
 }

@@ -68,7 +68,11 @@ mod tests {
         let flat = LinearImage::filled(7, 5, [2.0, 2.0, 2.0]);
         let b = bloom_blur(&flat, 3, 1.0);
         assert!(b.pixels.iter().all(|p| (p[0] - 2.0).abs() < 1e-14));
-        let imp = LinearImage::from_fn(9, 9, |x, y| if (x, y) == (4, 4) { [1.0; 3] } else { [0.0; 3] });
+        let imp = LinearImage::from_fn(
+            9,
+            9,
+            |x, y| if (x, y) == (4, 4) { [1.0; 3] } else { [0.0; 3] },
+        );
         let b = bloom_blur(&imp, 2, 1.0);
         let w = gaussian_weights(2, 1.0);
         assert!((b.get(4, 4)[0] - w[2] * w[2]).abs() < 1e-15);

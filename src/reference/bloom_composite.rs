@@ -16,7 +16,12 @@ pub fn upsample_at(low: &LinearImage, x: u32, y: u32, width: u32, height: u32) -
     let xb = (x0 as i64 + 1).clamp(0, wl) as u32;
     let ya = (y0 as i64).clamp(0, hl) as u32;
     let yb = (y0 as i64 + 1).clamp(0, hl) as u32;
-    let (p00, p10, p01, p11) = (low.get(xa, ya), low.get(xb, ya), low.get(xa, yb), low.get(xb, yb));
+    let (p00, p10, p01, p11) = (
+        low.get(xa, ya),
+        low.get(xb, ya),
+        low.get(xa, yb),
+        low.get(xb, yb),
+    );
     let mut out = [0.0; 3];
     for c in 0..3 {
         let top = p00[c] * (1.0 - tx) + p10[c] * tx;

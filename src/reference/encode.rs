@@ -34,7 +34,10 @@ mod tests {
 
     #[test]
     fn end_points_rounding_and_non_finite() {
-        for e in [Encoding::Srgb, Encoding::Gamma(Positive::try_from(2.2).unwrap())] {
+        for e in [
+            Encoding::Srgb,
+            Encoding::Gamma(Positive::try_from(2.2).unwrap()),
+        ] {
             assert_eq!(encode_channel(0.0, e), 0);
             assert_eq!(encode_channel(1.0, e), 255);
             assert_eq!(encode_channel(7.0, e), 255);
@@ -45,6 +48,9 @@ mod tests {
         // sRGB 0.5 linear is 0.7354 encoded: 187.5 → rounds half up to 188.
         assert_eq!(encode_channel(0.5, Encoding::Srgb), 188);
         // γ = 1 is a plain scale: 0.5·255 = 127.5 → 128.
-        assert_eq!(encode_channel(0.5, Encoding::Gamma(Positive::try_from(1.0).unwrap())), 128);
+        assert_eq!(
+            encode_channel(0.5, Encoding::Gamma(Positive::try_from(1.0).unwrap())),
+            128
+        );
     }
 }

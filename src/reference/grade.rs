@@ -58,13 +58,23 @@ mod tests {
 
     #[test]
     fn each_control_does_what_seed_004_says() {
-        let img = LinearImage::from_fn(2, 1, |x, _| if x == 0 { [0.2, 0.4, 0.6] } else { [0.6, 0.4, 0.2] });
+        let img = LinearImage::from_fn(2, 1, |x, _| {
+            if x == 0 {
+                [0.2, 0.4, 0.6]
+            } else {
+                [0.6, 0.4, 0.2]
+            }
+        });
         let mean = grade_stats(&img);
         assert_eq!(grade(&img, &g(1.0, 1.0, 1.0), mean), img);
         let bright = grade(&img, &g(2.0, 1.0, 1.0), mean);
         assert!((bright.get(0, 0)[2] - 1.2).abs() < 1e-15);
         let flat = grade(&img, &g(1.0, 0.0, 1.0), mean);
-        assert!(flat.pixels.iter().flatten().all(|&v| (v - mean).abs() < 1e-15));
+        assert!(flat
+            .pixels
+            .iter()
+            .flatten()
+            .all(|&v| (v - mean).abs() < 1e-15));
         let grey = grade(&img, &g(1.0, 1.0, 0.0), mean);
         let p = grey.get(0, 0);
         assert!((p[0] - p[1]).abs() < 1e-15 && (p[1] - p[2]).abs() < 1e-15);

@@ -73,7 +73,12 @@ impl Partial {
 /// computed as −expm1(−Y), which keeps its precision for tiny Y. When Σw = 0
 /// (an all-black frame) the weighted mean is undefined; it falls back to the
 /// plain log-average, which is then δ.
-pub fn luminance_stats(img: &LinearImage, needs: StatsNeeds, weights: [f64; 3], delta: f64) -> LuminanceStats {
+pub fn luminance_stats(
+    img: &LinearImage,
+    needs: StatsNeeds,
+    weights: [f64; 3],
+    delta: f64,
+) -> LuminanceStats {
     let width = img.width.max(1) as usize;
     let rows: Vec<Partial> = img
         .pixels
@@ -151,13 +156,24 @@ mod tests {
         assert!((s.log_average.unwrap() / log_avg - 1.0).abs() < 1e-14);
         assert!((s.weighted_log_average.unwrap() / (swl / sw).exp() - 1.0).abs() < 1e-14);
         // The weights sum to 1 only to rounding, hence the relative tolerance.
-        assert!((s.min.unwrap() / 0.1 - 1.0).abs() < 1e-14 && (s.max.unwrap() / 4.1 - 1.0).abs() < 1e-14);
+        assert!(
+            (s.min.unwrap() / 0.1 - 1.0).abs() < 1e-14
+                && (s.max.unwrap() / 4.1 - 1.0).abs() < 1e-14
+        );
     }
 
     #[test]
     fn only_what_is_needed_is_reported() {
         let img = LinearImage::filled(2, 2, [1.0, 1.0, 1.0]);
-        let s = luminance_stats(&img, StatsNeeds { max: true, ..Default::default() }, BT709, 1e-4);
+        let s = luminance_stats(
+            &img,
+            StatsNeeds {
+                max: true,
+                ..Default::default()
+            },
+            BT709,
+            1e-4,
+        );
         assert!(s.log_average.is_none() && s.min.is_none() && s.weighted_log_average.is_none());
         assert!((s.max.unwrap() - 1.0).abs() < 1e-15);
     }
@@ -176,8 +192,14 @@ mod tests {
             let v = ((x * 7919 + y * 104729) % 1000) as f64 * 0.37 + 1e-3;
             [v, v * 0.5, v * 2.0]
         });
-        let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
-        let four = rayon::ThreadPoolBuilder::new().num_threads(4).build().unwrap();
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap();
+        let four = rayon::ThreadPoolBuilder::new()
+            .num_threads(4)
+            .build()
+            .unwrap();
         let a = one.install(|| luminance_stats(&img, ALL, BT709, 1e-4));
         let b = four.install(|| luminance_stats(&img, ALL, BT709, 1e-4));
         assert_eq!(a, b);

@@ -124,10 +124,16 @@ pub fn run_plan(plan: &StagePlan, hdr: LinearImage, p: &Pipeline) -> FrameOutput
                 let b = p.bloom.expect("plan has bloom stages only with bloom");
                 let base = display.as_ref().expect("tonemap runs first");
                 let blurred = bloom.as_ref().expect("blur runs first");
-                display = Some(bloom_composite::bloom_composite(base, blurred, b.strength.get()));
+                display = Some(bloom_composite::bloom_composite(
+                    base,
+                    blurred,
+                    b.strength.get(),
+                ));
             }
             Stage::GradeStats => {
-                grade_mean = Some(grade::grade_stats(display.as_ref().expect("tonemap runs first")));
+                grade_mean = Some(grade::grade_stats(
+                    display.as_ref().expect("tonemap runs first"),
+                ));
             }
             Stage::Grade => {
                 let g = p.grade.expect("plan has grade only with a grade");
@@ -136,7 +142,10 @@ pub fn run_plan(plan: &StagePlan, hdr: LinearImage, p: &Pipeline) -> FrameOutput
                 display = Some(grade::grade(base, g, grade_mean.unwrap_or(0.0)));
             }
             Stage::Encode => {
-                frame = Some(encode::encode(display.as_ref().expect("tonemap runs first"), p.encoding));
+                frame = Some(encode::encode(
+                    display.as_ref().expect("tonemap runs first"),
+                    p.encoding,
+                ));
             }
         }
     }

@@ -152,7 +152,8 @@ pub fn rgb_to_xyz(weights: [f64; 3]) -> [[f64; 3]; 3] {
 /// The exact f64 inverse of a 3×3 matrix (cofactors), so the xyY round trip
 /// returns the input to rounding.
 pub fn invert3(m: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
-    let c = |r0: usize, r1: usize, c0: usize, c1: usize| m[r0][c0] * m[r1][c1] - m[r0][c1] * m[r1][c0];
+    let c =
+        |r0: usize, r1: usize, c0: usize, c1: usize| m[r0][c0] * m[r1][c1] - m[r0][c1] * m[r1][c0];
     let det = m[0][0] * c(1, 2, 1, 2) - m[0][1] * c(1, 2, 0, 2) + m[0][2] * c(1, 2, 0, 1);
     let inv = [
         [c(1, 2, 1, 2), -c(0, 2, 1, 2), c(0, 1, 1, 2)],
@@ -172,7 +173,12 @@ fn mul3(m: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
 
 /// Tone-maps one pixel. Y ≤ 0 has no chromaticity and maps to black (never NaN).
 #[inline]
-pub fn tonemap_pixel(c: [f64; 3], p: &ToneParams, to_xyz: &[[f64; 3]; 3], to_rgb: &[[f64; 3]; 3]) -> [f64; 3] {
+pub fn tonemap_pixel(
+    c: [f64; 3],
+    p: &ToneParams,
+    to_xyz: &[[f64; 3]; 3],
+    to_rgb: &[[f64; 3]; 3],
+) -> [f64; 3] {
     match p.colour {
         ColourPath::Ratio => {
             let y = luminance_with(c, p.weights);
@@ -228,11 +234,19 @@ mod tests {
         let pr = params(ColourPath::Ratio);
         let px = params(ColourPath::Xyy);
         let (m, mi) = (rgb_to_xyz(BT709), invert3(rgb_to_xyz(BT709)));
-        for c in [[1.0, 0.5, 0.25], [100.0, 3.0, 0.01], [0.001, 0.002, 0.0005], [5.0, 5.0, 5.0]] {
+        for c in [
+            [1.0, 0.5, 0.25],
+            [100.0, 3.0, 0.01],
+            [0.001, 0.002, 0.0005],
+            [5.0, 5.0, 5.0],
+        ] {
             let a = tonemap_pixel(c, &pr, &m, &mi);
             let b = tonemap_pixel(c, &px, &m, &mi);
             for k in 0..3 {
-                assert!((a[k] - b[k]).abs() <= 1e-14 * a[k].abs().max(1.0), "{c:?}: {a:?} vs {b:?}");
+                assert!(
+                    (a[k] - b[k]).abs() <= 1e-14 * a[k].abs().max(1.0),
+                    "{c:?}: {a:?} vs {b:?}"
+                );
             }
         }
     }
