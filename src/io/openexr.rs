@@ -15,6 +15,13 @@
 //! f32). Every compression `exr` reads is read, DWAA and DWAB included (hence
 //! exr ≥ 1.74.1).
 //!
+//! Raw chunks are checked before `exr` decompresses them (see
+//! `check_dwa_counters`). One bound is not ours to enforce: `exr` zero-fills a
+//! buffer of each chunk's declared byte size (at most the part's largest
+//! block, and 2 GiB by the i32 size field) before reading it, so a hostile
+//! file can cause a transient allocation of that size before it is refused
+//! as truncated. Fixing that needs `exr` to cap reads by the stream length.
+//!
 //! Writing: f32 RGB, scan lines, ZIP16 compression: lossless (the validator
 //! writes reference images that must read back bit for bit), supported by
 //! every OpenEXR reader, and compact on rendered images.
