@@ -61,8 +61,10 @@ fn exr_bytes(
     encoding: Encoding,
     channels: SmallVec<[AnyChannel<FlatSamples>; 4]>,
 ) -> Vec<u8> {
-    let mut attributes = LayerAttributes::default();
-    attributes.layer_position = position;
+    let attributes = LayerAttributes {
+        layer_position: position,
+        ..LayerAttributes::default()
+    };
     let layer = Layer::new(size, attributes, encoding, AnyChannels::sort(channels));
     let mut bytes = Cursor::new(Vec::new());
     Image::from_layer(layer)

@@ -4,7 +4,7 @@
 //! HDR input (`load_hdr`, `decode_hdr`) is OpenEXR, Radiance RGBE or PFM,
 //! recognised by its first bytes, never by its extension (a renamed or
 //! mis-named file still loads, and a non-image is refused with what it starts
-//! with). Every load goes through the policy in [`validate`]: size checked
+//! with). Every load goes through the policy on [`LoadOptions`]: size checked
 //! from the header before allocation, NaN/±Inf refused (or zeroed with
 //! `sanitize`), negatives clamped, all counted in the [`LoadReport`]. Decoders
 //! run under `catch_unwind`, so a corrupt file is an error, never a crash.

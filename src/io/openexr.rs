@@ -15,14 +15,22 @@
 //! f32). Every compression `exr` reads is read, DWAA and DWAB included (hence
 //! exr ≥ 1.74.1).
 //!
+//! Raw chunks are checked before `exr` decompresses them (see
+//! `check_dwa_counters`). One bound is not ours to enforce: `exr` zero-fills a
+//! buffer of each chunk's declared byte size (at most the part's largest
+//! block, and 2 GiB by the i32 size field) before reading it, so a hostile
+//! file can cause a transient allocation of that size before it is refused
+//! as truncated. Fixing that needs `exr` to cap reads by the stream length.
+//!
 //! Writing: f32 RGB, scan lines, ZIP16 compression: lossless (the validator
 //! writes reference images that must read back bit for bit), supported by
 //! every OpenEXR reader, and compact on rendered images.
 
 use std::io::{BufRead, Seek, Write};
 
-use exr::block::reader::ChunksReader;
+use exr::block::chunk::{Chunk, CompressedBlock};
 use exr::block::UncompressedBlock;
+use exr::compression::Compression;
 use exr::meta::attribute::SampleType;
 use exr::meta::header::Header;
 use exr::prelude::{f16, Vec2};
@@ -74,7 +82,9 @@ pub(crate) fn decode<R: BufRead + Seek>(
     let exr_error = |e| from_exr(file, e);
     // Reads and validates only the magic number and the headers.
     let reader = exr::block::read(reader, false).map_err(exr_error)?;
-    let headers = reader.headers();
+    // A copy (headers are small) so that `reader` can be consumed below.
+    let meta = reader.meta_data().clone();
+    let headers = &meta.headers;
     let (part, source) = choose_part(headers, file)?;
     let header = &headers[part];
     let data_window = header.data_window();
@@ -109,48 +119,52 @@ pub(crate) fn decode<R: BufRead + Seek>(
     // Samples written per row of the coverage channel: every row must end
     // with exactly `w`, which catches missing and duplicated blocks.
     let mut row_fill = vec![0u64; h as usize];
-    let mut placement_error: Option<HdrIoError> = None;
+    let corrupt = |detail: String| HdrIoError::Corrupt {
+        file: file.to_string(),
+        format: FORMAT,
+        detail,
+    };
 
+    // Chunks are decompressed here one by one (not with exr's
+    // `decompress_sequential`) so that each raw chunk can be checked before
+    // exr sees it: that it belongs to the chosen part (a corrupt offset table
+    // can point anywhere) and that DWA counters are sane.
     let chunks = reader
         .filter_chunks(false, |_, tile, block| {
             block.layer == part && tile.is_largest_resolution_level()
         })
         .map_err(exr_error)?;
-    let result = chunks.decompress_sequential(false, |meta, block| {
-        let header = &meta.headers[block.index.layer];
-        match place_block(
+    for chunk in chunks {
+        let chunk = chunk.map_err(exr_error)?;
+        if chunk.layer_index != part {
+            return Err(corrupt(format!(
+                "the offset table of part {part} points at a block of part {}",
+                chunk.layer_index
+            )));
+        }
+        check_dwa_counters(&chunk, header).map_err(corrupt)?;
+        let block = UncompressedBlock::decompress_chunk(chunk, &meta, false).map_err(exr_error)?;
+        if block.index.level != Vec2(0, 0) {
+            return Err(corrupt(
+                "a full-resolution block slot holds a mip-map block".into(),
+            ));
+        }
+        place_block(
             &block,
             header,
             source,
             w as usize,
             &mut pixels,
             &mut row_fill,
-        ) {
-            Ok(()) => Ok(()),
-            Err(detail) => {
-                placement_error = Some(HdrIoError::Corrupt {
-                    file: file.to_string(),
-                    format: FORMAT,
-                    detail,
-                });
-                Err(exr::error::Error::Aborted)
-            }
-        }
-    });
-    if let Some(error) = placement_error {
-        return Err(error);
+        )
+        .map_err(corrupt)?;
     }
-    result.map_err(exr_error)?;
 
     if let Some(y) = row_fill.iter().position(|&filled| filled != u64::from(w)) {
-        return Err(HdrIoError::Corrupt {
-            file: file.to_string(),
-            format: FORMAT,
-            detail: format!(
-                "row {y} of the data window has {} of its {w} pixels (missing or duplicated blocks)",
-                row_fill[y]
-            ),
-        });
+        return Err(corrupt(format!(
+            "row {y} of the data window has {} of its {w} pixels (missing or duplicated blocks)",
+            row_fill[y]
+        )));
     }
     Ok(Decoded {
         image: Image {
@@ -215,6 +229,50 @@ fn choose_part(headers: &[Header], file: &str) -> Result<(usize, ChannelSource),
         "no part has R, G and B or Y channels (found {}); export RGB or Y channels without layer prefixes",
         found.join(" ")
     )))
+}
+
+/// Refuses DWA chunks whose header counters exceed what the block can hold.
+///
+/// Why: exr 1.74.2's DWA decoder trusts the nine size counters at the start
+/// of each chunk and asks zlib for an output buffer of that size, so one
+/// flipped byte can request petabytes, and a failed allocation aborts the
+/// process (`catch_unwind` cannot help). No section of a block, compressed or
+/// not, is larger than the block's pixels padded to whole 8×8 DCT blocks;
+/// twice that plus a little leaves room for RLE expansion.
+fn check_dwa_counters(chunk: &Chunk, header: &Header) -> Result<(), String> {
+    if !matches!(
+        header.compression,
+        Compression::DWAA(_) | Compression::DWAB(_)
+    ) {
+        return Ok(());
+    }
+    let data = match &chunk.compressed_block {
+        CompressedBlock::ScanLine(block) => &block.compressed_pixels_le,
+        CompressedBlock::Tile(block) => &block.compressed_pixels_le,
+        _ => return Ok(()), // deep blocks are never decoded here
+    };
+    let bytes_per_pixel = header.channels.bytes_per_pixel as u128;
+    let bounds = header
+        .get_block_data_indices(&chunk.compressed_block)
+        .and_then(|tile| header.get_absolute_block_pixel_coordinates(tile))
+        .map_err(|e| e.to_string())?;
+    let (width, height) = (bounds.size.x() as u128, bounds.size.y() as u128);
+    // Stored raw when compression did not help: there is no DWA header then.
+    if data.len() as u128 == width * height * bytes_per_pixel || data.is_empty() {
+        return Ok(());
+    }
+    let padded = width.div_ceil(8) * 8 * height.div_ceil(8) * 8;
+    let limit = 2 * padded * bytes_per_pixel + 4096;
+    // Counters 1..=9 of the 11 little-endian u64s are sizes and counts.
+    for (index, counter) in data.chunks_exact(8).enumerate().take(10).skip(1) {
+        let value = u64::from_le_bytes(counter.try_into().map_err(|_| "short DWA header")?);
+        if u128::from(value) > limit {
+            return Err(format!(
+                "DWA block header field {index} declares {value}, more than a {width}×{height} block can hold"
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Copies the chosen channels of one decompressed block into the image.

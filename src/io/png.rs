@@ -6,9 +6,10 @@
 //! compared against an output that has none, so it is refused rather than
 //! silently flattened. The bit depth must match the function (no silent
 //! 8 ↔ 16 conversion that would change what "equal" means in a comparison).
+//! A file must end with its IEND chunk (see `read_png`).
 
 use std::fs::File;
-use std::io::{BufReader, Cursor, Write};
+use std::io::{BufReader, Cursor, Read, Seek, SeekFrom, Write};
 use std::path::Path;
 
 use image::codecs::png::{PngDecoder, PngEncoder};
@@ -66,13 +67,39 @@ pub(crate) fn read_png16(path: &Path) -> Result<Rgb16Image, HdrIoError> {
     }
 }
 
-/// Decodes after checking the header's size against the default pixel limit.
+/// The IEND chunk every PNG must end with: length 0, type, CRC.
+const IEND: [u8; 12] = [0, 0, 0, 0, b'I', b'E', b'N', b'D', 0xae, 0x42, 0x60, 0x82];
+
+/// Decodes after checking that the file is complete and that the header's
+/// size is within the default pixel limit.
+///
+/// The IEND check is ours: the `png` decoder stops after the last image data
+/// and does not notice a file cut in its final chunks, but a golden that lost
+/// its tail was not written completely and must not be trusted.
 fn read_png(path: &Path, file: &str) -> Result<DynamicImage, HdrIoError> {
-    let handle = File::open(path).map_err(|source| HdrIoError::Io {
-        file: file.to_string(),
-        action: "open",
-        source,
-    })?;
+    let io_error = |action| {
+        move |source| HdrIoError::Io {
+            file: file.to_string(),
+            action,
+            source,
+        }
+    };
+    let mut handle = File::open(path).map_err(io_error("open"))?;
+    let len = handle.metadata().map_err(io_error("read"))?.len();
+    let mut tail = [0u8; 12];
+    let complete = len >= 12 && {
+        handle.seek(SeekFrom::End(-12)).map_err(io_error("read"))?;
+        handle.read_exact(&mut tail).map_err(io_error("read"))?;
+        tail == IEND
+    };
+    if !complete {
+        return Err(HdrIoError::Truncated {
+            file: file.to_string(),
+            format: FORMAT,
+            detail: "the file does not end with the IEND chunk".to_string(),
+        });
+    }
+    handle.seek(SeekFrom::Start(0)).map_err(io_error("read"))?;
     catch_decoder_panic(file, FORMAT, || {
         let decoder =
             PngDecoder::new(BufReader::new(handle)).map_err(|e| from_image(file, FORMAT, e))?;

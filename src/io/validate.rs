@@ -1,22 +1,9 @@
-//! The validation policy every HDR load goes through, and the load report.
+//! The validation policy every HDR load goes through (documented on
+//! [`LoadOptions`], where users of the crate see it), and the load report.
 //!
-//! The policy, in the order it is applied:
-//! 1. Size, from the header, before any pixel is allocated: width and height
-//!    must be non-zero and width × height at most `LoadOptions::max_pixels`
-//!    (default 64 Mi pixels = 768 MiB of `[f32; 3]`). A hostile or damaged
-//!    header cannot make the tool allocate gigabytes.
-//! 2. NaN and ±Inf are refused with their count and the first (x, y) in image
-//!    coordinates (top-left origin, rows top to bottom, whatever the file's own
-//!    row order), unless `sanitize` is set: then they become 0 and are counted.
-//!    They are refused by default because one NaN poisons every average the
-//!    tone mapper computes, and silently zeroing hides a broken exporter.
-//! 3. Negative components are clamped to 0 and counted. They are not an error:
-//!    real EXRs carry small negatives from lossy-compression ringing and from
-//!    gamut conversions, and radiance cannot be negative anyway.
-//!
-//! The report's statistics are computed afterwards, in f64, in row-major order
-//! on one thread, with `libm` for `ln`/`exp`/`log2`, so that the same file
-//! gives bit-identical numbers on every machine.
+//! The report's statistics are computed after the policy, in f64, in
+//! row-major order on one thread, with `libm` for `ln`/`exp`/`log2`, so that
+//! the same file gives bit-identical numbers on every machine.
 
 use serde::Serialize;
 
@@ -32,7 +19,22 @@ pub const DEFAULT_MAX_PIXELS: u64 = 64 * 1024 * 1024;
 /// (Reinhard et al. 2002): it keeps black pixels from sending the mean to −∞.
 pub const LOG_AVERAGE_DELTA: f64 = 1e-4;
 
-/// How strict an HDR load is.
+/// How strict an HDR load is. Every load applies this policy, in order:
+///
+/// 1. Size, from the header, before any pixel is allocated: width and height
+///    must be non-zero and width × height at most `max_pixels` (default
+///    64 Mi pixels = 768 MiB of `[f32; 3]`), so a hostile or damaged header
+///    cannot make the tool allocate gigabytes. Formats whose payload size is
+///    known (PFM, EXR offset tables) are also checked against the file length.
+/// 2. NaN and ±Inf are refused with their count and the first (x, y) in image
+///    coordinates (top-left origin, rows top to bottom, whatever the file's
+///    own row order; for EXR, relative to the data window), unless `sanitize`
+///    is set: then they become 0 and are counted. Refused by default because
+///    one NaN poisons every average the tone mapper computes, and silently
+///    zeroing would hide a broken exporter.
+/// 3. Negative components are clamped to 0 and counted. Not an error: real
+///    EXRs carry small negatives from lossy-compression ringing and gamut
+///    conversions, and radiance cannot be negative anyway.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct LoadOptions {
     /// Replace NaN and ±Inf by 0 (and count them) instead of refusing the file.
