@@ -9,6 +9,7 @@ pub mod conventions;
 pub mod env;
 pub mod error;
 pub mod golden;
+pub mod gpu;
 pub mod image;
 pub mod io;
 pub mod metrics;

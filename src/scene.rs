@@ -502,19 +502,14 @@ impl Grade {
 }
 
 /// Display encoding of the final 8-bit frame.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case", deny_unknown_fields)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Encoding {
     /// The sRGB OETF (piecewise: linear below 0.0031308).
+    #[default]
     Srgb,
     /// A plain 1/γ power, γ default 2.2 (seed 004).
     Gamma(Positive),
-}
-
-impl Default for Encoding {
-    fn default() -> Self {
-        Encoding::Srgb
-    }
 }
 
 /// A typed comparison the gate applies to every frame (against its golden).

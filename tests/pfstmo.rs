@@ -64,7 +64,7 @@ fn max_abs_diff(a: &HdrImage, b: &HdrImage) -> (f64, (u32, u32)) {
     for (i, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
         for c in 0..3 {
             let d = (p[c] as f64 - q[c] as f64).abs();
-            if !(d <= worst.0) {
+            if d > worst.0 || d.is_nan() {
                 worst = (
                     d,
                     ((i % a.width as usize) as u32, (i / a.width as usize) as u32),

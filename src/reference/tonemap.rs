@@ -59,7 +59,7 @@ pub fn automatic_key(min: f64, log_average: f64, max: f64) -> f64 {
     let a = max - log_average;
     let b = log_average - min;
     let span = max - min;
-    if !(span > 0.0) || !span.is_finite() {
+    if !(span.is_finite() && span > 0.0) {
         return 0.18;
     }
     let ratio = ((b - a) / span).clamp(-1.0, 1.0);
@@ -182,7 +182,7 @@ pub fn tonemap_pixel(
     match p.colour {
         ColourPath::Ratio => {
             let y = luminance_with(c, p.weights);
-            if !(y > 0.0) {
+            if y.is_nan() || y <= 0.0 {
                 return [0.0; 3];
             }
             let ratio = reinhard_curve(p.scale * y, p.white_sq) / y;
@@ -191,7 +191,7 @@ pub fn tonemap_pixel(
         ColourPath::Xyy => {
             let xyz = mul3(to_xyz, c);
             let sum = xyz[0] + xyz[1] + xyz[2];
-            if !(xyz[1] > 0.0) || !(sum > 0.0) {
+            if xyz[1].is_nan() || xyz[1] <= 0.0 || sum.is_nan() || sum <= 0.0 {
                 return [0.0; 3];
             }
             let (x, y) = (xyz[0] / sum, xyz[1] / sum);

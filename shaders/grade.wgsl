@@ -1,0 +1,29 @@
+// grade: seed 004's brightness, contrast (mix with the mean-luminance grey)
+// and saturation (mix with the pixel's luminance), as reference/grade.rs.
+//#include shared/colour.wgsl
+
+override BRIGHTNESS: f32 = 1.0;
+override CONTRAST: f32 = 1.0;
+override SATURATION: f32 = 1.0;
+
+struct GradeMean {
+    mean: f32,
+}
+
+@group(0) @binding(0) var<storage, read_write> grade_mean: GradeMean;
+@group(0) @binding(1) var src: texture_2d<f32>;
+@group(0) @binding(2) var graded_out: texture_storage_2d<HDR_FORMAT, write>;
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let dims = textureDimensions(src);
+    if (id.x >= dims.x || id.y >= dims.y) {
+        return;
+    }
+    let grey = BRIGHTNESS * grade_mean.mean;
+    var v = textureLoad(src, id.xy, 0).rgb * BRIGHTNESS;
+    v = grey + (v - grey) * CONTRAST;
+    let y = luminance_with(v, vec3<f32>(0.2125, 0.7154, 0.0721));
+    v = y + (v - y) * SATURATION;
+    textureStore(graded_out, vec2<i32>(id.xy), vec4<f32>(v, 1.0));
+}

@@ -1,0 +1,12 @@
+// Per-frame uniforms shared by the stages. Mirrors `gpu::FrameUniforms`.
+struct FrameUniforms {
+    // Rows of the sphere rotation R (xyz; w unused).
+    rot0: vec4<f32>,
+    rot1: vec4<f32>,
+    rot2: vec4<f32>,
+    // Output frame size in pixels.
+    size: vec2<u32>,
+    // tan(fov_y / 2) and width / height.
+    tan_half: f32,
+    aspect: f32,
+}

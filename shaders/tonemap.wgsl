@@ -1,0 +1,123 @@
+// tonemap: the global Reinhard 2002 family, one curve for every variant
+// (reference/tonemap.rs): Ld = L/(1+L)·(1 + L/white²), L = scale·Y.
+//#include shared/colour.wgsl
+//#include shared/stats.wgsl
+
+// 0 = seed 000, 1 = seed 001, 2 = Reinhard 2002 (see `gpu::OperatorCode`).
+override OPERATOR: u32 = 0u;
+// 0 = ratio (scale RGB by Ld/Y), 1 = CIE xyY round trip.
+override COLOUR: u32 = 0u;
+// Seed 001's automatic key from min, average and max.
+override AUTO_KEY: bool = false;
+
+// Operator constants written once by the host (mirrors `gpu::ToneConfig`).
+struct ToneConfig {
+    weights: vec4<f32>,
+    // RGB→XYZ rows and their inverse (xyY path).
+    to_xyz0: vec4<f32>,
+    to_xyz1: vec4<f32>,
+    to_xyz2: vec4<f32>,
+    to_rgb0: vec4<f32>,
+    to_rgb1: vec4<f32>,
+    to_rgb2: vec4<f32>,
+    key: f32,
+    white_fraction: f32,
+    // Absolute Lwhite (Reinhard 2002); 0 = the maximum scaled luminance.
+    white: f32,
+    // Fixed adaptation luminance; 0 = measured.
+    fixed_log_average: f32,
+    // Fixed Lmax (seed 000); 0 = measured.
+    fixed_max: f32,
+    _pad0: f32,
+    _pad1: f32,
+    _pad2: f32,
+}
+
+@group(0) @binding(0) var<uniform> config: ToneConfig;
+@group(0) @binding(1) var<storage, read_write> stats: Stats;
+@group(0) @binding(2) var hdr: texture_2d<f32>;
+@group(0) @binding(3) var toned_out: texture_storage_2d<HDR_FORMAT, write>;
+
+fn positive_or_zero_inverse(v: f32) -> f32 {
+    // 1/v for a usable white², 0 ("never burn") for 0, ∞ or NaN.
+    if (v > 0.0 && v < 3.0e38) {
+        return 1.0 / v;
+    }
+    return 0.0;
+}
+
+// a = 0.18·2^(2(B − A)/(A + B)); A + B = Lmax − Lmin, 0 for a uniform frame.
+fn automatic_key(lmin: f32, lavg: f32, lmax: f32) -> f32 {
+    let span = lmax - lmin;
+    if (!(span > 0.0)) {
+        return 0.18;
+    }
+    let ratio = clamp(((lavg - lmin) - (lmax - lavg)) / span, -1.0, 1.0);
+    return 0.18 * exp2(2.0 * ratio);
+}
+
+// One invocation: turns the statistics into the curve's parameters.
+@compute @workgroup_size(1)
+fn resolve() {
+    var lavg = config.fixed_log_average;
+    if (lavg <= 0.0) {
+        if (OPERATOR == 1u) {
+            lavg = stats.weighted_log_average;
+        } else {
+            lavg = stats.log_average;
+        }
+    }
+    var key = config.key;
+    if (OPERATOR == 1u && AUTO_KEY) {
+        key = automatic_key(stats.min_y, lavg, stats.max_y);
+    }
+    var white_sq = 0.0;
+    if (OPERATOR == 0u) {
+        var lmax = config.fixed_max;
+        if (lmax <= 0.0) {
+            lmax = stats.max_y;
+        }
+        white_sq = config.white_fraction * config.white_fraction * lmax;
+    } else {
+        var white = config.white;
+        if (OPERATOR == 1u || white <= 0.0) {
+            white = key * stats.max_y / lavg;
+        }
+        white_sq = white * white;
+    }
+    stats.key = key;
+    stats.adaptation = lavg;
+    stats.scale = key / lavg;
+    stats.inv_white_sq = positive_or_zero_inverse(white_sq);
+}
+
+fn tonemap_pixel(c: vec3<f32>, scale: f32, inv_white_sq: f32) -> vec3<f32> {
+    if (COLOUR == 0u) {
+        let y = luminance_with(c, config.weights.xyz);
+        if (!(y > 0.0)) {
+            return vec3<f32>(0.0);
+        }
+        return c * (reinhard_curve(scale * y, inv_white_sq) / y);
+    }
+    let xyz = vec3<f32>(dot(config.to_xyz0.xyz, c), dot(config.to_xyz1.xyz, c), dot(config.to_xyz2.xyz, c));
+    let sum = xyz.x + xyz.y + xyz.z;
+    if (!(xyz.y > 0.0) || !(sum > 0.0)) {
+        return vec3<f32>(0.0);
+    }
+    let x = xyz.x / sum;
+    let y = xyz.y / sum;
+    let ld = reinhard_curve(scale * xyz.y, inv_white_sq);
+    let out = vec3<f32>(x * ld / y, ld, (1.0 - x - y) * ld / y);
+    return vec3<f32>(dot(config.to_rgb0.xyz, out), dot(config.to_rgb1.xyz, out), dot(config.to_rgb2.xyz, out));
+}
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let dims = textureDimensions(hdr);
+    if (id.x >= dims.x || id.y >= dims.y) {
+        return;
+    }
+    let c = textureLoad(hdr, id.xy, 0).rgb;
+    let out = tonemap_pixel(c, stats.scale, stats.inv_white_sq);
+    textureStore(toned_out, vec2<i32>(id.xy), vec4<f32>(out, 1.0));
+}

@@ -1,0 +1,34 @@
+//! `bloom_bright` pass.
+
+use super::stages::{bind_group, dispatch_2d, pipeline, Bind, Dispatch};
+use super::{GpuContext, HdrFormat};
+use crate::scene::{Bloom, BrightPass};
+
+pub fn bloom_bright(
+    ctx: &GpuContext,
+    format: HdrFormat,
+    bloom: &Bloom,
+    weights: [f64; 3],
+    stats: &wgpu::Buffer,
+    src: &wgpu::Texture,
+    bright_out: &wgpu::Texture,
+) -> Dispatch {
+    let constants = [
+        (
+            "PASS",
+            (bloom.bright_pass == BrightPass::Threshold) as u32 as f64,
+        ),
+        ("THRESHOLD", bloom.threshold.get()),
+        ("LUM_R", weights[0]),
+        ("LUM_G", weights[1]),
+        ("LUM_B", weights[2]),
+    ];
+    let p = pipeline(ctx, "bloom_bright", "main", format, &constants);
+    let binds = [
+        (0, Bind::Buffer(stats)),
+        (1, Bind::Texture(src)),
+        (2, Bind::Texture(bright_out)),
+    ];
+    let bg = bind_group(ctx, &p, "tonegate.bloom_bright", &binds);
+    dispatch_2d(p, bg, src.width(), src.height())
+}

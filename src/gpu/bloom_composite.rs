@@ -1,0 +1,32 @@
+//! `bloom_composite` pass.
+
+use super::stages::{bind_group, dispatch_2d, pipeline, Bind, Dispatch};
+use super::{GpuContext, HdrFormat};
+
+pub fn bloom_composite(
+    ctx: &GpuContext,
+    format: HdrFormat,
+    strength: f64,
+    toned: &wgpu::Texture,
+    bloom: &wgpu::Texture,
+    composite_out: &wgpu::Texture,
+) -> Dispatch {
+    let p = pipeline(
+        ctx,
+        "bloom_composite",
+        "main",
+        format,
+        &[("STRENGTH", strength)],
+    );
+    let bg = bind_group(
+        ctx,
+        &p,
+        "tonegate.bloom_composite",
+        &[
+            (0, Bind::Texture(toned)),
+            (1, Bind::Texture(bloom)),
+            (2, Bind::Texture(composite_out)),
+        ],
+    );
+    dispatch_2d(p, bg, toned.width(), toned.height())
+}

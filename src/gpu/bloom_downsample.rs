@@ -1,0 +1,27 @@
+//! `bloom_downsample` pass.
+
+use super::stages::{bind_group, dispatch_2d, pipeline, Bind, Dispatch};
+use super::{GpuContext, HdrFormat};
+
+pub fn bloom_downsample(
+    ctx: &GpuContext,
+    format: HdrFormat,
+    factor: u32,
+    src: &wgpu::Texture,
+    low_out: &wgpu::Texture,
+) -> Dispatch {
+    let p = pipeline(
+        ctx,
+        "bloom_downsample",
+        "main",
+        format,
+        &[("FACTOR", factor as f64)],
+    );
+    let bg = bind_group(
+        ctx,
+        &p,
+        "tonegate.bloom_downsample",
+        &[(0, Bind::Texture(src)), (1, Bind::Texture(low_out))],
+    );
+    dispatch_2d(p, bg, low_out.width(), low_out.height())
+}

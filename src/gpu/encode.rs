@@ -1,0 +1,33 @@
+//! `encode` pass (and the bench's `floor` pass).
+
+use super::stages::{bind_group, dispatch_2d, pipeline, Bind, Dispatch};
+use super::{GpuContext, HdrFormat};
+use crate::scene::Encoding;
+
+pub fn encode(
+    ctx: &GpuContext,
+    format: HdrFormat,
+    encoding: Encoding,
+    src: &wgpu::Texture,
+    frame_out: &wgpu::Buffer,
+) -> Dispatch {
+    let constants = match encoding {
+        Encoding::Srgb => [("ENCODING", 0.0), ("GAMMA", 2.2)],
+        Encoding::Gamma(g) => [("ENCODING", 1.0), ("GAMMA", g.get())],
+    };
+    let p = pipeline(ctx, "encode", "main", format, &constants);
+    let bg = bind_group(
+        ctx,
+        &p,
+        "tonegate.encode",
+        &[(0, Bind::Texture(src)), (1, Bind::Buffer(frame_out))],
+    );
+    dispatch_2d(p, bg, src.width(), src.height())
+}
+
+/// A trivial fullscreen write of the same size and format: the bench's unit.
+pub fn floor(ctx: &GpuContext, format: HdrFormat, out: &wgpu::Texture) -> Dispatch {
+    let p = pipeline(ctx, "floor", "main", format, &[]);
+    let bg = bind_group(ctx, &p, "tonegate.floor", &[(0, Bind::Texture(out))]);
+    dispatch_2d(p, bg, out.width(), out.height())
+}

@@ -1,0 +1,168 @@
+//! `luminance_stats` pass: block partials (seed 001) or 2×2 ping-pong (seed 000).
+
+use super::stages::{bind_group, groups, pipeline, storage_buffer, uniform_buffer, Bind, Dispatch};
+use super::{GpuContext, HdrFormat, ReductionMethod};
+use crate::plan::StatsNeeds;
+
+/// Bytes of one `Partial` (8 × f32).
+const PARTIAL_BYTES: u64 = 32;
+/// Pixels per invocation of the block method.
+pub const BLOCK: u32 = 16;
+
+/// The dispatches that reduce `hdr` into `stats`.
+#[allow(clippy::too_many_arguments)]
+pub fn luminance_stats(
+    ctx: &GpuContext,
+    format: HdrFormat,
+    method: ReductionMethod,
+    needs: StatsNeeds,
+    weights: [f64; 3],
+    delta: f64,
+    hdr: &wgpu::Texture,
+    stats: &wgpu::Buffer,
+) -> Vec<Dispatch> {
+    let (w, h) = (hdr.width(), hdr.height());
+    let constants = [
+        ("LUM_R", weights[0]),
+        ("LUM_G", weights[1]),
+        ("LUM_B", weights[2]),
+        ("DELTA", delta),
+        (
+            "NEED_LOG",
+            (needs.log_average || needs.weighted_log_average) as u32 as f64,
+        ),
+        ("NEED_WEIGHTED", needs.weighted_log_average as u32 as f64),
+        ("BLOCK_W", BLOCK as f64),
+        ("BLOCK_H", BLOCK as f64),
+    ];
+    let level = |src: (u32, u32), dst: (u32, u32)| {
+        let words = [src.0, src.1, dst.0, dst.1];
+        uniform_buffer(
+            ctx,
+            "tonegate.luminance_stats.level",
+            bytemuck::cast_slice(&words),
+        )
+    };
+    let finish = pipeline(ctx, "luminance_stats", "finish", format, &constants);
+    let mut out = Vec::new();
+    match method {
+        ReductionMethod::BlockPartials => {
+            let blocks = groups(w, BLOCK) * groups(h, BLOCK);
+            let a = storage_buffer(
+                ctx,
+                "tonegate.luminance_stats.partials",
+                blocks as u64 * PARTIAL_BYTES,
+            );
+            let p = pipeline(ctx, "luminance_stats", "block_partials", format, &constants);
+            let bg = bind_group(
+                ctx,
+                &p,
+                "tonegate.luminance_stats",
+                &[(0, Bind::Texture(hdr)), (1, Bind::Buffer(&a))],
+            );
+            out.push(Dispatch {
+                pipeline: p,
+                bind_group: bg,
+                groups: (groups(blocks, 64), 1),
+            });
+            let lv = level((blocks, 1), (1, 1));
+            let bg = bind_group(
+                ctx,
+                &finish,
+                "tonegate.luminance_stats.finish",
+                &[
+                    (0, Bind::Texture(hdr)),
+                    (1, Bind::Buffer(&a)),
+                    (3, Bind::Buffer(stats)),
+                    (4, Bind::Buffer(&lv)),
+                ],
+            );
+            out.push(Dispatch {
+                pipeline: finish,
+                bind_group: bg,
+                groups: (1, 1),
+            });
+        }
+        ReductionMethod::PingPong => {
+            // log2 levels, each ceil(size/2): odd sizes keep their last row/column.
+            let first = (w.div_ceil(2), h.div_ceil(2));
+            let cap = first.0 as u64 * first.1 as u64 * PARTIAL_BYTES;
+            let bufs = [
+                storage_buffer(ctx, "tonegate.luminance_stats.ping", cap),
+                storage_buffer(ctx, "tonegate.luminance_stats.pong", cap),
+            ];
+            let p = pipeline(
+                ctx,
+                "luminance_stats",
+                "downsample_first",
+                format,
+                &constants,
+            );
+            let lv = level((w, h), first);
+            let bg = bind_group(
+                ctx,
+                &p,
+                "tonegate.luminance_stats.first",
+                &[
+                    (0, Bind::Texture(hdr)),
+                    (1, Bind::Buffer(&bufs[0])),
+                    (4, Bind::Buffer(&lv)),
+                ],
+            );
+            out.push(Dispatch {
+                pipeline: p,
+                bind_group: bg,
+                groups: (groups(first.0, 8), groups(first.1, 8)),
+            });
+            let step = pipeline(
+                ctx,
+                "luminance_stats",
+                "downsample_step",
+                format,
+                &constants,
+            );
+            let mut size = first;
+            let mut current = 0usize;
+            while size != (1, 1) {
+                let next = (size.0.div_ceil(2), size.1.div_ceil(2));
+                let p = step.clone();
+                let lv = level(size, next);
+                let bg = bind_group(
+                    ctx,
+                    &p,
+                    "tonegate.luminance_stats.step",
+                    &[
+                        (1, Bind::Buffer(&bufs[current])),
+                        (2, Bind::Buffer(&bufs[1 - current])),
+                        (4, Bind::Buffer(&lv)),
+                    ],
+                );
+                out.push(Dispatch {
+                    pipeline: p,
+                    bind_group: bg,
+                    groups: (groups(next.0, 8), groups(next.1, 8)),
+                });
+                current = 1 - current;
+                size = next;
+            }
+            let lv = level((1, 1), (1, 1));
+            let bg = bind_group(
+                ctx,
+                &finish,
+                "tonegate.luminance_stats.finish",
+                &[
+                    (0, Bind::Texture(hdr)),
+                    (1, Bind::Buffer(&bufs[current])),
+                    (3, Bind::Buffer(stats)),
+                    (4, Bind::Buffer(&lv)),
+                ],
+            );
+            out.push(Dispatch {
+                pipeline: finish,
+                bind_group: bg,
+                groups: (1, 1),
+            });
+        }
+    }
+    out
+}

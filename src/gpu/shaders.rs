@@ -1,0 +1,148 @@
+//! WGSL sources: one file per stage in `shaders/`, shared code in
+//! `shaders/shared/`, joined by `//#include shared/<file>.wgsl` lines.
+//!
+//! WGSL has no include; this is the smallest thing that keeps the shared code
+//! in one place. `HDR_FORMAT` names the intermediate texture format.
+
+use super::HdrFormat;
+
+/// (path relative to shaders/, contents), embedded at build time.
+const SOURCES: &[(&str, &str)] = &[
+    (
+        "shared/frame.wgsl",
+        include_str!("../../shaders/shared/frame.wgsl"),
+    ),
+    (
+        "shared/conventions.wgsl",
+        include_str!("../../shaders/shared/conventions.wgsl"),
+    ),
+    (
+        "shared/colour.wgsl",
+        include_str!("../../shaders/shared/colour.wgsl"),
+    ),
+    (
+        "shared/stats.wgsl",
+        include_str!("../../shaders/shared/stats.wgsl"),
+    ),
+    ("sphere.wgsl", include_str!("../../shaders/sphere.wgsl")),
+    (
+        "luminance_stats.wgsl",
+        include_str!("../../shaders/luminance_stats.wgsl"),
+    ),
+    ("tonemap.wgsl", include_str!("../../shaders/tonemap.wgsl")),
+    (
+        "bloom_bright.wgsl",
+        include_str!("../../shaders/bloom_bright.wgsl"),
+    ),
+    (
+        "bloom_downsample.wgsl",
+        include_str!("../../shaders/bloom_downsample.wgsl"),
+    ),
+    (
+        "bloom_blur.wgsl",
+        include_str!("../../shaders/bloom_blur.wgsl"),
+    ),
+    (
+        "bloom_composite.wgsl",
+        include_str!("../../shaders/bloom_composite.wgsl"),
+    ),
+    (
+        "grade_stats.wgsl",
+        include_str!("../../shaders/grade_stats.wgsl"),
+    ),
+    ("grade.wgsl", include_str!("../../shaders/grade.wgsl")),
+    ("encode.wgsl", include_str!("../../shaders/encode.wgsl")),
+    ("floor.wgsl", include_str!("../../shaders/floor.wgsl")),
+];
+
+/// The stage shaders (not the shared files).
+pub fn stage_names() -> impl Iterator<Item = &'static str> {
+    SOURCES
+        .iter()
+        .filter(|(p, _)| !p.starts_with("shared/"))
+        .map(|(p, _)| p.trim_end_matches(".wgsl"))
+}
+
+fn raw(path: &str) -> Option<&'static str> {
+    SOURCES.iter().find(|(p, _)| *p == path).map(|(_, s)| *s)
+}
+
+/// The complete source of stage `name` with includes expanded (each once) and
+/// `HDR_FORMAT` replaced. Panics only on a missing file, which the shader
+/// tests catch at `cargo test` time.
+pub fn compose(name: &str, format: HdrFormat) -> String {
+    let mut out = String::new();
+    let mut included: Vec<&str> = Vec::new();
+    expand(&format!("{name}.wgsl"), &mut out, &mut included);
+    out.replace("HDR_FORMAT", format.wgsl_name())
+}
+
+fn expand<'a>(path: &'a str, out: &mut String, included: &mut Vec<&'a str>) {
+    let text = raw(path).unwrap_or_else(|| panic!("shader {path} is not embedded"));
+    for line in text.lines() {
+        if let Some(inc) = line.trim().strip_prefix("//#include ") {
+            let inc = inc.trim();
+            let known = SOURCES.iter().find(|(p, _)| *p == inc).map(|(p, _)| *p);
+            let inc = known.unwrap_or_else(|| panic!("{path}: unknown include {inc}"));
+            if !included.contains(&inc) {
+                included.push(inc);
+                expand(inc, out, included);
+            }
+        } else {
+            out.push_str(line);
+            out.push('\n');
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_stage_shader_validates_with_naga_for_both_formats() {
+        for format in [HdrFormat::Rgba16Float, HdrFormat::Rgba32Float] {
+            for name in stage_names() {
+                let src = compose(name, format);
+                let module = naga::front::wgsl::parse_str(&src).unwrap_or_else(|e| {
+                    panic!("{name}.wgsl: {}", e.emit_to_string_with_path(&src, name))
+                });
+                let mut validator = naga::valid::Validator::new(
+                    naga::valid::ValidationFlags::all(),
+                    naga::valid::Capabilities::all(),
+                );
+                if let Err(e) = validator.validate(&module) {
+                    panic!("{name}.wgsl: {}", e.emit_to_string_with_path(&src, name));
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn includes_expand_once() {
+        let src = compose("grade_stats", HdrFormat::Rgba32Float);
+        assert_eq!(src.matches("fn kahan_add").count(), 1);
+        assert!(!src.contains("//#include"));
+        assert!(compose("sphere", HdrFormat::Rgba16Float).contains("rgba16float"));
+    }
+
+    #[test]
+    fn every_stage_of_the_plan_has_a_shader_and_a_reference() {
+        // One stage, one name: the WGSL file, the CPU reference module and the label.
+        let names: Vec<&str> = stage_names().collect();
+        for stage in [
+            "sphere",
+            "luminance_stats",
+            "tonemap",
+            "bloom_bright",
+            "bloom_downsample",
+            "bloom_blur",
+            "bloom_composite",
+            "grade_stats",
+            "grade",
+            "encode",
+        ] {
+            assert!(names.contains(&stage), "no shaders/{stage}.wgsl");
+        }
+    }
+}

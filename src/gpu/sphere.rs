@@ -1,0 +1,26 @@
+//! `sphere` pass: renders the view of the rotating environment.
+
+use super::stages::{bind_group, dispatch_2d, pipeline, Bind, Dispatch};
+use super::{GpuContext, HdrFormat};
+
+pub fn sphere(
+    ctx: &GpuContext,
+    format: HdrFormat,
+    spp: u32,
+    frame: &wgpu::Buffer,
+    env: &wgpu::Texture,
+    hdr_out: &wgpu::Texture,
+) -> Dispatch {
+    let p = pipeline(ctx, "sphere", "main", format, &[("SPP", spp as f64)]);
+    let bg = bind_group(
+        ctx,
+        &p,
+        "tonegate.sphere",
+        &[
+            (0, Bind::Buffer(frame)),
+            (1, Bind::Texture(env)),
+            (2, Bind::Texture(hdr_out)),
+        ],
+    );
+    dispatch_2d(p, bg, hdr_out.width(), hdr_out.height())
+}

@@ -1,0 +1,161 @@
+//! What every stage's pass setup shares: pipelines by name, textures, bind groups.
+
+use super::{GpuContext, HdrFormat};
+
+/// A compute pipeline for `entry` of shader `stage`, labelled
+/// `tonegate.<stage>` (or `tonegate.<stage>.<entry>` for secondary entries),
+/// with its override constants. Layouts are derived from the shader.
+pub fn pipeline(
+    ctx: &GpuContext,
+    stage: &str,
+    entry: &str,
+    format: HdrFormat,
+    constants: &[(&str, f64)],
+) -> wgpu::ComputePipeline {
+    let label = if entry == "main" {
+        format!("tonegate.{stage}")
+    } else {
+        format!("tonegate.{stage}.{entry}")
+    };
+    let module = ctx
+        .device
+        .create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(&label),
+            source: wgpu::ShaderSource::Wgsl(super::shaders::compose(stage, format).into()),
+        });
+    ctx.device
+        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(&label),
+            layout: None,
+            module: &module,
+            entry_point: Some(entry),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants,
+                zero_initialize_workgroup_memory: false,
+            },
+            cache: None,
+        })
+}
+
+/// An intermediate image: written as storage, read with textureLoad, copied out.
+pub fn hdr_texture(
+    ctx: &GpuContext,
+    label: &str,
+    width: u32,
+    height: u32,
+    format: HdrFormat,
+) -> wgpu::Texture {
+    ctx.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: format.texture_format(),
+        usage: wgpu::TextureUsages::STORAGE_BINDING
+            | wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::COPY_SRC
+            | wgpu::TextureUsages::COPY_DST,
+        view_formats: &[],
+    })
+}
+
+pub fn storage_buffer(ctx: &GpuContext, label: &str, size: u64) -> wgpu::Buffer {
+    ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: size.max(16),
+        usage: wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_SRC
+            | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+pub fn uniform_buffer(ctx: &GpuContext, label: &str, bytes: &[u8]) -> wgpu::Buffer {
+    let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: (bytes.len() as u64).max(16),
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    ctx.queue.write_buffer(&buffer, 0, bytes);
+    buffer
+}
+
+/// A resource bound at one binding of group 0.
+pub enum Bind<'a> {
+    Texture(&'a wgpu::Texture),
+    Buffer(&'a wgpu::Buffer),
+}
+
+/// A bind group for `pipeline` from (binding, resource) pairs: only the
+/// bindings the entry point uses, since layouts are derived per entry.
+pub fn bind_group(
+    ctx: &GpuContext,
+    pipeline: &wgpu::ComputePipeline,
+    label: &str,
+    binds: &[(u32, Bind)],
+) -> wgpu::BindGroup {
+    let views: Vec<Option<wgpu::TextureView>> = binds
+        .iter()
+        .map(|(_, b)| match b {
+            Bind::Texture(t) => Some(t.create_view(&wgpu::TextureViewDescriptor::default())),
+            Bind::Buffer(_) => None,
+        })
+        .collect();
+    let entries: Vec<wgpu::BindGroupEntry> = binds
+        .iter()
+        .zip(&views)
+        .map(|((binding, b), v)| wgpu::BindGroupEntry {
+            binding: *binding,
+            resource: match (b, v) {
+                (Bind::Buffer(buf), _) => buf.as_entire_binding(),
+                (Bind::Texture(_), Some(view)) => wgpu::BindingResource::TextureView(view),
+                (Bind::Texture(_), None) => unreachable!("views are made for every texture"),
+            },
+        })
+        .collect();
+    ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &entries,
+    })
+}
+
+/// Workgroups of `size` needed to cover `n`.
+pub fn groups(n: u32, size: u32) -> u32 {
+    n.div_ceil(size)
+}
+
+/// A dispatch: pipeline, bind group and workgroup counts.
+pub struct Dispatch {
+    pub pipeline: wgpu::ComputePipeline,
+    pub bind_group: wgpu::BindGroup,
+    pub groups: (u32, u32),
+}
+
+impl Dispatch {
+    pub fn record(&self, pass: &mut wgpu::ComputePass<'_>) {
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.dispatch_workgroups(self.groups.0, self.groups.1, 1);
+    }
+}
+
+/// A 2-D dispatch over `width`×`height` pixels in 8×8 workgroups.
+pub fn dispatch_2d(
+    pipeline: wgpu::ComputePipeline,
+    bind_group: wgpu::BindGroup,
+    width: u32,
+    height: u32,
+) -> Dispatch {
+    Dispatch {
+        pipeline,
+        bind_group,
+        groups: (groups(width, 8), groups(height, 8)),
+    }
+}

@@ -1,0 +1,125 @@
+//! `tonemap` pass: resolve the curve's parameters from the statistics (one
+//! invocation), then tone-map every pixel.
+
+use super::stages::{bind_group, dispatch_2d, pipeline, uniform_buffer, Bind, Dispatch};
+use super::{GpuContext, HdrFormat};
+use crate::reference::tonemap::{invert3, operator_constants, rgb_to_xyz};
+use crate::scene::{ColourPath, Key, Operator};
+
+/// The operator's constants as the shader's `ToneConfig` (28 f32).
+pub fn tone_config(op: &Operator) -> [f32; 36] {
+    let (weights, _) = operator_constants(op);
+    let to_xyz = rgb_to_xyz(weights);
+    let to_rgb = invert3(to_xyz);
+    let mut c = [0f32; 36];
+    let row = |c: &mut [f32; 36], at: usize, v: [f64; 3]| {
+        c[at] = v[0] as f32;
+        c[at + 1] = v[1] as f32;
+        c[at + 2] = v[2] as f32;
+    };
+    row(&mut c, 0, weights);
+    for i in 0..3 {
+        row(&mut c, 4 + 4 * i, to_xyz[i]);
+        row(&mut c, 16 + 4 * i, to_rgb[i]);
+    }
+    let (key, white_fraction, white, fixed_lavg, fixed_max) = match op {
+        Operator::Seed000 {
+            key,
+            white_fraction,
+            log_average,
+            max_luminance,
+            ..
+        } => (
+            key.get(),
+            white_fraction.get(),
+            0.0,
+            log_average.map(|v| v.get()).unwrap_or(0.0),
+            max_luminance.map(|v| v.get()).unwrap_or(0.0),
+        ),
+        Operator::Seed001 { key, .. } => (
+            match key {
+                Key::Fixed(k) => k.get(),
+                Key::Auto => 0.18,
+            },
+            1.0,
+            0.0,
+            0.0,
+            0.0,
+        ),
+        Operator::Reinhard02 {
+            key,
+            white,
+            log_average,
+            ..
+        } => (
+            key.get(),
+            1.0,
+            white.map(|v| v.get()).unwrap_or(0.0),
+            log_average.map(|v| v.get()).unwrap_or(0.0),
+            0.0,
+        ),
+    };
+    c[28] = key as f32;
+    c[29] = white_fraction as f32;
+    c[30] = white as f32;
+    c[31] = fixed_lavg as f32;
+    c[32] = fixed_max as f32;
+    c
+}
+
+/// `gpu::OperatorCode`: the shader's OPERATOR constant.
+pub fn operator_code(op: &Operator) -> u32 {
+    match op {
+        Operator::Seed000 { .. } => 0,
+        Operator::Seed001 { .. } => 1,
+        Operator::Reinhard02 { .. } => 2,
+    }
+}
+
+pub fn tonemap(
+    ctx: &GpuContext,
+    format: HdrFormat,
+    op: &Operator,
+    stats: &wgpu::Buffer,
+    hdr: &wgpu::Texture,
+    toned_out: &wgpu::Texture,
+) -> Vec<Dispatch> {
+    let constants = [
+        ("OPERATOR", operator_code(op) as f64),
+        ("COLOUR", (op.colour() == ColourPath::Xyy) as u32 as f64),
+        (
+            "AUTO_KEY",
+            matches!(op, Operator::Seed001 { key: Key::Auto, .. }) as u32 as f64,
+        ),
+    ];
+    let config = uniform_buffer(
+        ctx,
+        "tonegate.tonemap.config",
+        bytemuck::cast_slice(&tone_config(op)),
+    );
+    let resolve = pipeline(ctx, "tonemap", "resolve", format, &constants);
+    let bg = bind_group(
+        ctx,
+        &resolve,
+        "tonegate.tonemap.resolve",
+        &[(0, Bind::Buffer(&config)), (1, Bind::Buffer(stats))],
+    );
+    let resolve = Dispatch {
+        pipeline: resolve,
+        bind_group: bg,
+        groups: (1, 1),
+    };
+    let main = pipeline(ctx, "tonemap", "main", format, &constants);
+    let bg = bind_group(
+        ctx,
+        &main,
+        "tonegate.tonemap",
+        &[
+            (0, Bind::Buffer(&config)),
+            (1, Bind::Buffer(stats)),
+            (2, Bind::Texture(hdr)),
+            (3, Bind::Texture(toned_out)),
+        ],
+    );
+    vec![resolve, dispatch_2d(main, bg, hdr.width(), hdr.height())]
+}

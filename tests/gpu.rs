@@ -1,0 +1,446 @@
+//! The GPU pipeline against the CPU reference, stage by stage and frame by
+//! frame, on lavapipe (installed by ci/test.sh). Every comparison is between
+//! two different renders: the GPU's output and the f64 reference fed the same
+//! input.
+
+use tonegate::conventions::{equirect_uv, rotation_matrix, sphere_direction};
+use tonegate::golden::{read_frame, scene_environment};
+use tonegate::gpu::{
+    AdapterChoice, GpuConfig, GpuContext, GpuInput, GpuRenderer, HdrFormat, ReductionMethod,
+};
+use tonegate::image::LinearImage;
+use tonegate::metrics::{compare, fraction_over};
+use tonegate::plan::{Stage, StagePlan};
+use tonegate::reference::{self, luminance_stats, scene_camera, tonemap, Pipeline};
+use tonegate::scene::{load_suite, Scene};
+
+fn context() -> GpuContext {
+    GpuContext::new(&AdapterChoice::Default)
+        .unwrap_or_else(|e| panic!("{e}\n(ci/test.sh installs mesa-vulkan-drivers; run it once)"))
+}
+
+fn suite() -> Vec<Scene> {
+    load_suite(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("golden/suite.toml")).unwrap()
+}
+
+fn renderer<'a>(
+    ctx: &'a GpuContext,
+    scene: &Scene,
+    env: &tonegate::image::HdrImage,
+    config: GpuConfig,
+) -> GpuRenderer<'a> {
+    GpuRenderer::new(
+        ctx,
+        StagePlan::for_scene(scene, 1),
+        GpuInput::Sphere {
+            env,
+            camera: scene_camera(scene),
+            spp: 1,
+        },
+        &Pipeline::of_scene(scene),
+        config,
+    )
+    .unwrap()
+}
+
+/// Fraction of channel values with |a − b| > rel·|b| + abs, and the worst ratio.
+fn fraction_outside(a: &LinearImage, b: &LinearImage, rel: f64, abs: f64) -> (f64, f64) {
+    assert_eq!((a.width, a.height), (b.width, b.height));
+    let mut outside = 0usize;
+    let mut worst = 0.0f64;
+    for (p, q) in a.pixels.iter().zip(&b.pixels) {
+        for c in 0..3 {
+            let bound = rel * q[c].abs() + abs;
+            let ratio = (p[c] - q[c]).abs() / bound;
+            worst = worst.max(ratio);
+            if ratio > 1.0 {
+                outside += 1;
+            }
+        }
+    }
+    (outside as f64 / (3 * a.pixel_count()) as f64, worst)
+}
+
+/// max − min of each channel over the four texels bilinear reads at (u, v).
+fn footprint_range(env: &tonegate::image::HdrImage, u: f64, v: f64) -> [f64; 3] {
+    let (w, h) = (env.width as i64, env.height as i64);
+    let x0 = (u * w as f64 - 0.5).floor() as i64;
+    let y0 = (v * h as f64 - 0.5).floor() as i64;
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+        let x = (x0 + dx).rem_euclid(w) as u32;
+        let y = (y0 + dy).clamp(0, h - 1) as u32;
+        let p = env.get(x, y);
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k] as f64);
+            hi[k] = hi[k].max(p[k] as f64);
+        }
+    }
+    [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]]
+}
+
+fn rel(a: f64, b: f64) -> f64 {
+    (a - b).abs() / b.abs().max(f64::MIN_POSITIVE)
+}
+
+/// Final frames against a 1-spp CPU render of the same scene, every frame of
+/// every suite scene. Tolerance: PSNR ≥ 50 dB and ≥ 99.9 % of pixels within
+/// 1 LSB. Origin: the GPU works in f32 with its own atan2/acos (2 ULP) where
+/// the reference uses f64; at an HDR edge of 10⁴:1 a 1e-5-texel footprint shift
+/// moves a value by a few percent (measured: up to 4 % in interior scenes),
+/// and a value that lands on an 8-bit rounding boundary flips by 1 LSB. 50 dB
+/// is an MSE of 0.65 LSB², i.e. such flips on well under 1 % of values.
+#[test]
+fn final_frames_match_the_cpu_render_of_the_same_scene() {
+    let ctx = context();
+    for scene in suite() {
+        let env = scene_environment(&scene).unwrap();
+        let r = renderer(&ctx, &scene, &env, GpuConfig::default());
+        let mut worst_psnr = f64::INFINITY;
+        let mut golden_psnr = Vec::new();
+        for n in 0..scene.frames {
+            r.set_rotation(&rotation_matrix(scene.rotation.axis, scene.angle(n)));
+            let gpu = r.render(true).unwrap();
+            let frame = gpu.frame.unwrap();
+            let cpu = reference::render_frame(&scene, &env, n, 1);
+            let m = compare(frame.raster(), cpu.frame.raster()).unwrap();
+            let over = fraction_over(frame.raster(), cpu.frame.raster(), 1).unwrap();
+            assert!(
+                m.psnr >= 50.0 && over <= 0.001,
+                "{} frame {n}: PSNR {:.2} dB, {:.4} % of pixels off by more than 1 LSB (max {})",
+                scene.name,
+                m.psnr,
+                over * 100.0,
+                m.max_abs_diff
+            );
+            worst_psnr = worst_psnr.min(m.psnr);
+            let golden = read_frame(
+                std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/golden")),
+                &scene.name,
+                n,
+            )
+            .unwrap();
+            golden_psnr.push(compare(frame.raster(), golden.raster()).unwrap().psnr);
+        }
+        // Against the 16-spp goldens: the plain path's aliasing, reported.
+        let mean = golden_psnr.iter().sum::<f64>() / golden_psnr.len() as f64;
+        println!(
+            "{:<36} vs CPU 1 spp: worst PSNR {:>7.2} dB | vs 16-spp golden: worst {:.2} dB, mean {:.2} dB",
+            scene.name,
+            worst_psnr,
+            golden_psnr.iter().cloned().fold(f64::INFINITY, f64::min),
+            mean
+        );
+    }
+}
+
+/// Each stage's GPU output against the reference stage fed the GPU's own input.
+#[test]
+fn each_stage_matches_its_reference_on_the_same_input() {
+    let ctx = context();
+    for scene in suite() {
+        let env = scene_environment(&scene).unwrap();
+        let r = renderer(&ctx, &scene, &env, GpuConfig::default());
+        let n = 3.min(scene.frames - 1);
+        r.set_rotation(&rotation_matrix(scene.rotation.axis, scene.angle(n)));
+        let gpu = r.render(true).unwrap();
+        let name = &scene.name;
+        let pipeline = Pipeline::of_scene(&scene);
+        let plan = StagePlan::for_scene(&scene, 1);
+        // sphere: against the CPU's own sphere render. Tolerance: 1e-4 relative
+        // (f32 arithmetic) plus a footprint shift of 1e-4 texel times the
+        // range of the four texels it interpolates. Origin: texel coordinates
+        // near 1024 carry an f32 ulp of 6e-5 texel and the shader's atan2/acos
+        // ~2 ULP; bilinear changes by at most (range × shift), which at a
+        // 10⁴:1 window edge is far more than 1e-4 of the value.
+        let hdr = r.read_output("sphere").unwrap().unwrap();
+        let cpu_hdr = reference::render_frame(&scene, &env, n, 1).hdr;
+        let rotation = rotation_matrix(scene.rotation.axis, scene.angle(n));
+        let camera = scene_camera(&scene);
+        let mut worst = 0.0f64;
+        for (i, (g, c)) in hdr.pixels.iter().zip(&cpu_hdr.pixels).enumerate() {
+            let (x, y) = (
+                (i % hdr.width as usize) as f64,
+                (i / hdr.width as usize) as f64,
+            );
+            let d = sphere_direction(&rotation, camera.ray(x + 0.5, y + 0.5));
+            let (u, v) = equirect_uv(d);
+            let range = footprint_range(&env, u, v);
+            for k in 0..3 {
+                let bound = 1e-4 * c[k].abs() + 1e-4 * range[k] + 1e-7;
+                worst = worst.max((g[k] - c[k]).abs() / bound);
+            }
+        }
+        assert!(
+            worst <= 1.0,
+            "{name} sphere: an error {worst:.2}x its bound"
+        );
+        // luminance_stats: f32 compensated sums vs the f64 reference, 1e-5 relative.
+        let (weights, delta) = tonemap::operator_constants(pipeline.operator);
+        let mut cpu_stats = Default::default();
+        if let Some(Stage::LuminanceStats(needs)) =
+            plan.stages.iter().find(|s| s.name() == "luminance_stats")
+        {
+            cpu_stats = luminance_stats::luminance_stats(&hdr, *needs, weights, delta);
+            let s = &gpu.stats;
+            if let Some(v) = cpu_stats.log_average {
+                assert!(
+                    rel(s.log_average as f64, v) <= 1e-5,
+                    "{name} log_average {} vs {v}",
+                    s.log_average
+                );
+            }
+            if let Some(v) = cpu_stats.weighted_log_average {
+                assert!(
+                    rel(s.weighted_log_average as f64, v) <= 1e-5,
+                    "{name} weighted {} vs {v}",
+                    s.weighted_log_average
+                );
+            }
+            if let Some(v) = cpu_stats.min {
+                assert!(rel(s.min as f64, v) <= 1e-6, "{name} min {} vs {v}", s.min);
+            }
+            if let Some(v) = cpu_stats.max {
+                assert!(rel(s.max as f64, v) <= 1e-6, "{name} max {} vs {v}", s.max);
+            }
+        }
+        // tonemap: the curve in f32 against f64 with the same statistics.
+        let params = tonemap::resolve(pipeline.operator, &cpu_stats);
+        assert!(
+            rel(gpu.stats.scale as f64, params.scale) <= 2e-5,
+            "{name} scale {} vs {}",
+            gpu.stats.scale,
+            params.scale
+        );
+        let cpu_toned = tonemap::tonemap(&hdr, &params);
+        let toned = r.read_output("tonemap").unwrap().unwrap();
+        let (out, worst) = fraction_outside(&toned, &cpu_toned, 1e-4, 1e-6);
+        assert!(
+            out == 0.0,
+            "{name} tonemap: {:.4} % of values off (worst {worst:.1}x)",
+            out * 100.0
+        );
+        // The rest of the chain, stage by stage, each fed the GPU's input.
+        let mut display = toned.clone();
+        if let (Some(b), Some(blurred)) = (pipeline.bloom, r.read_output("bloom_blur").unwrap()) {
+            let src = if b.bright_pass == tonegate::scene::BrightPass::Seed001 {
+                &hdr
+            } else {
+                &toned
+            };
+            let lmax = cpu_stats.max.unwrap_or(0.0);
+            let bright = reference::bloom_bright::bloom_bright(
+                src,
+                b.bright_pass,
+                b.threshold.get(),
+                lmax,
+                weights,
+            );
+            let low = reference::bloom_downsample::bloom_downsample(&bright, b.downsample.get());
+            let cpu_blur = reference::bloom_blur::bloom_blur(&low, b.radius.get(), b.sigma.get());
+            let (out, worst) = fraction_outside(&blurred, &cpu_blur, 1e-4, 1e-6);
+            assert!(
+                out == 0.0,
+                "{name} bloom chain: {:.4} % off (worst {worst:.1}x)",
+                out * 100.0
+            );
+            let composite = r.read_output("bloom_composite").unwrap().unwrap();
+            let cpu_composite =
+                reference::bloom_composite::bloom_composite(&toned, &blurred, b.strength.get());
+            let (out, worst) = fraction_outside(&composite, &cpu_composite, 1e-5, 1e-6);
+            assert!(
+                out == 0.0,
+                "{name} bloom_composite: {:.4} % off (worst {worst:.1}x)",
+                out * 100.0
+            );
+            display = composite;
+        }
+        if let (Some(g), Some(graded)) = (pipeline.grade, r.read_output("grade").unwrap()) {
+            let mean = reference::grade::grade_stats(&display);
+            let cpu_graded = reference::grade::grade(&display, g, mean);
+            // Contrast subtracts the grey: values near it cancel, hence the
+            // absolute term (1e-5 of the display range).
+            let (out, worst) = fraction_outside(&graded, &cpu_graded, 1e-4, 1e-5);
+            assert!(
+                out == 0.0,
+                "{name} grade: {:.4} % off (worst {worst:.1}x)",
+                out * 100.0
+            );
+            display = graded;
+        }
+        let gpu_display = r.read_output("display").unwrap().unwrap();
+        assert_eq!(
+            gpu_display, display,
+            "{name}: display is the last stage's output"
+        );
+        // encode: same rounding rule; only values within f32 rounding of a
+        // quantisation boundary may differ, by 1 LSB.
+        let cpu_frame = reference::encode::encode(&gpu_display, pipeline.encoding);
+        let frame = gpu.frame.unwrap();
+        let m = compare(frame.raster(), cpu_frame.raster()).unwrap();
+        let over = fraction_over(frame.raster(), cpu_frame.raster(), 0).unwrap();
+        assert!(
+            m.max_abs_diff <= 1 && over <= 1e-4,
+            "{name} encode: max {} , {:.5} % differ",
+            m.max_abs_diff,
+            over * 100.0
+        );
+    }
+}
+
+#[test]
+fn both_reductions_agree_with_f64_on_odd_and_prime_sizes() {
+    let ctx = context();
+    let op = tonegate::scene::Operator::Seed001 {
+        key: tonegate::scene::Key::Auto,
+        colour: tonegate::scene::ColourPath::Ratio,
+    };
+    let pipeline = Pipeline {
+        operator: &op,
+        bloom: None,
+        grade: None,
+        encoding: tonegate::scene::Encoding::Srgb,
+    };
+    for (w, h) in [
+        (1, 1),
+        (1, 7),
+        (7, 1),
+        (13, 17),
+        (97, 31),
+        (331, 127),
+        (1920, 1080),
+    ] {
+        let img = tonegate::env::BuiltinEnv::Night.generate(w, h);
+        let plan = StagePlan::build(tonegate::plan::Input::Flat, &op, None, None);
+        let Some(Stage::LuminanceStats(needs)) = plan.stages.first().cloned() else {
+            panic!("seed001 needs statistics");
+        };
+        let (weights, delta) = tonemap::operator_constants(&op);
+        let cpu = luminance_stats::luminance_stats(&img.to_linear(), needs, weights, delta);
+        for reduction in [ReductionMethod::BlockPartials, ReductionMethod::PingPong] {
+            let config = GpuConfig {
+                reduction,
+                ..Default::default()
+            };
+            let r = GpuRenderer::new(&ctx, plan.clone(), GpuInput::Flat(&img), &pipeline, config)
+                .unwrap();
+            let s = r.render(false).unwrap().stats;
+            let what = format!("{w}x{h} {reduction:?}");
+            assert!(
+                rel(
+                    s.weighted_log_average as f64,
+                    cpu.weighted_log_average.unwrap()
+                ) <= 1e-5,
+                "{what}: weighted {} vs {:?}",
+                s.weighted_log_average,
+                cpu.weighted_log_average
+            );
+            assert!(rel(s.min as f64, cpu.min.unwrap()) <= 1e-6, "{what}: min");
+            assert!(rel(s.max as f64, cpu.max.unwrap()) <= 1e-6, "{what}: max");
+            assert!(
+                rel(s.weight_sum as f64, cpu.weight_sum.unwrap()) <= 1e-5,
+                "{what}: Σw {} vs {:?}",
+                s.weight_sum,
+                cpu.weight_sum
+            );
+        }
+    }
+}
+
+#[test]
+fn only_the_plans_stages_are_built_and_timed() {
+    let ctx = context();
+    for scene in suite() {
+        let env = scene_environment(&scene).unwrap();
+        let r = renderer(&ctx, &scene, &env, GpuConfig::default());
+        let plan = StagePlan::for_scene(&scene, 1);
+        assert_eq!(r.stage_names(), plan.names(), "{}", scene.name);
+        let frame = r.render(false).unwrap();
+        let timed: Vec<&str> = frame.timings.iter().map(|t| t.stage.as_str()).collect();
+        assert_eq!(timed, plan.names(), "{}", scene.name);
+        assert!(
+            frame.timings.iter().all(|t| t.ms > 0.0 && t.ms < 10_000.0),
+            "{:?}",
+            frame.timings
+        );
+    }
+    // The fixed-parameter scene has no statistics stage at all.
+    let scene = suite()
+        .into_iter()
+        .find(|s| s.name == "interior-reinhard02-fixed-bloom004")
+        .unwrap();
+    assert!(!StagePlan::for_scene(&scene, 1).contains("luminance_stats"));
+}
+
+#[test]
+fn a_wrong_gpu_render_fails_the_comparison() {
+    // The comparison must be able to fail: a GPU render with a key 2 % off.
+    let ctx = context();
+    let mut scene = suite()
+        .into_iter()
+        .find(|s| s.name == "sky-seed000")
+        .unwrap();
+    let env = scene_environment(&scene).unwrap();
+    let cpu = reference::render_frame(&scene, &env, 3, 1);
+    if let tonegate::scene::Operator::Seed000 { key, .. } = &mut scene.operator {
+        *key = tonegate::scene::Positive::try_from(key.get() * 1.02).unwrap();
+    }
+    let r = renderer(&ctx, &scene, &env, GpuConfig::default());
+    r.set_rotation(&rotation_matrix(scene.rotation.axis, scene.angle(3)));
+    let frame = r.render(true).unwrap().frame.unwrap();
+    let over = fraction_over(frame.raster(), cpu.frame.raster(), 1).unwrap();
+    assert!(over > 0.001, "a 2 % key error went unnoticed ({over})");
+}
+
+#[test]
+fn half_float_intermediates_render_within_a_few_lsb_where_in_range() {
+    // rgba16float carries 11 bits: a 2^-11 relative error before the curve.
+    // On a scene whose values stay below 65504 the frame stays within 2 LSB
+    // on 99 % of pixels.
+    let ctx = context();
+    let scene = suite()
+        .into_iter()
+        .find(|s| s.name == "night-seed000")
+        .unwrap();
+    let env = scene_environment(&scene).unwrap();
+    let config = GpuConfig {
+        hdr_format: HdrFormat::Rgba16Float,
+        ..Default::default()
+    };
+    let r = renderer(&ctx, &scene, &env, config);
+    r.set_rotation(&rotation_matrix(scene.rotation.axis, scene.angle(2)));
+    let frame = r.render(true).unwrap().frame.unwrap();
+    let cpu = reference::render_frame(&scene, &env, 2, 1);
+    let over = fraction_over(frame.raster(), cpu.frame.raster(), 2).unwrap();
+    assert!(
+        over <= 0.01,
+        "{:.3} % of pixels off by more than 2 LSB",
+        over * 100.0
+    );
+}
+
+#[test]
+fn oversized_frames_are_refused_not_crashed() {
+    let ctx = context();
+    let limit = ctx.limits.max_texture_dimension_2d;
+    let img = tonegate::image::HdrImage::filled(limit + 1, 1, [1.0; 3]);
+    let op = tonegate::scene::Operator::default();
+    let pipeline = Pipeline {
+        operator: &op,
+        bloom: None,
+        grade: None,
+        encoding: tonegate::scene::Encoding::Srgb,
+    };
+    let plan = StagePlan::build(tonegate::plan::Input::Flat, &op, None, None);
+    let err = GpuRenderer::new(
+        &ctx,
+        plan,
+        GpuInput::Flat(&img),
+        &pipeline,
+        GpuConfig::default(),
+    )
+    .err()
+    .expect("refused");
+    assert!(err.to_string().contains("texture limit"), "{err}");
+}
