@@ -8,7 +8,7 @@ override RADIUS: u32 = 6u;
 @group(0) @binding(1) var src: texture_2d<f32>;
 @group(0) @binding(2) var blur_out: texture_storage_2d<HDR_FORMAT, write>;
 
-@compute @workgroup_size(8, 8)
+@compute @workgroup_size(64, 1)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let dims = vec2<i32>(textureDimensions(src));
     let p = vec2<i32>(id.xy);

@@ -28,7 +28,7 @@ fn upsample_at(x: u32, y: u32, full: vec2<u32>) -> vec3<f32> {
     return top * (1.0 - ty) + bottom * ty;
 }
 
-@compute @workgroup_size(8, 8)
+@compute @workgroup_size(64, 1)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let dims = textureDimensions(toned);
     if (id.x >= dims.x || id.y >= dims.y) {

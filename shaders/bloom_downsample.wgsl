@@ -6,7 +6,7 @@ override FACTOR: u32 = 2u;
 @group(0) @binding(0) var src: texture_2d<f32>;
 @group(0) @binding(1) var low_out: texture_storage_2d<HDR_FORMAT, write>;
 
-@compute @workgroup_size(8, 8)
+@compute @workgroup_size(64, 1)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let out_dims = textureDimensions(low_out);
     if (id.x >= out_dims.x || id.y >= out_dims.y) {

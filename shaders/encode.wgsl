@@ -30,7 +30,7 @@ fn encode_channel(v: f32) -> u32 {
     return u32(clamp(floor(255.0 * e + 0.5), 0.0, 255.0));
 }
 
-@compute @workgroup_size(8, 8)
+@compute @workgroup_size(64, 1)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let dims = textureDimensions(src);
     if (id.x >= dims.x || id.y >= dims.y) {

@@ -2,7 +2,7 @@
 
 @group(0) @binding(0) var floor_out: texture_storage_2d<HDR_FORMAT, write>;
 
-@compute @workgroup_size(8, 8)
+@compute @workgroup_size(64, 1)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let dims = textureDimensions(floor_out);
     if (id.x >= dims.x || id.y >= dims.y) {

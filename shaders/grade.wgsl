@@ -14,7 +14,7 @@ struct GradeMean {
 @group(0) @binding(1) var src: texture_2d<f32>;
 @group(0) @binding(2) var graded_out: texture_storage_2d<HDR_FORMAT, write>;
 
-@compute @workgroup_size(8, 8)
+@compute @workgroup_size(64, 1)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let dims = textureDimensions(src);
     if (id.x >= dims.x || id.y >= dims.y) {

@@ -84,7 +84,7 @@ fn block_partials(@builtin(global_invocation_id) id: vec3<u32>) {
 
 // First ping-pong level: each invocation reduces a 2×2 block of pixels;
 // blocks cut by an odd edge reduce only the pixels they have.
-@compute @workgroup_size(8, 8)
+@compute @workgroup_size(64, 1)
 fn downsample_first(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x >= level.dst_size.x || id.y >= level.dst_size.y) {
         return;
@@ -103,7 +103,7 @@ fn downsample_first(@builtin(global_invocation_id) id: vec3<u32>) {
 
 // Later levels: 2×2 partials of `partials_a` into `partials_b` (the host swaps
 // the bindings between levels).
-@compute @workgroup_size(8, 8)
+@compute @workgroup_size(64, 1)
 fn downsample_step(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x >= level.dst_size.x || id.y >= level.dst_size.y) {
         return;

@@ -9,7 +9,7 @@ override SPP: u32 = 1u;
 @group(0) @binding(1) var env: texture_2d<f32>;
 @group(0) @binding(2) var hdr_out: texture_storage_2d<HDR_FORMAT, write>;
 
-@compute @workgroup_size(8, 8)
+@compute @workgroup_size(64, 1)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x >= frame.size.x || id.y >= frame.size.y) {
         return;

@@ -111,7 +111,7 @@ fn tonemap_pixel(c: vec3<f32>, scale: f32, inv_white_sq: f32) -> vec3<f32> {
     return vec3<f32>(dot(config.to_rgb0.xyz, out), dot(config.to_rgb1.xyz, out), dot(config.to_rgb2.xyz, out));
 }
 
-@compute @workgroup_size(8, 8)
+@compute @workgroup_size(64, 1)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let dims = textureDimensions(hdr);
     if (id.x >= dims.x || id.y >= dims.y) {

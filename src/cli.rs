@@ -25,15 +25,17 @@ pub struct Cli {
 
 #[derive(Subcommand)]
 pub enum Command {
-    /// Render the built-in suite on the CPU path and compare every frame with its golden.
+    /// Render the built-in suite on the GPU (or --cpu) and compare every frame with its golden.
     Suite(SuiteArgs),
+    /// Time every stage of the full plan on the GPU: per-stage table, floor ratio, FPS.
+    Bench(BenchArgs),
     /// Tone-map one HDR image (.hdr, .exr, .pfm); output format from the extension.
     Tonemap(TonemapArgs),
     /// Compare two 8-bit images: MSE, RMSE, PSNR, SNR, SSIM, max abs diff.
     Compare(CompareArgs),
     /// Print the stage plan of a scene: the stages it needs and nothing else.
     Plan(PlanArgs),
-    /// Render a scene's frames with the CPU reference.
+    /// Render a scene's frames on the GPU (or --cpu) with per-frame statistics and timings.
     Render(RenderArgs),
     /// Bless or verify the golden images.
     #[command(subcommand)]
@@ -42,8 +44,52 @@ pub enum Command {
     Env(EnvArgs),
 }
 
+/// The GPU knobs shared by every GPU command.
+#[derive(Args, Clone)]
+pub struct GpuArgs {
+    /// Adapter: "default" (lavapipe/llvmpipe when present, else the first), "any", or a name substring.
+    #[arg(long, default_value = "default")]
+    pub adapter: crate::gpu::AdapterChoice,
+    /// HDR intermediates: rgba32float (f32) or rgba16float (f16).
+    #[arg(long, default_value = "rgba32float")]
+    pub hdr_format: crate::gpu::HdrFormat,
+    /// Luminance reduction: block (seed 001's block partials) or pingpong (seed 000's 2x2).
+    #[arg(long, default_value = "block")]
+    pub reduction: crate::gpu::ReductionMethod,
+}
+
+impl GpuArgs {
+    pub fn config(&self) -> crate::gpu::GpuConfig {
+        crate::gpu::GpuConfig {
+            hdr_format: self.hdr_format,
+            reduction: self.reduction,
+        }
+    }
+}
+
+#[derive(Args)]
+pub struct BenchArgs {
+    #[arg(long, default_value = "1920x1080")]
+    pub size: Size,
+    /// Measured frames (after the warm-up).
+    #[arg(long, default_value_t = 60)]
+    pub frames: u32,
+    #[arg(long, default_value_t = 10)]
+    pub warmup: u32,
+    /// Print the report as JSON.
+    #[arg(long)]
+    pub json: bool,
+    #[command(flatten)]
+    pub gpu: GpuArgs,
+}
+
 #[derive(Args)]
 pub struct SuiteArgs {
+    /// Use the CPU reference's plain path instead of the GPU.
+    #[arg(long)]
+    pub cpu: bool,
+    #[command(flatten)]
+    pub gpu: GpuArgs,
     /// The suite file.
     #[arg(long, default_value = "golden/suite.toml")]
     pub suite: PathBuf,
@@ -87,6 +133,11 @@ pub struct TonemapArgs {
     /// Output: .png (8-bit encoded), .exr / .pfm / .hdr (linear, before encoding).
     #[arg(short, long)]
     pub output: PathBuf,
+    /// Tone-map on the GPU instead of the CPU reference.
+    #[arg(long)]
+    pub gpu: bool,
+    #[command(flatten)]
+    pub gpu_options: GpuArgs,
     /// A preset that fixes the operator (overrides --operator and --colour).
     #[arg(long, value_enum)]
     pub preset: Option<Preset>,
@@ -172,9 +223,14 @@ pub struct RenderArgs {
     /// Output directory for NNN.png frames and frames.json.
     #[arg(long)]
     pub out: PathBuf,
-    /// Samples per pixel (default: the scene's reference_spp).
+    /// Samples per pixel (GPU default 1; CPU default the scene's reference_spp).
     #[arg(long)]
     pub spp: Option<u32>,
+    /// Render with the CPU reference instead of the GPU.
+    #[arg(long)]
+    pub cpu: bool,
+    #[command(flatten)]
+    pub gpu: GpuArgs,
 }
 
 #[derive(Subcommand)]
@@ -222,6 +278,7 @@ pub fn main() -> ExitCode {
 pub fn run(cli: Cli) -> Result<ExitCode> {
     match cli.command {
         Command::Suite(a) => suite(a),
+        Command::Bench(a) => bench(a),
         Command::Tonemap(a) => tonemap(a),
         Command::Compare(a) => compare(a),
         Command::Plan(a) => plan(a),
@@ -360,7 +417,11 @@ fn tonemap(a: TonemapArgs) -> Result<ExitCode> {
         grade: Some(&grade),
         encoding,
     };
-    let (plan, out) = crate::reference::render_flat(&img, &pipeline);
+    let (plan, out) = if a.gpu {
+        gpu_flat(&img, &pipeline, &a.gpu_options)?
+    } else {
+        crate::reference::render_flat(&img, &pipeline)
+    };
     let ext = a
         .output
         .extension()
@@ -376,7 +437,7 @@ fn tonemap(a: TonemapArgs) -> Result<ExitCode> {
         let report = serde_json::json!({
             "input": load_report,
             "output": a.output,
-            "renderer": "cpu-reference",
+            "renderer": if a.gpu { "gpu" } else { "cpu-reference" },
             "plan": plan.names(),
             "stats": out.stats,
             "tone": out.tone,
@@ -395,6 +456,97 @@ fn tonemap(a: TonemapArgs) -> Result<ExitCode> {
             out.tone.log_average,
             a.output.display()
         );
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn gpu_error(e: crate::gpu::GpuError) -> Error {
+    invalid(e.to_string())
+}
+
+/// Tone-maps a flat image on the GPU; the outputs the CLI writes come back as
+/// the reference's `FrameOutputs` shape (statistics from the GPU).
+fn gpu_flat(
+    img: &crate::image::HdrImage,
+    pipeline: &crate::reference::Pipeline,
+    gpu: &GpuArgs,
+) -> Result<(crate::plan::StagePlan, crate::reference::FrameOutputs)> {
+    let ctx = crate::gpu::GpuContext::new(&gpu.adapter).map_err(gpu_error)?;
+    let plan = crate::plan::StagePlan::build(
+        crate::plan::Input::Flat,
+        pipeline.operator,
+        pipeline.bloom,
+        pipeline.grade,
+    );
+    let r = crate::gpu::GpuRenderer::new(
+        &ctx,
+        plan.clone(),
+        crate::gpu::GpuInput::Flat(img),
+        pipeline,
+        gpu.config(),
+    )
+    .map_err(gpu_error)?;
+    let out = r.render(true).map_err(gpu_error)?;
+    let display = r
+        .read_output("display")
+        .map_err(gpu_error)?
+        .unwrap_or_else(|| img.to_linear());
+    let s = out.stats;
+    let stats = crate::reference::luminance_stats::LuminanceStats {
+        log_average: Some(s.log_average as f64),
+        weighted_log_average: Some(s.weighted_log_average as f64),
+        min: Some(s.min as f64),
+        max: Some(s.max as f64),
+        weight_sum: Some(s.weight_sum as f64),
+    };
+    let (weights, _) = crate::reference::tonemap::operator_constants(pipeline.operator);
+    let tone = crate::reference::tonemap::ToneParams {
+        key: s.key as f64,
+        log_average: s.adaptation as f64,
+        scale: s.scale as f64,
+        white_sq: if s.inv_white_sq > 0.0 {
+            1.0 / s.inv_white_sq as f64
+        } else {
+            f64::INFINITY
+        },
+        weights,
+        colour: pipeline.operator.colour(),
+    };
+    let frame = out
+        .frame
+        .ok_or_else(|| invalid("GPU frame was not read back"))?;
+    Ok((
+        plan,
+        crate::reference::FrameOutputs {
+            hdr: img.to_linear(),
+            stats,
+            tone,
+            toned: display.clone(),
+            bloom: None,
+            grade_mean: None,
+            display,
+            frame,
+        },
+    ))
+}
+
+fn bench(a: BenchArgs) -> Result<ExitCode> {
+    let ctx = crate::gpu::GpuContext::new(&a.gpu.adapter).map_err(gpu_error)?;
+    if a.frames == 0 {
+        return Err(invalid("--frames must be at least 1"));
+    }
+    let opts = crate::gpu::bench::BenchOptions {
+        width: a.size.width,
+        height: a.size.height,
+        frames: a.frames,
+        warmup: a.warmup,
+        config: a.gpu.config(),
+    };
+    let report = crate::gpu::bench::run(&ctx, &opts).map_err(gpu_error)?;
+    if a.json {
+        write_json(Path::new("-"), &report)?;
+    } else {
+        println!("{report}");
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -435,7 +587,7 @@ fn plan(a: PlanArgs) -> Result<ExitCode> {
 
 fn render(a: RenderArgs) -> Result<ExitCode> {
     let scene = Scene::load(&a.scene).map_err(|e| invalid(e.to_string()))?;
-    let spp = a.spp.unwrap_or(scene.reference_spp);
+    let spp = a.spp.unwrap_or(if a.cpu { scene.reference_spp } else { 1 });
     if spp == 0 || spp > crate::scene::MAX_SPP {
         return Err(invalid(format!(
             "--spp: must be between 1 and {}, got {spp}",
@@ -447,27 +599,65 @@ fn render(a: RenderArgs) -> Result<ExitCode> {
         path: a.out.clone(),
         source,
     })?;
+    let plan = crate::plan::StagePlan::for_scene(&scene, spp);
     let bar = crate::golden::progress_bar(scene.frames as u64, "render");
     let mut frames = Vec::new();
-    for n in 0..scene.frames {
-        let t = std::time::Instant::now();
-        let out = crate::reference::render_frame(&scene, &env, n, spp);
-        let ms = t.elapsed().as_secs_f64() * 1e3;
-        crate::io::write_png8(&a.out.join(crate::golden::frame_file(n)), &out.frame)?;
-        frames.push(serde_json::json!({
-            "frame": n, "file": crate::golden::frame_file(n), "ms": ms,
-            "stats": out.stats, "tone": out.tone,
-        }));
-        bar.inc(1);
+    let renderer_name;
+    let mut adapter = None;
+    if a.cpu {
+        renderer_name = "cpu-reference".to_owned();
+        for n in 0..scene.frames {
+            let t = std::time::Instant::now();
+            let out = crate::reference::render_frame(&scene, &env, n, spp);
+            let ms = t.elapsed().as_secs_f64() * 1e3;
+            crate::io::write_png8(&a.out.join(crate::golden::frame_file(n)), &out.frame)?;
+            frames.push(serde_json::json!({
+                "frame": n, "file": crate::golden::frame_file(n), "wall_ms": ms,
+                "stats": out.stats, "tone": out.tone,
+            }));
+            bar.inc(1);
+        }
+    } else {
+        let ctx = crate::gpu::GpuContext::new(&a.gpu.adapter).map_err(gpu_error)?;
+        renderer_name = ctx.adapter.name.clone();
+        let r = crate::gpu::GpuRenderer::new(
+            &ctx,
+            plan.clone(),
+            crate::gpu::GpuInput::Sphere {
+                env: &env,
+                camera: crate::reference::scene_camera(&scene),
+                spp,
+            },
+            &crate::reference::Pipeline::of_scene(&scene),
+            a.gpu.config(),
+        )
+        .map_err(gpu_error)?;
+        for n in 0..scene.frames {
+            r.set_rotation(&crate::conventions::rotation_matrix(
+                scene.rotation.axis,
+                scene.angle(n),
+            ));
+            let out = r.render(true).map_err(gpu_error)?;
+            let frame = out
+                .frame
+                .ok_or_else(|| invalid("GPU frame was not read back"))?;
+            crate::io::write_png8(&a.out.join(crate::golden::frame_file(n)), &frame)?;
+            frames.push(serde_json::json!({
+                "frame": n, "file": crate::golden::frame_file(n), "wall_ms": out.wall_ms,
+                "stats": out.stats, "timings": out.timings,
+            }));
+            bar.inc(1);
+        }
+        adapter = Some(ctx.adapter.clone());
     }
     bar.finish_and_clear();
     let report = serde_json::json!({
-        "scene": scene.name, "renderer": "cpu-reference", "spp": spp,
-        "plan": crate::plan::StagePlan::for_scene(&scene, spp).names(), "frames": frames,
+        "scene": scene.name, "renderer": renderer_name, "adapter": adapter, "spp": spp,
+        "plan": plan.names(), "frames": frames,
     });
     write_json(&a.out.join("frames.json"), &report)?;
     println!(
-        "{} frames of {} written to {}",
+        "{} frames of {} rendered on {renderer_name}, written to {}",
         scene.frames,
         scene.name,
         a.out.display()

@@ -112,7 +112,7 @@ pub fn luminance_stats(
             out.push(Dispatch {
                 pipeline: p,
                 bind_group: bg,
-                groups: (groups(first.0, 8), groups(first.1, 8)),
+                groups: (groups(first.0, super::stages::GROUP_X), first.1),
             });
             let step = pipeline(
                 ctx,
@@ -140,7 +140,7 @@ pub fn luminance_stats(
                 out.push(Dispatch {
                     pipeline: p,
                     bind_group: bg,
-                    groups: (groups(next.0, 8), groups(next.1, 8)),
+                    groups: (groups(next.0, super::stages::GROUP_X), next.1),
                 });
                 current = 1 - current;
                 size = next;

@@ -2,6 +2,7 @@
 //! timed with GPU timestamps. Stage names match the WGSL files, the CPU
 //! reference functions and the pipeline labels (`tonegate.<stage>`).
 
+pub mod bench;
 pub mod context;
 pub mod renderer;
 pub mod shaders;

@@ -146,7 +146,11 @@ impl Dispatch {
     }
 }
 
-/// A 2-D dispatch over `width`×`height` pixels in 8×8 workgroups.
+/// Workgroup shape of the per-pixel passes: 64 pixels along a row, so a
+/// group's SIMD lanes touch contiguous memory on llvmpipe.
+pub const GROUP_X: u32 = 64;
+
+/// A 2-D dispatch over `width`×`height` pixels in 64×1 workgroups.
 pub fn dispatch_2d(
     pipeline: wgpu::ComputePipeline,
     bind_group: wgpu::BindGroup,
@@ -156,6 +160,6 @@ pub fn dispatch_2d(
     Dispatch {
         pipeline,
         bind_group,
-        groups: (groups(width, 8), groups(height, 8)),
+        groups: (groups(width, GROUP_X), height),
     }
 }

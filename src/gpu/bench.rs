@@ -1,0 +1,314 @@
+//! `tonegate bench`: per-stage GPU time, FPS with and without readback, and a
+//! floor pass every stage is expressed as a multiple of (a ratio survives the
+//! machine's noise and its one-core/two-core switching better than ms do).
+
+use super::renderer::TIMING_SLOTS;
+use super::timing::{quantile, summarise, StageTiming};
+use super::{AdapterReport, GpuConfig, GpuContext, GpuError, GpuInput, GpuRenderer, HdrFormat};
+use crate::conventions::{rotation_matrix, Camera};
+use crate::env::BuiltinEnv;
+use crate::plan::StagePlan;
+use crate::reference::Pipeline;
+use crate::scene::{
+    Bloom, BrightPass, ColourPath, Encoding, Factor, Key, NonNegative, Operator, Positive, Radius,
+};
+use serde::Serialize;
+
+#[derive(Clone, Debug)]
+pub struct BenchOptions {
+    pub width: u32,
+    pub height: u32,
+    /// Measured frames (after `warmup`).
+    pub frames: u32,
+    pub warmup: u32,
+    pub config: GpuConfig,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchStage {
+    pub name: String,
+    pub median_ms: f64,
+    pub p95_ms: f64,
+    /// median / floor median.
+    pub floor_multiple: f64,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Percentiles {
+    pub p50: f64,
+    pub p95: f64,
+    pub p99: f64,
+}
+
+impl Percentiles {
+    fn of(v: &[f64]) -> Percentiles {
+        Percentiles {
+            p50: quantile(v, 0.5),
+            p95: quantile(v, 0.95),
+            p99: quantile(v, 0.99),
+        }
+    }
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchReport {
+    pub adapter: AdapterReport,
+    /// "WxH".
+    pub size: String,
+    /// Frames per second, no per-frame readback (frames submitted back to back).
+    pub fps: f64,
+    /// Frames per second with the frame read back and waited for every frame.
+    pub fps_with_readback: f64,
+    /// Median GPU time of the floor pass (a trivial fullscreen write).
+    pub floor_ms: f64,
+    pub stages: Vec<BenchStage>,
+    /// GPU time per frame (sum of stages), no readback.
+    pub frame_gpu_ms: Percentiles,
+    /// Wall time per frame with readback.
+    pub frame_wall_ms_with_readback: Percentiles,
+    pub frames: u32,
+    pub warmup: u32,
+    pub config: GpuConfig,
+    pub plan: Vec<&'static str>,
+    /// CPU threads the host has and LP_NUM_THREADS if set: llvmpipe's core use.
+    pub host_threads: usize,
+    pub lp_num_threads: Option<String>,
+}
+
+/// The full plan the speed targets are stated for: sphere + statistics
+/// (seed 001: weighted log-average, min, max) + tonemap + bloom at ½ + encode.
+pub fn bench_operator() -> (Operator, Bloom) {
+    let op = Operator::Seed001 {
+        key: Key::Auto,
+        colour: ColourPath::Ratio,
+    };
+    let bloom = Bloom {
+        bright_pass: BrightPass::Seed001,
+        threshold: NonNegative::try_from(50.0).unwrap_or_else(|_| unreachable!()),
+        downsample: Factor::try_from(2).unwrap_or_else(|_| unreachable!()),
+        radius: Radius::try_from(6).unwrap_or_else(|_| unreachable!()),
+        sigma: Positive::try_from(3.0).unwrap_or_else(|_| unreachable!()),
+        strength: NonNegative::try_from(0.5).unwrap_or_else(|_| unreachable!()),
+    };
+    (op, bloom)
+}
+
+/// Times the floor pass `frames` times; returns per-frame ms.
+fn floor_times(
+    ctx: &GpuContext,
+    width: u32,
+    height: u32,
+    format: HdrFormat,
+    frames: u32,
+) -> Result<Vec<f64>, GpuError> {
+    if !ctx.adapter.timestamps {
+        return Ok(Vec::new());
+    }
+    let out = super::stages::hdr_texture(ctx, "tonegate.floor", width, height, format);
+    let d = super::encode::floor(ctx, format, &out);
+    let set = ctx.device.create_query_set(&wgpu::QuerySetDescriptor {
+        label: Some("tonegate.floor.timestamps"),
+        ty: wgpu::QueryType::Timestamp,
+        count: 2,
+    });
+    let resolve = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("tonegate.floor.resolve"),
+        size: 16,
+        usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let read = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("tonegate.floor.read"),
+        size: 16,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut times = Vec::with_capacity(frames as usize);
+    for _ in 0..frames {
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("tonegate.floor"),
+                timestamp_writes: Some(wgpu::ComputePassTimestampWrites {
+                    query_set: &set,
+                    beginning_of_pass_write_index: Some(0),
+                    end_of_pass_write_index: Some(1),
+                }),
+            });
+            d.record(&mut pass);
+        }
+        encoder.resolve_query_set(&set, 0..2, &resolve, 0);
+        encoder.copy_buffer_to_buffer(&resolve, 0, &read, 0, 16);
+        ctx.queue.submit([encoder.finish()]);
+        let bytes = ctx.read_buffer(&read)?;
+        let t = super::timing::durations(
+            &["floor"],
+            &[
+                u64::from_le_bytes(bytes[0..8].try_into().unwrap_or([0; 8])),
+                u64::from_le_bytes(bytes[8..16].try_into().unwrap_or([0; 8])),
+            ],
+            ctx.timestamp_period,
+        );
+        times.push(t[0].ms);
+    }
+    Ok(times)
+}
+
+/// Runs the bench on `ctx`.
+pub fn run(ctx: &GpuContext, opts: &BenchOptions) -> Result<BenchReport, GpuError> {
+    let (op, bloom) = bench_operator();
+    let pipeline = Pipeline {
+        operator: &op,
+        bloom: Some(&bloom),
+        grade: None,
+        encoding: Encoding::Srgb,
+    };
+    let env = BuiltinEnv::Sky.generate(2048, 1024);
+    let camera = Camera {
+        width: opts.width,
+        height: opts.height,
+        fov_y_deg: 60.0,
+    };
+    let plan = StagePlan::build(
+        crate::plan::Input::Sphere { spp: 1 },
+        &op,
+        Some(&bloom),
+        None,
+    );
+    let r = GpuRenderer::new(
+        ctx,
+        plan.clone(),
+        GpuInput::Sphere {
+            env: &env,
+            camera,
+            spp: 1,
+        },
+        &pipeline,
+        opts.config,
+    )?;
+    let angle = |n: u32| rotation_matrix([1.0, 0.0, 0.0], (n as f64 * 2.0).to_radians());
+    // Warm-up: pipelines compiled, caches filled; excluded from everything.
+    for n in 0..opts.warmup {
+        r.set_rotation(&angle(n));
+        r.render(false)?;
+    }
+    // No readback: batches of frames submitted back to back, timestamps kept per slot.
+    let mut gpu_frames: Vec<Vec<StageTiming>> = Vec::new();
+    let start = std::time::Instant::now();
+    let mut done = 0;
+    while done < opts.frames {
+        let batch = (opts.frames - done).min(TIMING_SLOTS);
+        for s in 0..batch {
+            r.set_rotation(&angle(done + s));
+            let mut encoder = ctx.device.create_command_encoder(&Default::default());
+            r.encode(&mut encoder, s);
+            ctx.queue.submit([encoder.finish()]);
+        }
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        r.encode_timing_copy(&mut encoder);
+        ctx.queue.submit([encoder.finish()]);
+        ctx.wait()?;
+        gpu_frames.extend(r.read_timings(batch)?);
+        done += batch;
+    }
+    let elapsed = start.elapsed().as_secs_f64();
+    let fps = opts.frames as f64 / elapsed;
+    // With readback: every frame waited for and copied to the host.
+    let mut wall = Vec::with_capacity(opts.frames as usize);
+    let start = std::time::Instant::now();
+    for n in 0..opts.frames {
+        r.set_rotation(&angle(n));
+        wall.push(r.render(true)?.wall_ms);
+    }
+    let fps_with_readback = opts.frames as f64 / start.elapsed().as_secs_f64();
+    let floor = floor_times(
+        ctx,
+        opts.width,
+        opts.height,
+        opts.config.hdr_format,
+        opts.frames.max(5),
+    )?;
+    let floor_ms = quantile(&floor, 0.5);
+    let stages = summarise(&gpu_frames)
+        .into_iter()
+        .map(|s| BenchStage {
+            floor_multiple: s.median_ms / floor_ms,
+            name: s.name,
+            median_ms: s.median_ms,
+            p95_ms: s.p95_ms,
+        })
+        .collect();
+    let frame_gpu: Vec<f64> = gpu_frames
+        .iter()
+        .map(|f| f.iter().map(|t| t.ms).sum())
+        .collect();
+    Ok(BenchReport {
+        adapter: ctx.adapter.clone(),
+        size: format!("{}x{}", opts.width, opts.height),
+        fps,
+        fps_with_readback,
+        floor_ms,
+        stages,
+        frame_gpu_ms: Percentiles::of(&frame_gpu),
+        frame_wall_ms_with_readback: Percentiles::of(&wall),
+        frames: opts.frames,
+        warmup: opts.warmup,
+        config: opts.config,
+        plan: plan.names(),
+        host_threads: std::thread::available_parallelism()
+            .map(|n| n.get())
+            .unwrap_or(1),
+        lp_num_threads: std::env::var("LP_NUM_THREADS").ok(),
+    })
+}
+
+impl std::fmt::Display for BenchReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(
+            f,
+            "adapter: {} ({}, {}, {})",
+            self.adapter.name, self.adapter.backend, self.adapter.driver, self.adapter.driver_info
+        )?;
+        writeln!(
+            f,
+            "size {}, {} frames after {} warm-up, intermediates {:?}, reduction {:?}, host threads {}{}",
+            self.size,
+            self.frames,
+            self.warmup,
+            self.config.hdr_format,
+            self.config.reduction,
+            self.host_threads,
+            self.lp_num_threads.as_ref().map(|t| format!(", LP_NUM_THREADS={t}")).unwrap_or_default()
+        )?;
+        writeln!(
+            f,
+            "{:<18} {:>10} {:>10} {:>8}",
+            "stage", "median ms", "p95 ms", "x floor"
+        )?;
+        for s in &self.stages {
+            writeln!(
+                f,
+                "{:<18} {:>10.3} {:>10.3} {:>8.2}",
+                s.name, s.median_ms, s.p95_ms, s.floor_multiple
+            )?;
+        }
+        writeln!(f, "{:<18} {:>10.3}", "floor", self.floor_ms)?;
+        writeln!(
+            f,
+            "GPU frame ms p50/p95/p99: {:.2} / {:.2} / {:.2}",
+            self.frame_gpu_ms.p50, self.frame_gpu_ms.p95, self.frame_gpu_ms.p99
+        )?;
+        writeln!(
+            f,
+            "wall frame ms with readback p50/p95/p99: {:.2} / {:.2} / {:.2}",
+            self.frame_wall_ms_with_readback.p50,
+            self.frame_wall_ms_with_readback.p95,
+            self.frame_wall_ms_with_readback.p99
+        )?;
+        write!(
+            f,
+            "FPS: {:.1} without readback, {:.1} with readback",
+            self.fps, self.fps_with_readback
+        )
+    }
+}
