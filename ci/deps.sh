@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
 # Installs the Debian packages tonegate's jobs need, when they are missing.
 # Sourced by ci/main.sh and ci/test.sh; idempotent, and quiet when all is there.
+#   mesa-vulkan-drivers - lavapipe, the software Vulkan driver the GPU pipeline runs on
 #   pfstools, pfstmo   - the peer tone mapper the reinhard02 preset is locked to
 #   python3-venv       - the scikit-image venv that regenerates tests/skimage/vectors.json
 set -euo pipefail
 
 need=()
+ls /usr/share/vulkan/icd.d/lvp_icd*.json >/dev/null 2>&1 || need+=(mesa-vulkan-drivers)
 command -v pfstmo_reinhard02 >/dev/null 2>&1 || need+=(pfstools pfstmo)
 python3 -c 'import ensurepip, venv' >/dev/null 2>&1 || need+=(python3-venv)
 if [ "${#need[@]}" -gt 0 ]; then

@@ -93,7 +93,7 @@ pub struct SuiteArgs {
     /// The suite file.
     #[arg(long, default_value = "golden/suite.toml")]
     pub suite: PathBuf,
-    /// Samples per pixel of the render under test (1 = the plain path).
+    /// Samples per pixel of the CPU render under test (1 = the plain path).
     #[arg(long, default_value_t = 1)]
     pub spp: u32,
     /// Also write the full results as JSON to this file ("-" for stdout).
@@ -761,12 +761,20 @@ fn suite(a: SuiteArgs) -> Result<ExitCode> {
         return Err(invalid("the golden set is incomplete or stale (see above)"));
     }
     let total: u64 = scenes.iter().map(|s| s.frames as u64).sum();
+    let ctx = if a.cpu {
+        None
+    } else {
+        Some(crate::gpu::GpuContext::new(&a.gpu.adapter).map_err(gpu_error)?)
+    };
     let bar = crate::golden::progress_bar(total, "suite");
     let mut results = Vec::new();
     for scene in &scenes {
         bar.set_message(scene.name.clone());
-        let r =
-            crate::suite::run_scene_cpu(&root, scene, a.spp).map_err(|e| invalid(e.to_string()))?;
+        let r = match &ctx {
+            None => crate::suite::run_scene_cpu(&root, scene, a.spp),
+            Some(ctx) => crate::suite::run_scene_gpu(&root, scene, ctx, a.gpu.config()),
+        }
+        .map_err(|e| invalid(e.to_string()))?;
         bar.inc(scene.frames as u64);
         results.push(r);
     }
@@ -798,10 +806,34 @@ fn suite(a: SuiteArgs) -> Result<ExitCode> {
             println!("    FAIL {}", c.detail);
         }
     }
+    if let Some(ctx) = &ctx {
+        let ad = &ctx.adapter;
+        println!(
+            "renderer: {} ({}, {}), 1 spp, intermediates {:?}, reduction {:?}",
+            ad.name, ad.backend, ad.driver_info, a.gpu.hdr_format, a.gpu.reduction
+        );
+        println!(
+            "{:<36} {}",
+            "GPU median ms per stage", "(FPS with readback)"
+        );
+        for r in &results {
+            let stages: Vec<String> = r
+                .timings
+                .iter()
+                .map(|t| format!("{} {:.2}", t.name, t.median_ms))
+                .collect();
+            println!(
+                "{:<36} {} ({:.1} FPS)",
+                r.scene,
+                stages.join(", "),
+                r.fps.unwrap_or(0.0)
+            );
+        }
+    }
     println!(
-        "renderer: cpu-reference at {} spp against {}-spp goldens; SSIM: {}",
-        a.spp,
+        "goldens: cpu-reference at {} spp; CPU path under test (--cpu) renders at {} spp; SSIM: {}",
         scenes.first().map(|s| s.reference_spp).unwrap_or(16),
+        a.spp,
         crate::metrics::SSIM_DEFINITION
     );
     if let Some(path) = &a.json {

@@ -2,10 +2,13 @@
 //! at a given spp and compared with its golden, and the scene's checks
 //! evaluated. The GPU renderer will take the renderer's place here.
 
+use crate::conventions::rotation_matrix;
 use crate::golden::{read_frame, scene_environment, GoldenError};
+use crate::gpu::timing::{summarise, TimingSummary};
+use crate::gpu::{GpuConfig, GpuContext, GpuInput, GpuRenderer};
 use crate::metrics::{compare, fraction_over, Metrics};
 use crate::plan::StagePlan;
-use crate::reference::render_frame;
+use crate::reference::{render_frame, scene_camera, Pipeline};
 use crate::scene::{Check, CheckSpec, Scene};
 use serde::Serialize;
 use std::path::Path;
@@ -14,6 +17,11 @@ use std::path::Path;
 pub enum SuiteError {
     #[error(transparent)]
     Golden(#[from] GoldenError),
+    #[error("scene {scene}: {source}")]
+    Gpu {
+        scene: String,
+        source: crate::gpu::GpuError,
+    },
     #[error("scene {scene}, frame {frame}: {source}")]
     Metrics {
         scene: String,
@@ -95,6 +103,10 @@ pub struct SceneResult {
     pub psnr: Summary,
     pub ssim: Summary,
     pub checks: Vec<CheckResult>,
+    /// Per-stage GPU time (median, p95) over the sequence; empty on the CPU.
+    pub timings: Vec<TimingSummary>,
+    /// Frames per second with readback (GPU only).
+    pub fps: Option<f64>,
 }
 
 impl SceneResult {
@@ -104,7 +116,13 @@ impl SceneResult {
 }
 
 /// Evaluates one check over all frames; `adapter` is the renderer's name.
-pub fn evaluate(spec: &CheckSpec, frames: &[FrameResult], adapter: &str) -> CheckResult {
+pub fn evaluate(
+    spec: &CheckSpec,
+    frames: &[FrameResult],
+    adapter: &str,
+    timings: &[TimingSummary],
+    fps: Option<f64>,
+) -> CheckResult {
     let applies = spec
         .adapter
         .as_ref()
@@ -174,29 +192,47 @@ pub fn evaluate(spec: &CheckSpec, frames: &[FrameResult], adapter: &str) -> Chec
                 format!("worst fraction over {lsb} LSB {v:.5} at frame {f} (max {fraction})"),
             )
         }
-        Check::MaxStageMs { .. } | Check::MinFps(_) => {
-            return result(None, "timing checks apply to the GPU renderer".into());
-        }
+        Check::MaxStageMs { stage, ms } => match timings.iter().find(|t| &t.name == stage) {
+            Some(t) => (
+                t.median_ms <= *ms,
+                format!("{stage} median {:.3} ms (max {ms})", t.median_ms),
+            ),
+            None => return result(None, format!("no GPU timing for stage {stage}")),
+        },
+        Check::MinFps(bound) => match fps {
+            Some(v) => (
+                v >= *bound,
+                format!("{v:.1} FPS with readback (min {bound})"),
+            ),
+            None => return result(None, "FPS is measured on the GPU renderer".into()),
+        },
     };
     result(Some(passed), detail)
 }
 
-/// Renders every frame of `scene` on the CPU at `spp` and compares it with the
-/// golden under `root`.
-pub fn run_scene_cpu(root: &Path, scene: &Scene, spp: u32) -> Result<SceneResult, SuiteError> {
-    let env = scene_environment(scene)?;
-    let renderer = format!("cpu-reference ({spp} spp)");
-    let mut frames = Vec::with_capacity(scene.frames as usize);
-    for n in 0..scene.frames {
+/// Compares rendered frames with the goldens under `root` and evaluates the
+/// scene's checks for `adapter`.
+fn judge(
+    root: &Path,
+    scene: &Scene,
+    renderer: String,
+    adapter: &str,
+    spp: u32,
+    rendered: Vec<crate::image::Rgb8Image>,
+    timings: Vec<TimingSummary>,
+    fps: Option<f64>,
+) -> Result<SceneResult, SuiteError> {
+    let mut frames = Vec::with_capacity(rendered.len());
+    for (n, frame) in rendered.iter().enumerate() {
+        let n = n as u32;
         let golden = read_frame(root, &scene.name, n)?;
-        let out = render_frame(scene, &env, n, spp);
         let err = |source| SuiteError::Metrics {
             scene: scene.name.clone(),
             frame: n,
             source,
         };
-        let metrics = compare(out.frame.raster(), golden.raster()).map_err(err)?;
-        let over = fraction_over(out.frame.raster(), golden.raster(), 1).map_err(err)?;
+        let metrics = compare(frame.raster(), golden.raster()).map_err(err)?;
+        let over = fraction_over(frame.raster(), golden.raster(), 1).map_err(err)?;
         frames.push(FrameResult {
             frame: n,
             metrics,
@@ -208,7 +244,7 @@ pub fn run_scene_cpu(root: &Path, scene: &Scene, spp: u32) -> Result<SceneResult
     let checks = scene
         .checks
         .iter()
-        .map(|c| evaluate(c, &frames, "cpu-reference"))
+        .map(|c| evaluate(c, &frames, adapter, &timings, fps))
         .collect();
     Ok(SceneResult {
         scene: scene.name.clone(),
@@ -219,5 +255,78 @@ pub fn run_scene_cpu(root: &Path, scene: &Scene, spp: u32) -> Result<SceneResult
         ssim: Summary::of(&ssim, true),
         frames,
         checks,
+        timings,
+        fps,
     })
+}
+
+/// Renders every frame of `scene` on the CPU at `spp` and compares it with the
+/// golden under `root`.
+pub fn run_scene_cpu(root: &Path, scene: &Scene, spp: u32) -> Result<SceneResult, SuiteError> {
+    let env = scene_environment(scene)?;
+    let rendered = (0..scene.frames)
+        .map(|n| render_frame(scene, &env, n, spp).frame)
+        .collect();
+    judge(
+        root,
+        scene,
+        format!("cpu-reference ({spp} spp)"),
+        "cpu-reference",
+        spp,
+        rendered,
+        Vec::new(),
+        None,
+    )
+}
+
+/// Renders every frame of `scene` on the GPU (1 spp, the plain path) and
+/// compares it with the golden under `root`; stage times and FPS come along.
+pub fn run_scene_gpu(
+    root: &Path,
+    scene: &Scene,
+    ctx: &GpuContext,
+    config: GpuConfig,
+) -> Result<SceneResult, SuiteError> {
+    let env = scene_environment(scene)?;
+    let gpu = |e: crate::gpu::GpuError| SuiteError::Gpu {
+        scene: scene.name.clone(),
+        source: e,
+    };
+    let r = GpuRenderer::new(
+        ctx,
+        StagePlan::for_scene(scene, 1),
+        GpuInput::Sphere {
+            env: &env,
+            camera: scene_camera(scene),
+            spp: 1,
+        },
+        &Pipeline::of_scene(scene),
+        config,
+    )
+    .map_err(gpu)?;
+    let mut rendered = Vec::with_capacity(scene.frames as usize);
+    let mut times = Vec::with_capacity(scene.frames as usize);
+    let mut wall = 0.0;
+    for n in 0..scene.frames {
+        r.set_rotation(&rotation_matrix(scene.rotation.axis, scene.angle(n)));
+        let out = r.render(true).map_err(gpu)?;
+        wall += out.wall_ms;
+        times.push(out.timings);
+        rendered.push(
+            out.frame
+                .ok_or_else(|| gpu(crate::gpu::GpuError::Readback("no frame".into())))?,
+        );
+    }
+    let fps = scene.frames as f64 / (wall / 1e3);
+    let name = ctx.adapter.name.clone();
+    judge(
+        root,
+        scene,
+        name.clone(),
+        &name,
+        1,
+        rendered,
+        summarise(&times),
+        Some(fps),
+    )
 }
