@@ -1,0 +1,394 @@
+//! SSIM exactly as scikit-image computes it in the Wang et al. 2004 setting:
+//! `structural_similarity(test, reference, gaussian_weights=True, sigma=1.5,
+//! use_sample_covariance=False, data_range=255, channel_axis=-1)`.
+//!
+//! What that call does (read from scikit-image 0.26's source, and locked by
+//! `tests/metrics_skimage.rs`):
+//! - each channel separately, samples as float64 in 0..=255;
+//! - `scipy.ndimage.gaussian_filter(σ = 1.5, truncate = 3.5, mode='reflect')`:
+//!   radius int(3.5·1.5 + 0.5) = 5, 11 taps exp(−x²/2σ²) normalised to sum 1,
+//!   borders mirrored about the edge (d c b a | a b c d | d c b a);
+//! - ux, uy, uxx, uyy, uxy filtered; vx = uxx − ux², vy = uyy − uy²,
+//!   vxy = uxy − ux·uy (population covariance);
+//! - S = (2·ux·uy + C1)(2·vxy + C2) / ((ux² + uy² + C1)(vx + vy + C2)) with
+//!   C1 = (0.01·255)², C2 = (0.03·255)²;
+//! - the mean of S over the map with a 5-pixel border cropped, then the mean
+//!   over channels;
+//! - images narrower or shorter than the 11-pixel window are refused
+//!   ("win_size exceeds image extent"), and so are they here.
+//!
+//! Work is split into fixed bands of rows run in parallel; the band size does
+//! not depend on the thread count, and partial sums are added in band order,
+//! so the result is the same on any number of cores.
+
+use super::raster::{check_pair, Raster};
+use super::ssim_kernel::{self, VerticalRows};
+use super::MetricsError;
+use crate::image::Image;
+use rayon::prelude::*;
+
+/// Gaussian window radius: scipy's int(truncate·σ + 0.5) with truncate = 3.5
+/// and σ = 1.5 (scikit-image picks truncate = 3.5 to get Wang's 11 taps).
+pub(crate) const RADIUS: usize = 5;
+/// Window side; also the smallest image side scikit-image accepts.
+pub const SSIM_WINDOW: u32 = 2 * RADIUS as u32 + 1;
+const SIGMA: f64 = 1.5;
+const DATA_RANGE: f64 = 255.0;
+/// (K1·L)², evaluated as Python evaluates `(K1 * R) ** 2`.
+pub(crate) const C1: f64 = (0.01 * DATA_RANGE) * (0.01 * DATA_RANGE);
+/// (K2·L)².
+pub(crate) const C2: f64 = (0.03 * DATA_RANGE) * (0.03 * DATA_RANGE);
+
+/// Rows per parallel work item. Fixed (not derived from the thread count) so
+/// that the summation order, and therefore the result, never changes.
+const BAND_ROWS: usize = 8;
+
+/// Mean SSIM and the per-pixel SSIM map.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Ssim {
+    /// scikit-image's mean SSIM (border-cropped, channel-averaged).
+    pub mean: f64,
+    /// S at every pixel, averaged over channels, full size and uncropped: the
+    /// border pixels are kept because a defect there is still a defect, even
+    /// though the mean leaves them out.
+    pub map: Image<f64>,
+}
+
+/// Mean SSIM (see the module documentation for the exact definition).
+///
+/// Errors when the pair cannot be compared or either side is under 11 pixels.
+pub fn mean_ssim(test: Raster, reference: Raster) -> Result<f64, MetricsError> {
+    run(&test, &reference, None, KernelPath::best())
+}
+
+/// Mean SSIM together with the per-pixel map.
+pub fn ssim(test: Raster, reference: Raster) -> Result<Ssim, MetricsError> {
+    ssim_on(&test, &reference, KernelPath::best())
+}
+
+/// Which compilation of the row kernel runs. The two differ only in the last
+/// bits (fused multiply-adds in the filter), far below the 1e-6 tolerance.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum KernelPath {
+    Portable,
+    #[cfg(target_arch = "x86_64")]
+    Avx2Fma,
+}
+
+impl KernelPath {
+    pub(crate) fn best() -> Self {
+        #[cfg(target_arch = "x86_64")]
+        if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") {
+            return KernelPath::Avx2Fma;
+        }
+        KernelPath::Portable
+    }
+}
+
+pub(crate) fn ssim_on(
+    test: &Raster,
+    reference: &Raster,
+    path: KernelPath,
+) -> Result<Ssim, MetricsError> {
+    check_size(test, reference)?;
+    let mut map = Image::filled(test.width, test.height, 0.0);
+    let mean = run(test, reference, Some(&mut map.pixels), path)?;
+    Ok(Ssim { mean, map })
+}
+
+fn check_size(test: &Raster, reference: &Raster) -> Result<(), MetricsError> {
+    check_pair(test, reference)?;
+    if test.width < SSIM_WINDOW || test.height < SSIM_WINDOW {
+        return Err(MetricsError::TooSmallForSsim {
+            width: test.width,
+            height: test.height,
+        });
+    }
+    Ok(())
+}
+
+/// The normalised kernel's centre and one-sided weights, as scipy's
+/// `_gaussian_kernel1d`: exp(−0.5/σ² · x²) over x = −5..=5, divided by the sum.
+pub(crate) fn kernel_weights() -> [f64; RADIUS + 1] {
+    let sigma2 = SIGMA * SIGMA;
+    let phi = |x: i32| libm::exp(-0.5 / sigma2 * f64::from(x * x));
+    let sum: f64 = (-(RADIUS as i32)..=RADIUS as i32).map(phi).sum();
+    std::array::from_fn(|k| phi(k as i32) / sum)
+}
+
+/// scipy's 'reflect' border: index `i` of a line of `n` samples extended by
+/// mirroring about the edges (d c b a | a b c d | d c b a), repeated as often
+/// as needed, so it is defined for lines shorter than the kernel radius too.
+pub(crate) fn reflect_index(i: isize, n: usize) -> usize {
+    let period = 2 * n as isize;
+    let m = i.rem_euclid(period) as usize;
+    if m < n {
+        m
+    } else {
+        2 * n - 1 - m
+    }
+}
+
+/// Fills the `RADIUS` pixels of padding on each side of the five vertical rows
+/// by reflecting their interior.
+pub(crate) fn reflect_padding(rows: &mut VerticalRows, channels: usize) {
+    let width = rows.x.len() / channels - 2 * RADIUS;
+    for row in [
+        &mut rows.x,
+        &mut rows.y,
+        &mut rows.xx,
+        &mut rows.yy,
+        &mut rows.xy,
+    ] {
+        for p in 0..RADIUS {
+            let left_src = RADIUS + reflect_index(p as isize - RADIUS as isize, width);
+            let right_dst = RADIUS + width + p;
+            let right_src = RADIUS + reflect_index((width + p) as isize, width);
+            row.copy_within(left_src * channels..(left_src + 1) * channels, p * channels);
+            row.copy_within(
+                right_src * channels..(right_src + 1) * channels,
+                right_dst * channels,
+            );
+        }
+    }
+}
+
+/// Per-worker buffers, reused across bands.
+struct Scratch {
+    vertical: VerticalRows,
+    s: Vec<f64>,
+}
+
+/// Computes the mean and, when `map` is given, fills it (width × height).
+fn run(
+    test: &Raster,
+    reference: &Raster,
+    map: Option<&mut [f64]>,
+    path: KernelPath,
+) -> Result<f64, MetricsError> {
+    check_size(test, reference)?;
+    let width = test.width as usize;
+    let height = test.height as usize;
+    let channels = test.channels;
+    let weights = kernel_weights();
+    let new_scratch = || Scratch {
+        vertical: VerticalRows::new((width + 2 * RADIUS) * channels),
+        s: vec![0.0; width * channels],
+    };
+    let band = |scratch: &mut Scratch, index: usize, map_rows: Option<&mut [f64]>| {
+        let rows = index * BAND_ROWS..((index + 1) * BAND_ROWS).min(height);
+        band_sum(test, reference, &weights, path, scratch, rows, map_rows)
+    };
+    let bands = height.div_ceil(BAND_ROWS);
+    let sums: Vec<f64> = match map {
+        Some(map) => map
+            .par_chunks_mut(BAND_ROWS * width)
+            .enumerate()
+            .map_init(new_scratch, |scratch, (index, rows)| {
+                band(scratch, index, Some(rows))
+            })
+            .collect(),
+        None => (0..bands)
+            .into_par_iter()
+            .map_init(new_scratch, |scratch, index| band(scratch, index, None))
+            .collect(),
+    };
+    let total: f64 = sums.iter().sum();
+    let cropped = (width - 2 * RADIUS) * (height - 2 * RADIUS) * channels;
+    Ok(total / cropped as f64)
+}
+
+/// SSIM rows `rows`; returns Σ S over the cropped part of those rows and, when
+/// `map_rows` is given, writes their channel-averaged S.
+fn band_sum(
+    test: &Raster,
+    reference: &Raster,
+    weights: &[f64; RADIUS + 1],
+    path: KernelPath,
+    scratch: &mut Scratch,
+    rows: std::ops::Range<usize>,
+    mut map_rows: Option<&mut [f64]>,
+) -> f64 {
+    let height = test.height as usize;
+    let width = test.width as usize;
+    let channels = test.channels;
+    let n = width * channels;
+    fn row_of<'a>(raster: &Raster<'a>, y: usize) -> [&'a [u8]; 2 * RADIUS + 1] {
+        let height = raster.height as usize;
+        let n = raster.row_len();
+        std::array::from_fn(|k| {
+            let r = reflect_index(y as isize + k as isize - RADIUS as isize, height);
+            &raster.samples[r * n..(r + 1) * n]
+        })
+    }
+    let first = rows.start;
+    let mut sum = 0.0;
+    for y in rows {
+        let a = row_of(test, y);
+        let b = row_of(reference, y);
+        let s = &mut scratch.s;
+        match path {
+            KernelPath::Portable => {
+                ssim_kernel::row_portable(weights, &a, &b, &mut scratch.vertical, channels, s)
+            }
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `KernelPath::Avx2Fma` is only chosen after
+            // `is_x86_feature_detected!` confirmed AVX2 and FMA.
+            KernelPath::Avx2Fma => unsafe {
+                ssim_kernel::row_avx2_fma(weights, &a, &b, &mut scratch.vertical, channels, s)
+            },
+        }
+        if (RADIUS..height - RADIUS).contains(&y) {
+            sum += sum_in_lanes(&s[RADIUS * channels..n - RADIUS * channels]);
+        }
+        if let Some(map) = map_rows.as_deref_mut() {
+            let out = &mut map[(y - first) * width..(y - first + 1) * width];
+            let scale = 1.0 / channels as f64;
+            for (m, pixel) in out.iter_mut().zip(s.chunks_exact(channels)) {
+                *m = pixel.iter().sum::<f64>() * scale;
+            }
+        }
+    }
+    sum
+}
+
+/// Σ xs with eight independent accumulators: the plain left fold is a chain of
+/// dependent additions that costs more than the filtering of a row.
+fn sum_in_lanes(xs: &[f64]) -> f64 {
+    let mut lanes = [0.0f64; 8];
+    let chunks = xs.chunks_exact(8);
+    let tail: f64 = chunks.remainder().iter().sum();
+    for chunk in chunks {
+        for (lane, &x) in lanes.iter_mut().zip(chunk) {
+            *lane += x;
+        }
+    }
+    lanes.iter().sum::<f64>() + tail
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pattern(width: u32, height: u32, channels: usize, seed: u32) -> Vec<u8> {
+        // A small deterministic hash so the tests need no RNG crate.
+        (0..width * height * channels as u32)
+            .map(|i| {
+                let mut v = i.wrapping_mul(2654435761) ^ seed.wrapping_mul(40503);
+                v ^= v >> 13;
+                v = v.wrapping_mul(0x5bd1e995);
+                (v >> 24) as u8
+            })
+            .collect()
+    }
+
+    #[test]
+    fn weights_match_scipy() {
+        let w = kernel_weights();
+        let total = w[0] + 2.0 * w[1..].iter().sum::<f64>();
+        assert!((total - 1.0).abs() < 1e-15);
+        // scipy.ndimage._filters._gaussian_kernel1d(1.5, 0, 5)[5], [10]
+        assert!((w[0] - 0.266_011_724_861_794_36).abs() < 1e-15, "{}", w[0]);
+        assert!((w[5] - 0.001_028_380_084_479_11).abs() < 1e-15, "{}", w[5]);
+    }
+
+    #[test]
+    fn reflect_index_matches_scipy_for_short_lines() {
+        // scipy.ndimage.correlate1d(line, e0 of 11 taps, mode='reflect')
+        // reads line[i − 5]; these are the indices it used for i = 0, 1, ...
+        assert_eq!(reflect_index(-5, 1), 0);
+        assert_eq!([reflect_index(-5, 2), reflect_index(-4, 2)], [0, 0]);
+        assert_eq!(
+            [-5, -4, -3].map(|i| reflect_index(i, 3)),
+            [1, 2, 2],
+            "n = 3"
+        );
+        assert_eq!([-5, -4, -3, -2].map(|i| reflect_index(i, 4)), [3, 3, 2, 1]);
+        assert_eq!(
+            [-5, -4, -3, -2, -1, 0, 1].map(|i| reflect_index(i, 7)),
+            [4, 3, 2, 1, 0, 0, 1]
+        );
+        assert_eq!(
+            [7, 8, 13, 14, 15].map(|i| reflect_index(i, 7)),
+            [6, 5, 0, 0, 1]
+        );
+    }
+
+    #[test]
+    fn identical_images_give_exactly_one_on_every_path() {
+        for channels in [1, 3, 4] {
+            let a = pattern(23, 17, channels, 1);
+            let r = Raster::new(23, 17, channels, &a).unwrap();
+            for path in paths() {
+                let s = ssim_on(&r, &r, path).unwrap();
+                assert_eq!(s.mean, 1.0, "{channels} channels, {path:?}");
+                assert!(s.map.pixels.iter().all(|&v| v == 1.0));
+            }
+        }
+    }
+
+    #[test]
+    fn perturbed_image_scores_below_one() {
+        let a = pattern(40, 30, 3, 1);
+        let mut b = a.clone();
+        b[3 * (15 * 40 + 20)] ^= 0x40;
+        let (ra, rb) = (
+            Raster::new(40, 30, 3, &a).unwrap(),
+            Raster::new(40, 30, 3, &b).unwrap(),
+        );
+        let s = ssim(ra, rb).unwrap();
+        assert!(s.mean < 1.0 && s.mean > 0.9, "{}", s.mean);
+        assert!(s.map.get(20, 15) < 1.0);
+        assert_eq!(s.map.get(0, 0), 1.0, "far from the change");
+        assert_eq!(mean_ssim(ra, rb).unwrap(), s.mean);
+    }
+
+    #[test]
+    fn paths_agree_and_thread_count_does_not_matter() {
+        let (w, h) = (67, 45);
+        let a = pattern(w, h, 3, 1);
+        let b = pattern(w, h, 3, 2);
+        let ra = Raster::new(w, h, 3, &a).unwrap();
+        let rb = Raster::new(w, h, 3, &b).unwrap();
+        let base = ssim_on(&ra, &rb, KernelPath::Portable).unwrap();
+        for path in paths() {
+            let other = ssim_on(&ra, &rb, path).unwrap();
+            assert!((other.mean - base.mean).abs() < 1e-12);
+            let single = rayon::ThreadPoolBuilder::new()
+                .num_threads(1)
+                .build()
+                .unwrap()
+                .install(|| ssim_on(&ra, &rb, path).unwrap());
+            assert_eq!(single, other, "{path:?}");
+        }
+    }
+
+    #[test]
+    fn windows_larger_than_the_image_are_an_error() {
+        for (w, h) in [(10, 40), (40, 10), (7, 7), (1, 1)] {
+            let a = pattern(w, h, 3, 1);
+            let r = Raster::new(w, h, 3, &a).unwrap();
+            let err = mean_ssim(r, r).unwrap_err();
+            assert_eq!(
+                err,
+                MetricsError::TooSmallForSsim {
+                    width: w,
+                    height: h
+                }
+            );
+            assert!(err.to_string().contains("11"), "{err}");
+            assert!(ssim(r, r).is_err());
+        }
+        let a = pattern(11, 11, 1, 1);
+        let r = Raster::new(11, 11, 1, &a).unwrap();
+        assert_eq!(mean_ssim(r, r).unwrap(), 1.0);
+    }
+
+    fn paths() -> Vec<KernelPath> {
+        let mut paths = vec![KernelPath::Portable];
+        if KernelPath::best() != KernelPath::Portable {
+            paths.push(KernelPath::best());
+        }
+        paths
+    }
+}
