@@ -15,6 +15,8 @@ pub mod basic;
 pub mod json;
 pub mod raster;
 pub mod ssim;
+#[cfg(target_arch = "x86_64")]
+mod ssim_avx2;
 mod ssim_kernel;
 pub mod visual;
 
