@@ -243,9 +243,9 @@ fn band_sum(
         }
         if let Some(map) = map_rows.as_deref_mut() {
             let out = &mut map[(y - first) * width..(y - first + 1) * width];
-            let scale = 1.0 / channels as f64;
+            // Sum then divide, as numpy's mean over the channel axis does.
             for (m, pixel) in out.iter_mut().zip(s.chunks_exact(channels)) {
-                *m = pixel.iter().sum::<f64>() * scale;
+                *m = pixel.iter().sum::<f64>() / channels as f64;
             }
         }
     }
