@@ -4,7 +4,7 @@
 //! - [`raster`]: the borrowed sample view every metric takes;
 //! - [`basic`]: MSE, RMSE, PSNR, SNR, maximum difference, fraction over k LSB,
 //!   from exact integer sums;
-//! - [`ssim`]: SSIM in scikit-image's definition (agreeing to ~1e-12), fast;
+//! - [`ssim`](mod@ssim): SSIM in scikit-image's definition (agreeing to ~1e-12), fast;
 //! - [`visual`]: the SSIM map and difference heat-map images;
 //! - [`json`]: how +∞ PSNR/SNR is written to JSON.
 //!
