@@ -1,10 +1,10 @@
 //! Pixel-wise error metrics: MSE, RMSE, PSNR, SNR, maximum difference and the
 //! fraction of pixels off by more than k LSB.
 //!
-//! Every sum here is an exact `u64` over integer samples (255² × 2⁴⁸ samples
-//! would be needed to overflow), so MSE is the correctly rounded quotient of
-//! two exact integers: the same bits numpy's float64 mean gives, independent
-//! of summation order and thread count.
+//! Every sum here is an exact `u64` over integer samples (it would take ~2⁴⁸
+//! samples, each off by 255, to overflow), so MSE is the correctly rounded
+//! quotient of two exact integers: the same bits numpy's float64 mean gives,
+//! independent of summation order and thread count.
 
 use super::raster::{check_pair, Raster};
 use super::MetricsError;

@@ -4,7 +4,7 @@
 //! - [`raster`]: the borrowed sample view every metric takes;
 //! - [`basic`]: MSE, RMSE, PSNR, SNR, maximum difference, fraction over k LSB,
 //!   from exact integer sums;
-//! - [`ssim`]: SSIM bit-for-bit in scikit-image's definition (to ~1e-15), fast;
+//! - [`ssim`](mod@ssim): SSIM in scikit-image's definition (agreeing to ~1e-12), fast;
 //! - [`visual`]: the SSIM map and difference heat-map images;
 //! - [`json`]: how +∞ PSNR/SNR is written to JSON.
 //!
@@ -15,6 +15,8 @@ pub mod basic;
 pub mod json;
 pub mod raster;
 pub mod ssim;
+#[cfg(target_arch = "x86_64")]
+mod ssim_avx2;
 mod ssim_kernel;
 pub mod visual;
 
@@ -118,6 +120,10 @@ pub struct Metrics {
 }
 
 /// Compares `test` (the image under test) with `reference` (the golden).
+///
+/// Refuses images under 11×11 ([`MetricsError::TooSmallForSsim`]) because the
+/// report promises an SSIM; the individual pixel metrics ([`mse`], [`psnr`],
+/// ...) accept any non-empty size.
 pub fn compare(test: Raster, reference: Raster) -> Result<Metrics, MetricsError> {
     // SSIM first: it refuses small images, and it is the expensive part, so a
     // refusal costs nothing.

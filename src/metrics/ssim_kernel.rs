@@ -11,39 +11,12 @@
 //!
 //! Both passes use the symmetric form w₀·v₀ + Σₖ wₖ·(v₋ₖ + v₊ₖ) (6 multiplies
 //! instead of 11), like scipy's `correlate1d` does for symmetric kernels.
-//! The loops are written over pre-trimmed slices of one common length so LLVM
-//! drops the bounds checks and vectorises them; the same body is compiled a
-//! second time with AVX2+FMA enabled and chosen at run time.
+//!
+//! This is the portable kernel: loops over fixed-size lane arrays that LLVM
+//! vectorises for whatever the target baseline is. `ssim_avx2` is the same
+//! computation in intrinsics, chosen at run time where the CPU allows.
 
 use super::ssim::{C1, C2, RADIUS};
-
-/// How the filter accumulates `acc + w·v`: two roundings on the portable path,
-/// one (a hardware FMA) where the CPU has it. The S formula itself never uses
-/// this, so that S is exactly 1 for identical inputs on both paths.
-pub(crate) trait MulAdd {
-    fn mul_add(a: f64, b: f64, c: f64) -> f64;
-}
-
-/// `a·b + c` with two roundings; portable.
-pub(crate) struct Separate;
-impl MulAdd for Separate {
-    #[inline(always)]
-    fn mul_add(a: f64, b: f64, c: f64) -> f64 {
-        a * b + c
-    }
-}
-
-/// `a·b + c` with one rounding. Only instantiated inside functions compiled
-/// with the `fma` target feature: elsewhere `f64::mul_add` is a slow libm call.
-#[cfg(target_arch = "x86_64")]
-pub(crate) struct Fused;
-#[cfg(target_arch = "x86_64")]
-impl MulAdd for Fused {
-    #[inline(always)]
-    fn mul_add(a: f64, b: f64, c: f64) -> f64 {
-        a.mul_add(b, c)
-    }
-}
 
 /// The five vertically filtered moments of one row, each padded by `RADIUS`
 /// reflected pixels on both sides so the horizontal pass needs no border case.
@@ -67,53 +40,147 @@ impl VerticalRows {
     }
 }
 
+/// Samples per step of the inner loops: 8 f64 fill two AVX2 registers (or
+/// one AVX-512 register). Fixed-size arrays give LLVM's SLP vectoriser
+/// straight-line code with no aliasing or bounds questions to answer.
+const LANES: usize = 8;
+/// Taps of the 1-D kernel.
+pub(crate) const TAPS: usize = 2 * RADIUS + 1;
+
+#[inline(always)]
+fn load_u8<const L: usize>(row: &[u8], i: usize) -> [f64; L] {
+    // One bounds check for the whole chunk, so LLVM emits a vector load.
+    let chunk: &[u8; L] = row[i..i + L].try_into().expect("slice of length L");
+    chunk.map(f64::from)
+}
+
+#[inline(always)]
+fn load_f64<const L: usize>(row: &[f64], i: usize) -> [f64; L] {
+    let chunk: &[f64; L] = row[i..i + L].try_into().expect("slice of length L");
+    *chunk
+}
+
+/// The five vertically filtered moments of samples `i..i + L`.
+#[inline(always)]
+fn vertical_lanes<const L: usize>(
+    w: &[f64; RADIUS + 1],
+    a: &[&[u8]; TAPS],
+    b: &[&[u8]; TAPS],
+    i: usize,
+) -> [[f64; L]; 5] {
+    let x0 = load_u8::<L>(a[RADIUS], i);
+    let y0 = load_u8::<L>(b[RADIUS], i);
+    let mut sx = [0.0; L];
+    let mut sy = [0.0; L];
+    let mut sxx = [0.0; L];
+    let mut syy = [0.0; L];
+    let mut sxy = [0.0; L];
+    for l in 0..L {
+        sx[l] = w[0] * x0[l];
+        sy[l] = w[0] * y0[l];
+        sxx[l] = w[0] * (x0[l] * x0[l]);
+        syy[l] = w[0] * (y0[l] * y0[l]);
+        sxy[l] = w[0] * (x0[l] * y0[l]);
+    }
+    for k in 1..=RADIUS {
+        let xl = load_u8::<L>(a[RADIUS - k], i);
+        let xh = load_u8::<L>(a[RADIUS + k], i);
+        let yl = load_u8::<L>(b[RADIUS - k], i);
+        let yh = load_u8::<L>(b[RADIUS + k], i);
+        for l in 0..L {
+            // Sums and products of 8-bit values are exact in f64, so only the
+            // weighting rounds, and x·x and x·y round identically when x = y.
+            sx[l] += w[k] * (xl[l] + xh[l]);
+            sy[l] += w[k] * (yl[l] + yh[l]);
+            sxx[l] += w[k] * (xl[l] * xl[l] + xh[l] * xh[l]);
+            syy[l] += w[k] * (yl[l] * yl[l] + yh[l] * yh[l]);
+            sxy[l] += w[k] * (xl[l] * yl[l] + xh[l] * yh[l]);
+        }
+    }
+    [sx, sy, sxx, syy, sxy]
+}
+
 /// Vertical pass for one output row: `a[k]`, `b[k]` are the source rows at
 /// vertical offset k − RADIUS (already reflected), each `n` samples long;
 /// results go to `out.*[start..start + n]`.
 #[inline(always)]
-pub(crate) fn vertical<M: MulAdd>(
+pub(crate) fn vertical(
     w: &[f64; RADIUS + 1],
-    a: &[&[u8]; 2 * RADIUS + 1],
-    b: &[&[u8]; 2 * RADIUS + 1],
+    a: &[&[u8]; TAPS],
+    b: &[&[u8]; TAPS],
     out: &mut VerticalRows,
     start: usize,
 ) {
     let n = a[RADIUS].len();
-    // Re-slicing everything to exactly `n` lets LLVM prove every index below
-    // in bounds from the loop condition alone.
-    let a: [&[u8]; 2 * RADIUS + 1] = std::array::from_fn(|k| &a[k][..n]);
-    let b: [&[u8]; 2 * RADIUS + 1] = std::array::from_fn(|k| &b[k][..n]);
-    let ox = &mut out.x[start..start + n];
-    let oy = &mut out.y[start..start + n];
-    let oxx = &mut out.xx[start..start + n];
-    let oyy = &mut out.yy[start..start + n];
-    let oxy = &mut out.xy[start..start + n];
-    for i in 0..n {
-        let x0 = f64::from(a[RADIUS][i]);
-        let y0 = f64::from(b[RADIUS][i]);
-        let mut sx = w[0] * x0;
-        let mut sy = w[0] * y0;
-        let mut sxx = w[0] * (x0 * x0);
-        let mut syy = w[0] * (y0 * y0);
-        let mut sxy = w[0] * (x0 * y0);
-        for k in 1..=RADIUS {
-            let xl = f64::from(a[RADIUS - k][i]);
-            let xh = f64::from(a[RADIUS + k][i]);
-            let yl = f64::from(b[RADIUS - k][i]);
-            let yh = f64::from(b[RADIUS + k][i]);
-            // Sums and products of 8-bit values are exact in f64, so only the
-            // weighting rounds, and x·x and x·y round identically when x = y.
-            sx = M::mul_add(w[k], xl + xh, sx);
-            sy = M::mul_add(w[k], yl + yh, sy);
-            sxx = M::mul_add(w[k], xl * xl + xh * xh, sxx);
-            syy = M::mul_add(w[k], yl * yl + yh * yh, syy);
-            sxy = M::mul_add(w[k], xl * yl + xh * yh, sxy);
+    let mut store = |i: usize, moments: &[&[f64]; 5]| {
+        let len = moments[0].len();
+        for (row, m) in [
+            &mut out.x,
+            &mut out.y,
+            &mut out.xx,
+            &mut out.yy,
+            &mut out.xy,
+        ]
+        .into_iter()
+        .zip(moments)
+        {
+            row[start + i..start + i + len].copy_from_slice(m);
         }
-        ox[i] = sx;
-        oy[i] = sy;
-        oxx[i] = sxx;
-        oyy[i] = syy;
-        oxy[i] = sxy;
+    };
+    let mut i = 0;
+    while i + LANES <= n {
+        let [x, y, xx, yy, xy] = vertical_lanes::<LANES>(w, a, b, i);
+        store(i, &[&x, &y, &xx, &yy, &xy]);
+        i += LANES;
+    }
+    while i < n {
+        let [x, y, xx, yy, xy] = vertical_lanes::<1>(w, a, b, i);
+        store(i, &[&x, &y, &xx, &yy, &xy]);
+        i += 1;
+    }
+}
+
+/// One moment filtered horizontally at samples `i..i + L`; `row` is padded
+/// and `stride` is the distance between neighbouring pixels (the channels).
+#[inline(always)]
+fn horizontal_lanes<const L: usize>(
+    w: &[f64; RADIUS + 1],
+    row: &[f64],
+    stride: usize,
+    i: usize,
+) -> [f64; L] {
+    let centre = i + RADIUS * stride;
+    let c = load_f64::<L>(row, centre);
+    let mut acc = [0.0; L];
+    for l in 0..L {
+        acc[l] = w[0] * c[l];
+    }
+    for (k, &wk) in w.iter().enumerate().skip(1) {
+        let lo = load_f64::<L>(row, centre - k * stride);
+        let hi = load_f64::<L>(row, centre + k * stride);
+        for l in 0..L {
+            acc[l] += wk * (lo[l] + hi[l]);
+        }
+    }
+    acc
+}
+
+#[inline(always)]
+fn ssim_lanes<const L: usize>(
+    w: &[f64; RADIUS + 1],
+    v: &VerticalRows,
+    stride: usize,
+    i: usize,
+    s: &mut [f64],
+) {
+    let ux = horizontal_lanes::<L>(w, &v.x, stride, i);
+    let uy = horizontal_lanes::<L>(w, &v.y, stride, i);
+    let uxx = horizontal_lanes::<L>(w, &v.xx, stride, i);
+    let uyy = horizontal_lanes::<L>(w, &v.yy, stride, i);
+    let uxy = horizontal_lanes::<L>(w, &v.xy, stride, i);
+    let out = &mut s[i..i + L];
+    for l in 0..L {
+        out[l] = ssim_formula(ux[l], uy[l], uxx[l], uyy[l], uxy[l]);
     }
 }
 
@@ -121,39 +188,21 @@ pub(crate) fn vertical<M: MulAdd>(
 /// (`RADIUS · channels` samples of reflection on each side), `s` receives one
 /// S value per sample.
 #[inline(always)]
-pub(crate) fn horizontal_ssim<M: MulAdd>(
+pub(crate) fn horizontal_ssim(
     w: &[f64; RADIUS + 1],
     v: &VerticalRows,
     channels: usize,
     s: &mut [f64],
 ) {
     let n = s.len();
-    // taps[q][j] is moment q shifted by j − RADIUS pixels.
-    fn shifted(row: &[f64], channels: usize, n: usize) -> [&[f64]; 2 * RADIUS + 1] {
-        std::array::from_fn(|j| &row[j * channels..j * channels + n])
+    let mut i = 0;
+    while i + LANES <= n {
+        ssim_lanes::<LANES>(w, v, channels, i, s);
+        i += LANES;
     }
-    let taps = |row| shifted(row, channels, n);
-    let (tx, ty, txx, tyy, txy) = (
-        taps(&v.x),
-        taps(&v.y),
-        taps(&v.xx),
-        taps(&v.yy),
-        taps(&v.xy),
-    );
-    let filter = |t: &[&[f64]; 2 * RADIUS + 1], i: usize| -> f64 {
-        let mut acc = w[0] * t[RADIUS][i];
-        for k in 1..=RADIUS {
-            acc = M::mul_add(w[k], t[RADIUS - k][i] + t[RADIUS + k][i], acc);
-        }
-        acc
-    };
-    for (i, out) in s.iter_mut().enumerate() {
-        let ux = filter(&tx, i);
-        let uy = filter(&ty, i);
-        let uxx = filter(&txx, i);
-        let uyy = filter(&tyy, i);
-        let uxy = filter(&txy, i);
-        *out = ssim_formula(ux, uy, uxx, uyy, uxy);
+    while i < n {
+        ssim_lanes::<1>(w, v, channels, i, s);
+        i += 1;
     }
 }
 
@@ -175,18 +224,18 @@ pub(crate) fn ssim_formula(ux: f64, uy: f64, uxx: f64, uyy: f64, uxy: f64) -> f6
 /// Both passes for one row on the portable path.
 pub(crate) fn row_portable(
     w: &[f64; RADIUS + 1],
-    a: &[&[u8]; 2 * RADIUS + 1],
-    b: &[&[u8]; 2 * RADIUS + 1],
+    a: &[&[u8]; TAPS],
+    b: &[&[u8]; TAPS],
     scratch: &mut VerticalRows,
     channels: usize,
     s: &mut [f64],
 ) {
-    vertical::<Separate>(w, a, b, scratch, RADIUS * channels);
+    vertical(w, a, b, scratch, RADIUS * channels);
     super::ssim::reflect_padding(scratch, channels);
-    horizontal_ssim::<Separate>(w, scratch, channels, s);
+    horizontal_ssim(w, scratch, channels, s);
 }
 
-/// Both passes for one row, compiled for AVX2 + FMA.
+/// Both passes for one row with the AVX2 + FMA kernel.
 ///
 /// # Safety
 /// The CPU must support AVX2 and FMA (checked with `is_x86_feature_detected!`).
@@ -194,13 +243,15 @@ pub(crate) fn row_portable(
 #[target_feature(enable = "avx2,fma")]
 pub(crate) unsafe fn row_avx2_fma(
     w: &[f64; RADIUS + 1],
-    a: &[&[u8]; 2 * RADIUS + 1],
-    b: &[&[u8]; 2 * RADIUS + 1],
+    a: &[&[u8]; TAPS],
+    b: &[&[u8]; TAPS],
     scratch: &mut VerticalRows,
     channels: usize,
     s: &mut [f64],
 ) {
-    vertical::<Fused>(w, a, b, scratch, RADIUS * channels);
+    // SAFETY: this function's own contract: AVX2 and FMA are available.
+    unsafe { super::ssim_avx2::vertical(w, a, b, scratch, RADIUS * channels) };
     super::ssim::reflect_padding(scratch, channels);
-    horizontal_ssim::<Fused>(w, scratch, channels, s);
+    // SAFETY: as above.
+    unsafe { super::ssim_avx2::horizontal_ssim(w, scratch, channels, s) };
 }
