@@ -210,20 +210,31 @@ pub fn evaluate(
     result(Some(passed), detail)
 }
 
-/// Compares rendered frames with the goldens under `root` and evaluates the
-/// scene's checks for `adapter`.
-fn judge(
-    root: &Path,
-    scene: &Scene,
+/// What a renderer produced for one scene.
+struct Rendered {
+    /// Renderer description for reports.
     renderer: String,
-    adapter: &str,
+    /// Adapter name the checks' `adapter` overrides are matched against.
+    adapter: String,
     spp: u32,
-    rendered: Vec<crate::image::Rgb8Image>,
+    frames: Vec<crate::image::Rgb8Image>,
     timings: Vec<TimingSummary>,
     fps: Option<f64>,
-) -> Result<SceneResult, SuiteError> {
-    let mut frames = Vec::with_capacity(rendered.len());
-    for (n, frame) in rendered.iter().enumerate() {
+}
+
+/// Compares rendered frames with the goldens under `root` and evaluates the
+/// scene's checks.
+fn judge(root: &Path, scene: &Scene, rendered: Rendered) -> Result<SceneResult, SuiteError> {
+    let Rendered {
+        renderer,
+        adapter,
+        spp,
+        frames: images,
+        timings,
+        fps,
+    } = rendered;
+    let mut frames = Vec::with_capacity(images.len());
+    for (n, frame) in images.iter().enumerate() {
         let n = n as u32;
         let golden = read_frame(root, &scene.name, n)?;
         let err = |source| SuiteError::Metrics {
@@ -244,7 +255,7 @@ fn judge(
     let checks = scene
         .checks
         .iter()
-        .map(|c| evaluate(c, &frames, adapter, &timings, fps))
+        .map(|c| evaluate(c, &frames, &adapter, &timings, fps))
         .collect();
     Ok(SceneResult {
         scene: scene.name.clone(),
