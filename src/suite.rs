@@ -281,12 +281,14 @@ pub fn run_scene_cpu(root: &Path, scene: &Scene, spp: u32) -> Result<SceneResult
     judge(
         root,
         scene,
-        format!("cpu-reference ({spp} spp)"),
-        "cpu-reference",
-        spp,
-        rendered,
-        Vec::new(),
-        None,
+        Rendered {
+            renderer: format!("cpu-reference ({spp} spp)"),
+            adapter: "cpu-reference".into(),
+            spp,
+            frames: rendered,
+            timings: Vec::new(),
+            fps: None,
+        },
     )
 }
 
@@ -329,15 +331,16 @@ pub fn run_scene_gpu(
         );
     }
     let fps = scene.frames as f64 / (wall / 1e3);
-    let name = ctx.adapter.name.clone();
     judge(
         root,
         scene,
-        name.clone(),
-        &name,
-        1,
-        rendered,
-        summarise(&times),
-        Some(fps),
+        Rendered {
+            renderer: ctx.adapter.name.clone(),
+            adapter: ctx.adapter.name.clone(),
+            spp: 1,
+            frames: rendered,
+            timings: summarise(&times),
+            fps: Some(fps),
+        },
     )
 }
