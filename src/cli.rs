@@ -812,10 +812,7 @@ fn suite(a: SuiteArgs) -> Result<ExitCode> {
             "renderer: {} ({}, {}), 1 spp, intermediates {:?}, reduction {:?}",
             ad.name, ad.backend, ad.driver_info, a.gpu.hdr_format, a.gpu.reduction
         );
-        println!(
-            "{:<36} {}",
-            "GPU median ms per stage", "(FPS with readback)"
-        );
+        println!("{:<36} (FPS with readback)", "GPU median ms per stage");
         for r in &results {
             let stages: Vec<String> = r
                 .timings
