@@ -5,9 +5,22 @@
 // Samples per pixel: 1 is the plain path (no jitter), more is Halton(2,3).
 override SPP: u32 = 1u;
 
+// The environment's width and height.
+override ENV_W: u32 = 1u;
+override ENV_H: u32 = 1u;
+
 @group(0) @binding(0) var<uniform> frame: FrameUniforms;
-@group(0) @binding(1) var env: texture_2d<f32>;
+// Row-major RGBA texels of the environment map.
+@group(0) @binding(1) var<storage, read> env: array<vec4<f32>>;
 @group(0) @binding(2) var hdr_out: texture_storage_2d<HDR_FORMAT, write>;
+
+fn env_size() -> vec2<u32> {
+    return vec2<u32>(ENV_W, ENV_H);
+}
+
+fn env_texel(x: i32, y: i32) -> vec3<f32> {
+    return env[u32(y) * ENV_W + u32(x)].rgb;
+}
 
 @compute @workgroup_size(64, 1)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -18,7 +31,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     for (var k = 0u; k < SPP; k = k + 1u) {
         let j = jitter(k, SPP);
         let d = camera_ray(f32(id.x) + 0.5 + j.x, f32(id.y) + 0.5 + j.y, frame);
-        acc = acc + bilinear(env, equirect_uv(sphere_direction(frame, d)));
+        acc = acc + bilinear(equirect_uv(sphere_direction(frame, d)));
     }
     textureStore(hdr_out, vec2<i32>(id.xy), vec4<f32>(acc / f32(SPP), 1.0));
 }

@@ -67,10 +67,12 @@ fn equirect_uv(d: vec3<f32>) -> vec2<f32> {
     return vec2<f32>(u, v);
 }
 
-// Bilinear lookup through textureLoad, texel centres at (k + 0.5)/W,
-// wrapping in u and clamping in v: the same arithmetic as the f64 reference.
-fn bilinear(env: texture_2d<f32>, uv: vec2<f32>) -> vec3<f32> {
-    let dims = vec2<i32>(textureDimensions(env));
+// Bilinear lookup with texel centres at (k + 0.5)/W, wrapping in u and
+// clamping in v: the same arithmetic as the f64 reference. The including
+// shader defines `env_size()` and `env_texel(x, y)` (sphere.wgsl reads a
+// storage buffer: on llvmpipe a plain load is cheaper than textureLoad).
+fn bilinear(uv: vec2<f32>) -> vec3<f32> {
+    let dims = vec2<i32>(env_size());
     let x = uv.x * f32(dims.x) - 0.5;
     let y = uv.y * f32(dims.y) - 0.5;
     let x0f = floor(x);
@@ -83,10 +85,10 @@ fn bilinear(env: texture_2d<f32>, uv: vec2<f32>) -> vec3<f32> {
     let xb = (((x0 + 1) % dims.x) + dims.x) % dims.x;
     let ya = clamp(y0, 0, dims.y - 1);
     let yb = clamp(y0 + 1, 0, dims.y - 1);
-    let p00 = textureLoad(env, vec2<i32>(xa, ya), 0).rgb;
-    let p10 = textureLoad(env, vec2<i32>(xb, ya), 0).rgb;
-    let p01 = textureLoad(env, vec2<i32>(xa, yb), 0).rgb;
-    let p11 = textureLoad(env, vec2<i32>(xb, yb), 0).rgb;
+    let p00 = env_texel(xa, ya);
+    let p10 = env_texel(xb, ya);
+    let p01 = env_texel(xa, yb);
+    let p11 = env_texel(xb, yb);
     let top = p00 * (1.0 - fx) + p10 * fx;
     let bottom = p01 * (1.0 - fx) + p11 * fx;
     return top * (1.0 - fy) + bottom * fy;

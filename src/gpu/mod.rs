@@ -76,6 +76,14 @@ pub enum GpuError {
     /// The frame exceeds what the adapter can hold in one texture.
     #[error("{width}x{height} exceeds the adapter's texture limit of {limit} pixels per side")]
     TooLarge { width: u32, height: u32, limit: u32 },
+    /// The environment map exceeds one storage buffer binding.
+    #[error("environment {width}x{height} needs {bytes} bytes, over the adapter's storage-buffer binding limit of {limit}; use a smaller map")]
+    EnvironmentTooLarge {
+        width: u32,
+        height: u32,
+        bytes: u64,
+        limit: u64,
+    },
     /// The GPU ran out of memory.
     #[error("GPU out of memory: {0}")]
     OutOfMemory(String),

@@ -202,23 +202,27 @@ impl<'a> GpuRenderer<'a> {
             GpuInput::Sphere {
                 env, camera: cam, ..
             } => {
-                ctx.check_size(env.width, env.height)?;
-                let t = ctx.device.create_texture(&wgpu::TextureDescriptor {
-                    label: Some("tonegate.env"),
-                    size: wgpu::Extent3d {
+                // The map as a storage buffer of RGBA f32 texels: on llvmpipe
+                // plain loads cost less than textureLoad's generic fetch.
+                let bytes = env.pixel_count() as u64 * 16;
+                let limit = ctx.limits.max_storage_buffer_binding_size as u64;
+                if bytes > limit {
+                    return Err(GpuError::EnvironmentTooLarge {
                         width: env.width,
                         height: env.height,
-                        depth_or_array_layers: 1,
-                    },
-                    mip_level_count: 1,
-                    sample_count: 1,
-                    dimension: wgpu::TextureDimension::D2,
-                    format: wgpu::TextureFormat::Rgba32Float,
-                    usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-                    view_formats: &[],
-                });
-                upload(ctx, &t, env, HdrFormat::Rgba32Float);
-                env_texture = Some(t);
+                        bytes,
+                        limit,
+                    });
+                }
+                let texels: Vec<f32> = env
+                    .pixels
+                    .iter()
+                    .flat_map(|p| [p[0], p[1], p[2], 1.0])
+                    .collect();
+                let buf = storage_buffer(ctx, "tonegate.env", bytes);
+                ctx.queue
+                    .write_buffer(&buf, 0, bytemuck::cast_slice(&texels));
+                env_texture = Some((buf, (env.width, env.height)));
                 camera = Some(cam);
                 uniforms = Some(super::stages::uniform_buffer(
                     ctx,
@@ -245,7 +249,9 @@ impl<'a> GpuRenderer<'a> {
                         ));
                     };
                     outputs.push((name, hdr.clone()));
-                    vec![super::sphere::sphere(ctx, format, *spp, u, env, &hdr)]
+                    vec![super::sphere::sphere(
+                        ctx, format, *spp, u, &env.0, env.1, &hdr,
+                    )]
                 }
                 Stage::LuminanceStats(needs) => super::luminance_stats::luminance_stats(
                     ctx,

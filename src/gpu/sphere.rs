@@ -8,17 +8,23 @@ pub fn sphere(
     format: HdrFormat,
     spp: u32,
     frame: &wgpu::Buffer,
-    env: &wgpu::Texture,
+    env: &wgpu::Buffer,
+    env_size: (u32, u32),
     hdr_out: &wgpu::Texture,
 ) -> Dispatch {
-    let p = pipeline(ctx, "sphere", "main", format, &[("SPP", spp as f64)]);
+    let constants = [
+        ("SPP", spp as f64),
+        ("ENV_W", env_size.0 as f64),
+        ("ENV_H", env_size.1 as f64),
+    ];
+    let p = pipeline(ctx, "sphere", "main", format, &constants);
     let bg = bind_group(
         ctx,
         &p,
         "tonegate.sphere",
         &[
             (0, Bind::Buffer(frame)),
-            (1, Bind::Texture(env)),
+            (1, Bind::Buffer(env)),
             (2, Bind::Texture(hdr_out)),
         ],
     );
