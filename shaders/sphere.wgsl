@@ -22,6 +22,13 @@ fn env_texel(x: i32, y: i32) -> vec3<f32> {
     return env[u32(y) * ENV_W + u32(x)].rgb;
 }
 
+// The hardware-filtered variant (`main_hardware`): the same map as a texture
+// and a linear sampler, repeating in u and clamping in v. Faster where the
+// sampler is fixed-function; its weights are quantised (often to 8 bits),
+// so it is an option to measure, not the reference path.
+@group(0) @binding(3) var env_texture: texture_2d<f32>;
+@group(0) @binding(4) var env_sampler: sampler;
+
 @compute @workgroup_size(64, 1)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x >= frame.size.x || id.y >= frame.size.y) {
@@ -32,6 +39,21 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         let j = jitter(k, SPP);
         let d = camera_ray(f32(id.x) + 0.5 + j.x, f32(id.y) + 0.5 + j.y, frame);
         acc = acc + bilinear(equirect_uv(sphere_direction(frame, d)));
+    }
+    textureStore(hdr_out, vec2<i32>(id.xy), vec4<f32>(acc / f32(SPP), 1.0));
+}
+
+@compute @workgroup_size(64, 1)
+fn main_hardware(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x >= frame.size.x || id.y >= frame.size.y) {
+        return;
+    }
+    var acc = vec3<f32>(0.0);
+    for (var k = 0u; k < SPP; k = k + 1u) {
+        let j = jitter(k, SPP);
+        let d = camera_ray(f32(id.x) + 0.5 + j.x, f32(id.y) + 0.5 + j.y, frame);
+        let uv = equirect_uv(sphere_direction(frame, d));
+        acc = acc + textureSampleLevel(env_texture, env_sampler, uv, 0.0).rgb;
     }
     textureStore(hdr_out, vec2<i32>(id.xy), vec4<f32>(acc / f32(SPP), 1.0));
 }

@@ -56,6 +56,9 @@ pub struct GpuArgs {
     /// Luminance reduction: block (seed 001's block partials) or pingpong (seed 000's 2x2).
     #[arg(long, default_value = "block")]
     pub reduction: crate::gpu::ReductionMethod,
+    /// Environment filtering in `sphere`: manual (the reference's bilinear) or hardware (the sampler).
+    #[arg(long, default_value = "manual")]
+    pub env_filter: crate::gpu::EnvFilter,
 }
 
 impl GpuArgs {
@@ -63,6 +66,7 @@ impl GpuArgs {
         crate::gpu::GpuConfig {
             hdr_format: self.hdr_format,
             reduction: self.reduction,
+            env_filter: self.env_filter,
         }
     }
 }

@@ -444,3 +444,45 @@ fn oversized_frames_are_refused_not_crashed() {
     .expect("refused");
     assert!(err.to_string().contains("texture limit"), "{err}");
 }
+
+#[test]
+fn hardware_filtering_is_an_option_with_its_error_measured() {
+    // The sampler's weights are the driver's, not the reference's bilinear:
+    // fixed-function units quantise the fraction (8 bits on many GPUs), which
+    // shows at 10⁴:1 edges, so the general bound is PSNR ≥ 40 dB against the
+    // CPU 1-spp render. llvmpipe filters Rgba32Float with f32 weights in the
+    // same formula as shared/conventions.wgsl: measured bit-identical to the
+    // manual path here (2026-11-21), and held to that on llvmpipe.
+    let ctx = context();
+    if !ctx.float32_filterable {
+        panic!("{} cannot filter Rgba32Float textures", ctx.adapter.name);
+    }
+    let config = GpuConfig {
+        env_filter: tonegate::gpu::EnvFilter::Hardware,
+        ..Default::default()
+    };
+    for scene in suite() {
+        let env = scene_environment(&scene).unwrap();
+        let r = renderer(&ctx, &scene, &env, config);
+        let n = 3.min(scene.frames - 1);
+        r.set_rotation(&rotation_matrix(scene.rotation.axis, scene.angle(n)));
+        let frame = r.render(true).unwrap().frame.unwrap();
+        let cpu = reference::render_frame(&scene, &env, n, 1);
+        let m = compare(frame.raster(), cpu.frame.raster()).unwrap();
+        println!(
+            "{:<36} hardware filter vs CPU 1 spp: PSNR {:.2} dB, max {}",
+            scene.name, m.psnr, m.max_abs_diff
+        );
+        assert!(m.psnr >= 40.0, "{}: {:.2} dB", scene.name, m.psnr);
+        if ctx.adapter.name.contains("llvmpipe") {
+            let manual = renderer(&ctx, &scene, &env, GpuConfig::default());
+            manual.set_rotation(&rotation_matrix(scene.rotation.axis, scene.angle(n)));
+            assert_eq!(
+                manual.render(true).unwrap().frame.unwrap(),
+                frame,
+                "{}: llvmpipe's sampler no longer matches",
+                scene.name
+            );
+        }
+    }
+}

@@ -47,6 +47,8 @@ pub struct GpuContext {
     pub limits: wgpu::Limits,
     /// Nanoseconds per timestamp tick.
     pub timestamp_period: f32,
+    /// Whether Rgba32Float textures can be linearly filtered (hardware filter).
+    pub float32_filterable: bool,
     errors: Arc<Mutex<Vec<GpuError>>>,
 }
 
@@ -90,7 +92,8 @@ impl GpuContext {
         let info = adapter.get_info();
         let wanted = wgpu::Features::TIMESTAMP_QUERY
             | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS
-            | wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES;
+            | wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES
+            | wgpu::Features::FLOAT32_FILTERABLE;
         let features = adapter.features() & wanted;
         let timestamps = features.contains(wgpu::Features::TIMESTAMP_QUERY);
         let limits = adapter.limits();
@@ -122,6 +125,7 @@ impl GpuContext {
             }
         });
         Ok(GpuContext {
+            float32_filterable: features.contains(wgpu::Features::FLOAT32_FILTERABLE),
             timestamp_period: queue.get_timestamp_period(),
             device,
             queue,

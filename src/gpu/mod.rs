@@ -62,8 +62,37 @@ impl std::str::FromStr for HdrFormat {
     }
 }
 
+/// How `sphere` filters the environment.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EnvFilter {
+    /// Bilinear in the shader from four loads: the reference's arithmetic.
+    #[default]
+    Manual,
+    /// The texture unit's linear filter (needs float32-filterable textures).
+    Hardware,
+}
+
+impl std::str::FromStr for EnvFilter {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "manual" => Ok(EnvFilter::Manual),
+            "hardware" => Ok(EnvFilter::Hardware),
+            _ => Err(format!("unknown filter {s:?}: use manual or hardware")),
+        }
+    }
+}
+
 #[derive(Debug, thiserror::Error)]
 pub enum GpuError {
+    /// The adapter lacks a feature the chosen configuration needs.
+    #[error("{adapter} lacks {feature}, which {what} needs")]
+    MissingFeature {
+        adapter: String,
+        feature: &'static str,
+        what: &'static str,
+    },
     /// No adapter at all: the Vulkan driver is missing.
     #[error("no GPU adapter found (Vulkan): install mesa-vulkan-drivers for lavapipe, e.g. `apt-get install mesa-vulkan-drivers`")]
     NoAdapter,
@@ -105,5 +134,5 @@ mod bloom_downsample;
 mod encode;
 mod grade;
 mod luminance_stats;
-mod sphere;
+pub mod sphere;
 mod tonemap;

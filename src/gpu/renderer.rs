@@ -39,6 +39,7 @@ impl std::str::FromStr for ReductionMethod {
 pub struct GpuConfig {
     pub hdr_format: HdrFormat,
     pub reduction: ReductionMethod,
+    pub env_filter: super::EnvFilter,
 }
 
 /// The statistics and resolved parameters the GPU used (mirrors `Stats` in
@@ -197,32 +198,74 @@ impl<'a> GpuRenderer<'a> {
         let mut outputs: Vec<(&'static str, wgpu::Texture)> = Vec::new();
         let mut camera = None;
         let mut uniforms = None;
-        let mut env_texture = None;
+        let mut env_source: Option<(Option<wgpu::Buffer>, Option<(wgpu::Texture, wgpu::Sampler)>)> =
+            None;
+        let mut env_size = (0, 0);
         match input {
             GpuInput::Sphere {
                 env, camera: cam, ..
             } => {
-                // The map as a storage buffer of RGBA f32 texels: on llvmpipe
-                // plain loads cost less than textureLoad's generic fetch.
-                let bytes = env.pixel_count() as u64 * 16;
-                let limit = ctx.limits.max_storage_buffer_binding_size as u64;
-                if bytes > limit {
-                    return Err(GpuError::EnvironmentTooLarge {
-                        width: env.width,
-                        height: env.height,
-                        bytes,
-                        limit,
-                    });
-                }
-                let texels: Vec<f32> = env
-                    .pixels
-                    .iter()
-                    .flat_map(|p| [p[0], p[1], p[2], 1.0])
-                    .collect();
-                let buf = storage_buffer(ctx, "tonegate.env", bytes);
-                ctx.queue
-                    .write_buffer(&buf, 0, bytemuck::cast_slice(&texels));
-                env_texture = Some((buf, (env.width, env.height)));
+                env_source = Some(match config.env_filter {
+                    // The map as a storage buffer of RGBA f32 texels: on
+                    // llvmpipe plain loads cost less than textureLoad.
+                    super::EnvFilter::Manual => {
+                        let bytes = env.pixel_count() as u64 * 16;
+                        let limit = ctx.limits.max_storage_buffer_binding_size as u64;
+                        if bytes > limit {
+                            return Err(GpuError::EnvironmentTooLarge {
+                                width: env.width,
+                                height: env.height,
+                                bytes,
+                                limit,
+                            });
+                        }
+                        let texels: Vec<f32> = env
+                            .pixels
+                            .iter()
+                            .flat_map(|p| [p[0], p[1], p[2], 1.0])
+                            .collect();
+                        let buf = storage_buffer(ctx, "tonegate.env", bytes);
+                        ctx.queue
+                            .write_buffer(&buf, 0, bytemuck::cast_slice(&texels));
+                        (Some(buf), None)
+                    }
+                    super::EnvFilter::Hardware => {
+                        if !ctx.float32_filterable {
+                            return Err(GpuError::MissingFeature {
+                                adapter: ctx.adapter.name.clone(),
+                                feature: "FLOAT32_FILTERABLE",
+                                what: "--env-filter hardware",
+                            });
+                        }
+                        ctx.check_size(env.width, env.height)?;
+                        let t = ctx.device.create_texture(&wgpu::TextureDescriptor {
+                            label: Some("tonegate.env"),
+                            size: wgpu::Extent3d {
+                                width: env.width,
+                                height: env.height,
+                                depth_or_array_layers: 1,
+                            },
+                            mip_level_count: 1,
+                            sample_count: 1,
+                            dimension: wgpu::TextureDimension::D2,
+                            format: wgpu::TextureFormat::Rgba32Float,
+                            usage: wgpu::TextureUsages::TEXTURE_BINDING
+                                | wgpu::TextureUsages::COPY_DST,
+                            view_formats: &[],
+                        });
+                        upload(ctx, &t, env, HdrFormat::Rgba32Float);
+                        let sampler = ctx.device.create_sampler(&wgpu::SamplerDescriptor {
+                            label: Some("tonegate.env_sampler"),
+                            address_mode_u: wgpu::AddressMode::Repeat,
+                            address_mode_v: wgpu::AddressMode::ClampToEdge,
+                            mag_filter: wgpu::FilterMode::Linear,
+                            min_filter: wgpu::FilterMode::Linear,
+                            ..Default::default()
+                        });
+                        (None, Some((t, sampler)))
+                    }
+                });
+                env_size = (env.width, env.height);
                 camera = Some(cam);
                 uniforms = Some(super::stages::uniform_buffer(
                     ctx,
@@ -243,14 +286,21 @@ impl<'a> GpuRenderer<'a> {
             let name = stage.name();
             let dispatches = match stage {
                 Stage::Sphere { spp } => {
-                    let (Some(env), Some(u)) = (&env_texture, &uniforms) else {
+                    let (Some(env), Some(u)) = (&env_source, &uniforms) else {
                         return Err(GpuError::Validation(
                             "sphere stage without an environment".into(),
                         ));
                     };
                     outputs.push((name, hdr.clone()));
+                    let source = match env {
+                        (Some(buf), _) => super::sphere::EnvSource::Buffer(buf),
+                        (None, Some((t, s))) => super::sphere::EnvSource::Texture(t, s),
+                        (None, None) => {
+                            return Err(GpuError::Validation("no environment source".into()))
+                        }
+                    };
                     vec![super::sphere::sphere(
-                        ctx, format, *spp, u, &env.0, env.1, &hdr,
+                        ctx, format, *spp, u, source, env_size, &hdr,
                     )]
                 }
                 Stage::LuminanceStats(needs) => super::luminance_stats::luminance_stats(

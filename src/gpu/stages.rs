@@ -90,6 +90,7 @@ pub fn uniform_buffer(ctx: &GpuContext, label: &str, bytes: &[u8]) -> wgpu::Buff
 pub enum Bind<'a> {
     Texture(&'a wgpu::Texture),
     Buffer(&'a wgpu::Buffer),
+    Sampler(&'a wgpu::Sampler),
 }
 
 /// A bind group for `pipeline` from (binding, resource) pairs: only the
@@ -104,7 +105,7 @@ pub fn bind_group(
         .iter()
         .map(|(_, b)| match b {
             Bind::Texture(t) => Some(t.create_view(&wgpu::TextureViewDescriptor::default())),
-            Bind::Buffer(_) => None,
+            Bind::Buffer(_) | Bind::Sampler(_) => None,
         })
         .collect();
     let entries: Vec<wgpu::BindGroupEntry> = binds
@@ -114,6 +115,7 @@ pub fn bind_group(
             binding: *binding,
             resource: match (b, v) {
                 (Bind::Buffer(buf), _) => buf.as_entire_binding(),
+                (Bind::Sampler(s), _) => wgpu::BindingResource::Sampler(s),
                 (Bind::Texture(_), Some(view)) => wgpu::BindingResource::TextureView(view),
                 (Bind::Texture(_), None) => unreachable!("views are made for every texture"),
             },
