@@ -89,6 +89,10 @@ struct Queries {
     stride: u64,
 }
 
+/// The environment as the filter reads it: a storage buffer (manual
+/// bilinear) or a texture and its sampler (hardware).
+type EnvResources = (Option<wgpu::Buffer>, Option<(wgpu::Texture, wgpu::Sampler)>);
+
 /// Frames in flight whose timestamps can be kept before they are read.
 pub const TIMING_SLOTS: u32 = 32;
 
@@ -198,8 +202,7 @@ impl<'a> GpuRenderer<'a> {
         let mut outputs: Vec<(&'static str, wgpu::Texture)> = Vec::new();
         let mut camera = None;
         let mut uniforms = None;
-        let mut env_source: Option<(Option<wgpu::Buffer>, Option<(wgpu::Texture, wgpu::Sampler)>)> =
-            None;
+        let mut env_source: Option<EnvResources> = None;
         let mut env_size = (0, 0);
         match input {
             GpuInput::Sphere {
@@ -210,7 +213,7 @@ impl<'a> GpuRenderer<'a> {
                     // llvmpipe plain loads cost less than textureLoad.
                     super::EnvFilter::Manual => {
                         let bytes = env.pixel_count() as u64 * 16;
-                        let limit = ctx.limits.max_storage_buffer_binding_size as u64;
+                        let limit = ctx.limits.max_storage_buffer_binding_size;
                         if bytes > limit {
                             return Err(GpuError::EnvironmentTooLarge {
                                 width: env.width,
