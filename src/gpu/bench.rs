@@ -154,8 +154,14 @@ fn floor_times(
     Ok(times)
 }
 
-/// Runs the bench on `ctx`.
-pub fn run(ctx: &GpuContext, opts: &BenchOptions) -> Result<BenchReport, GpuError> {
+/// A renderer of the bench's full plan at `width`×`height` over the built-in
+/// sky (2048×1024), shared by `tonegate bench` and the criterion bench.
+pub fn full_plan_renderer(
+    ctx: &GpuContext,
+    width: u32,
+    height: u32,
+    config: GpuConfig,
+) -> Result<GpuRenderer<'_>, GpuError> {
     let (op, bloom) = bench_operator();
     let pipeline = Pipeline {
         operator: &op,
@@ -165,8 +171,8 @@ pub fn run(ctx: &GpuContext, opts: &BenchOptions) -> Result<BenchReport, GpuErro
     };
     let env = BuiltinEnv::Sky.generate(2048, 1024);
     let camera = Camera {
-        width: opts.width,
-        height: opts.height,
+        width,
+        height,
         fov_y_deg: 60.0,
     };
     let plan = StagePlan::build(
@@ -175,17 +181,23 @@ pub fn run(ctx: &GpuContext, opts: &BenchOptions) -> Result<BenchReport, GpuErro
         Some(&bloom),
         None,
     );
-    let r = GpuRenderer::new(
+    GpuRenderer::new(
         ctx,
-        plan.clone(),
+        plan,
         GpuInput::Sphere {
             env: &env,
             camera,
             spp: 1,
         },
         &pipeline,
-        opts.config,
-    )?;
+        config,
+    )
+}
+
+/// Runs the bench on `ctx`.
+pub fn run(ctx: &GpuContext, opts: &BenchOptions) -> Result<BenchReport, GpuError> {
+    let r = full_plan_renderer(ctx, opts.width, opts.height, opts.config)?;
+    let plan = r.plan.clone();
     let angle = |n: u32| rotation_matrix([1.0, 0.0, 0.0], (n as f64 * 2.0).to_radians());
     // Warm-up: pipelines compiled, caches filled; excluded from everything.
     for n in 0..opts.warmup {
