@@ -257,7 +257,7 @@ fn each_stage_matches_its_reference_on_the_same_input() {
             display = composite;
         }
         if let (Some(g), Some(graded)) = (pipeline.grade, r.read_output("grade").unwrap()) {
-            let mean = reference::grade::grade_stats(&display);
+            let mean = reference::grade_stats::grade_stats(&display);
             let cpu_graded = reference::grade::grade(&display, g, mean);
             // Contrast subtracts the grey: values near it cancel, hence the
             // absolute term (1e-5 of the display range).

@@ -105,7 +105,7 @@ fn floor_times(
         return Ok(Vec::new());
     }
     let out = super::stages::hdr_texture(ctx, "tonegate.floor", width, height, format);
-    let d = super::encode::floor(ctx, format, &out);
+    let d = super::floor::floor(ctx, format, &out);
     let set = ctx.device.create_query_set(&wgpu::QuerySetDescriptor {
         label: Some("tonegate.floor.timestamps"),
         ty: wgpu::QueryType::Timestamp,

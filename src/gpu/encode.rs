@@ -1,4 +1,4 @@
-//! `encode` pass (and the bench's `floor` pass).
+//! `encode` pass.
 
 use super::stages::{bind_group, dispatch_2d, pipeline, Bind, Dispatch};
 use super::{GpuContext, HdrFormat};
@@ -23,11 +23,4 @@ pub fn encode(
         &[(0, Bind::Texture(src)), (1, Bind::Buffer(frame_out))],
     );
     dispatch_2d(p, bg, src.width(), src.height())
-}
-
-/// A trivial fullscreen write of the same size and format: the bench's unit.
-pub fn floor(ctx: &GpuContext, format: HdrFormat, out: &wgpu::Texture) -> Dispatch {
-    let p = pipeline(ctx, "floor", "main", format, &[]);
-    let bg = bind_group(ctx, &p, "tonegate.floor", &[(0, Bind::Texture(out))]);
-    dispatch_2d(p, bg, out.width(), out.height())
 }

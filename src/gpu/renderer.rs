@@ -410,7 +410,7 @@ impl<'a> GpuRenderer<'a> {
                         .clone()
                         .ok_or_else(|| GpuError::Validation("grade before tonemap".into()))?;
                     let mean = storage_buffer(ctx, "tonegate.grade_mean", 4);
-                    let d = super::grade::grade_stats(ctx, format, &base, &mean);
+                    let d = super::grade_stats::grade_stats(ctx, format, &base, &mean);
                     grade_mean = Some(mean);
                     d
                 }

@@ -1,31 +1,9 @@
-//! `grade_stats` and `grade`: seed 004's brightness, contrast and saturation.
+//! `grade`: seed 004's brightness, contrast and saturation.
 
-use crate::color::{luminance, luminance_with, SEED004_SATURATION};
+use crate::color::{luminance_with, SEED004_SATURATION};
 use crate::image::LinearImage;
-use crate::reference::luminance_stats::CompensatedSum;
 use crate::scene::Grade;
 use rayon::prelude::*;
-
-/// Mean BT.709 luminance of the frame entering the grade (contrast's grey),
-/// summed row by row in order so it is deterministic.
-pub fn grade_stats(img: &LinearImage) -> f64 {
-    let rows: Vec<CompensatedSum> = img
-        .pixels
-        .par_chunks(img.width.max(1) as usize)
-        .map(|row| {
-            let mut s = CompensatedSum::default();
-            for &c in row {
-                s.add(luminance(c));
-            }
-            s
-        })
-        .collect();
-    let mut total = CompensatedSum::default();
-    for r in rows {
-        total.merge(r);
-    }
-    total.value() / img.pixel_count().max(1) as f64
-}
 
 /// Brightness scales; contrast mixes with the grey of the (brightened) mean
 /// luminance; saturation mixes with the pixel's own luminance (seed 004's
@@ -65,7 +43,7 @@ mod tests {
                 [0.6, 0.4, 0.2]
             }
         });
-        let mean = grade_stats(&img);
+        let mean = crate::reference::grade_stats::grade_stats(&img);
         assert_eq!(grade(&img, &g(1.0, 1.0, 1.0), mean), img);
         let bright = grade(&img, &g(2.0, 1.0, 1.0), mean);
         assert!((bright.get(0, 0)[2] - 1.2).abs() < 1e-15);

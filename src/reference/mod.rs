@@ -8,6 +8,7 @@ pub mod bloom_composite;
 pub mod bloom_downsample;
 pub mod encode;
 pub mod grade;
+pub mod grade_stats;
 pub mod luminance_stats;
 pub mod sphere;
 pub mod tonemap;
@@ -131,7 +132,7 @@ pub fn run_plan(plan: &StagePlan, hdr: LinearImage, p: &Pipeline) -> FrameOutput
                 ));
             }
             Stage::GradeStats => {
-                grade_mean = Some(grade::grade_stats(
+                grade_mean = Some(grade_stats::grade_stats(
                     display.as_ref().expect("tonemap runs first"),
                 ));
             }
