@@ -9,6 +9,8 @@ override OPERATOR: u32 = 0u;
 override COLOUR: u32 = 0u;
 // Seed 001's automatic key from min, average and max.
 override AUTO_KEY: bool = false;
+// Fault injection only (`check --fault-gain`): 1 in every real run.
+override FAULT_GAIN: f32 = 1.0;
 
 // Operator constants written once by the host (mirrors `gpu::ToneConfig`).
 struct ToneConfig {
@@ -118,6 +120,6 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let c = textureLoad(hdr, id.xy, 0).rgb;
-    let out = tonemap_pixel(c, stats.scale, stats.inv_white_sq);
+    let out = tonemap_pixel(c, stats.scale, stats.inv_white_sq) * FAULT_GAIN;
     textureStore(toned_out, vec2<i32>(id.xy), vec4<f32>(out, 1.0));
 }

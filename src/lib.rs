@@ -3,6 +3,7 @@
 //! The CPU reference (`reference`) is the oracle; the stage plan (`plan`) is the
 //! shared contract both renderers execute; `metrics` judges the outputs.
 
+pub mod check;
 pub mod cli;
 pub mod color;
 pub mod conventions;
@@ -10,6 +11,7 @@ pub mod env;
 pub mod error;
 pub mod golden;
 pub mod gpu;
+pub mod history;
 pub mod image;
 pub mod io;
 pub mod metrics;
@@ -17,5 +19,6 @@ pub mod plan;
 pub mod reference;
 pub mod scene;
 pub mod suite;
+pub mod tradeoff;
 
 pub use error::{Error, Result};

@@ -523,6 +523,11 @@ pub struct CheckSpec {
     /// Adapter name substring this bound applies to; none = every adapter.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub adapter: Option<String>,
+    /// Samples per pixel of the render this bound is for; none = the scene's
+    /// `reference_spp` (the goldens' own, a like-for-like comparison). A
+    /// bound for `spp = 1` measures the plain path's aliasing instead.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spp: Option<u32>,
     /// Who or what set the bound, e.g. "llvmpipe 1 spp vs 16 spp, 2026-11-21".
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub set_by: Option<String>,
@@ -693,6 +698,12 @@ impl Scene {
             }
         }
         for c in &self.checks {
+            if let Some(n) = c.spp.filter(|&n| n == 0 || n > MAX_SPP) {
+                return Err(format!(
+                    "{}: spp must be between 1 and {MAX_SPP}, got {n}",
+                    at("checks")
+                ));
+            }
             let ok = match &c.check {
                 Check::MinPsnr(v) | Check::MaxMse(v) | Check::MinFps(v) => !v.is_nan(),
                 Check::MinSsim(v) => v.is_finite() && (-1.0..=1.0).contains(v),
@@ -742,15 +753,82 @@ fn line_of(text: &str, key: &str) -> Option<usize> {
         .map(|i| i + 1)
 }
 
-/// A suite: an ordered list of scene files.
+/// A suite: an ordered list of scene files and how the gate treats performance.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct SuiteFile {
     scenes: Vec<PathBuf>,
+    #[serde(default)]
+    performance: Performance,
+}
+
+/// How `check` compares this run's speed with the history (nightly
+/// regressions): a value is flagged when it is worse than the median of the
+/// previous `window` runs on the same adapter by more than
+/// `max(mads · 1.4826 · MAD, min_relative · median)`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Performance {
+    /// Previous runs the median is taken over.
+    #[serde(default = "default_window")]
+    pub window: u32,
+    /// Fewest previous runs before anything is flagged.
+    #[serde(default = "default_min_runs")]
+    pub min_runs: u32,
+    /// Robust standard deviations (1.4826·MAD) a value may stray.
+    #[serde(default = "default_mads")]
+    pub mads: f64,
+    /// Smallest flagged change relative to the median, so a perfectly steady
+    /// history (MAD 0) does not flag every nanosecond.
+    #[serde(default = "default_min_relative")]
+    pub min_relative: f64,
+    /// Make flagged regressions fail the gate (exit 1, JUnit failures).
+    #[serde(default)]
+    pub fail_on_regression: bool,
+}
+
+fn default_window() -> u32 {
+    10
+}
+fn default_min_runs() -> u32 {
+    3
+}
+fn default_mads() -> f64 {
+    4.0
+}
+fn default_min_relative() -> f64 {
+    0.10
+}
+
+impl Default for Performance {
+    fn default() -> Self {
+        Performance {
+            window: default_window(),
+            min_runs: default_min_runs(),
+            mads: default_mads(),
+            min_relative: default_min_relative(),
+            fail_on_regression: false,
+        }
+    }
+}
+
+/// A loaded suite: its scenes, in order, and its performance policy.
+#[derive(Clone, Debug)]
+pub struct Suite {
+    pub scenes: Vec<Scene>,
+    pub performance: Performance,
+    /// SHA-256 of the scenes' canonical forms and the policy: two runs with the
+    /// same hash ran the same gate.
+    pub hash: String,
 }
 
 /// Loads every scene a suite file lists (paths relative to the suite file).
 pub fn load_suite(path: &Path) -> Result<Vec<Scene>, SceneError> {
+    load_suite_file(path).map(|s| s.scenes)
+}
+
+/// Loads a suite file with its performance policy.
+pub fn load_suite_file(path: &Path) -> Result<Suite, SceneError> {
     let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
         path: path.to_owned(),
         source,
@@ -771,7 +849,29 @@ pub fn load_suite(path: &Path) -> Result<Vec<Scene>, SceneError> {
         }
         scenes.push(scene);
     }
-    Ok(scenes)
+    let p = &suite.performance;
+    if p.window == 0
+        || p.min_runs == 0
+        || !(p.mads.is_finite() && p.mads > 0.0)
+        || !(p.min_relative.is_finite() && p.min_relative >= 0.0)
+    {
+        return Err(SceneError::Invalid {
+            path: path.to_owned(),
+            message: format!(
+                "[performance]: window and min_runs must be at least 1, mads positive and min_relative non-negative, got {p:?}"
+            ),
+        });
+    }
+    let mut h = Sha256::new();
+    for s in &scenes {
+        h.update(s.hash());
+    }
+    h.update(serde_json::to_vec(&suite.performance).unwrap_or_default());
+    Ok(Suite {
+        scenes,
+        performance: suite.performance,
+        hash: hex::encode(h.finalize()),
+    })
 }
 
 #[cfg(test)]

@@ -35,11 +35,16 @@ impl std::str::FromStr for ReductionMethod {
 }
 
 /// The knobs of the GPU path that trade accuracy for speed.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct GpuConfig {
     pub hdr_format: HdrFormat,
     pub reduction: ReductionMethod,
     pub env_filter: super::EnvFilter,
+    /// Fault injection: multiply the tone-mapped colour by this gain, a
+    /// deliberately wrong tone mapper that proves the gate catches one
+    /// (`check --fault-gain 1.02`). None in every real run.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fault_gain: Option<f32>,
 }
 
 /// The statistics and resolved parameters the GPU used (mirrors `Stats` in
@@ -318,8 +323,15 @@ impl<'a> GpuRenderer<'a> {
                 ),
                 Stage::Tonemap { .. } => {
                     let out = hdr_texture(ctx, "tonegate.toned", width, height, format);
-                    let d =
-                        super::tonemap::tonemap(ctx, format, pipeline.operator, &stats, &hdr, &out);
+                    let d = super::tonemap::tonemap(
+                        ctx,
+                        format,
+                        pipeline.operator,
+                        config.fault_gain,
+                        &stats,
+                        &hdr,
+                        &out,
+                    );
                     outputs.push((name, out.clone()));
                     toned = Some(out.clone());
                     display = Some(out);

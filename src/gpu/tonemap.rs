@@ -80,6 +80,7 @@ pub fn tonemap(
     ctx: &GpuContext,
     format: HdrFormat,
     op: &Operator,
+    fault_gain: Option<f32>,
     stats: &wgpu::Buffer,
     hdr: &wgpu::Texture,
     toned_out: &wgpu::Texture,
@@ -91,6 +92,7 @@ pub fn tonemap(
             "AUTO_KEY",
             matches!(op, Operator::Seed001 { key: Key::Auto, .. }) as u32 as f64,
         ),
+        ("FAULT_GAIN", fault_gain.unwrap_or(1.0) as f64),
     ];
     let config = uniform_buffer(
         ctx,

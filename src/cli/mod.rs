@@ -12,6 +12,8 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
+mod gate;
+
 #[derive(Parser)]
 #[command(
     name = "tonegate",
@@ -25,8 +27,14 @@ pub struct Cli {
 
 #[derive(Subcommand)]
 pub enum Command {
-    /// Render the built-in suite on the GPU (or --cpu) and compare every frame with its golden.
-    Suite(SuiteArgs),
+    /// The CI gate: render the suite on the GPU, compare every frame with its golden,
+    /// evaluate the checks, write artifacts/JUnit/JSON, record the run. Exit 0 pass, 1 fail, 2 could not run.
+    #[command(alias = "suite")]
+    Check(gate::CheckArgs),
+    /// Print the run history, or one metric's trend per scene.
+    History(gate::HistoryArgs),
+    /// Sweep every knob that trades accuracy for speed; time and error per configuration, Pareto front.
+    Tradeoff(gate::TradeoffArgs),
     /// Time every stage of the full plan on the GPU: per-stage table, floor ratio, FPS.
     Bench(BenchArgs),
     /// Tone-map one HDR image (.hdr, .exr, .pfm); output format from the extension.
@@ -67,6 +75,7 @@ impl GpuArgs {
             hdr_format: self.hdr_format,
             reduction: self.reduction,
             env_filter: self.env_filter,
+            fault_gain: None,
         }
     }
 }
@@ -85,24 +94,6 @@ pub struct BenchArgs {
     pub json: bool,
     #[command(flatten)]
     pub gpu: GpuArgs,
-}
-
-#[derive(Args)]
-pub struct SuiteArgs {
-    /// Use the CPU reference's plain path instead of the GPU.
-    #[arg(long)]
-    pub cpu: bool,
-    #[command(flatten)]
-    pub gpu: GpuArgs,
-    /// The suite file.
-    #[arg(long, default_value = "golden/suite.toml")]
-    pub suite: PathBuf,
-    /// Samples per pixel of the CPU render under test (1 = the plain path).
-    #[arg(long, default_value_t = 1)]
-    pub spp: u32,
-    /// Also write the full results as JSON to this file ("-" for stdout).
-    #[arg(long)]
-    pub json: Option<PathBuf>,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -281,7 +272,9 @@ pub fn main() -> ExitCode {
 
 pub fn run(cli: Cli) -> Result<ExitCode> {
     match cli.command {
-        Command::Suite(a) => suite(a),
+        Command::Check(a) => gate::check(a),
+        Command::History(a) => gate::history(a),
+        Command::Tradeoff(a) => gate::tradeoff(a),
         Command::Bench(a) => bench(a),
         Command::Tonemap(a) => tonemap(a),
         Command::Compare(a) => compare(a),
@@ -751,99 +744,4 @@ fn env(a: EnvArgs) -> Result<ExitCode> {
     crate::io::write_image_hdr(&output, &img)?;
     println!("{name} {} -> {}", a.size, output.display());
     Ok(ExitCode::SUCCESS)
-}
-
-fn suite(a: SuiteArgs) -> Result<ExitCode> {
-    let scenes = crate::scene::load_suite(&a.suite).map_err(|e| invalid(e.to_string()))?;
-    let root = golden_root(&a.suite);
-    let problems =
-        crate::golden::check_manifest(&root, &scenes).map_err(|e| invalid(e.to_string()))?;
-    if !problems.is_empty() {
-        for p in &problems {
-            eprintln!("{p}");
-        }
-        return Err(invalid("the golden set is incomplete or stale (see above)"));
-    }
-    let total: u64 = scenes.iter().map(|s| s.frames as u64).sum();
-    let ctx = if a.cpu {
-        None
-    } else {
-        Some(crate::gpu::GpuContext::new(&a.gpu.adapter).map_err(gpu_error)?)
-    };
-    let bar = crate::golden::progress_bar(total, "suite");
-    let mut results = Vec::new();
-    for scene in &scenes {
-        bar.set_message(scene.name.clone());
-        let r = match &ctx {
-            None => crate::suite::run_scene_cpu(&root, scene, a.spp),
-            Some(ctx) => crate::suite::run_scene_gpu(&root, scene, ctx, a.gpu.config()),
-        }
-        .map_err(|e| invalid(e.to_string()))?;
-        bar.inc(scene.frames as u64);
-        results.push(r);
-    }
-    bar.finish_and_clear();
-    println!(
-        "{:<36} {:>6} {:>22} {:>22} {:>7}",
-        "scene", "frames", "PSNR dB worst/mean", "SSIM worst/mean", "checks"
-    );
-    for r in &results {
-        let applied = r.checks.iter().filter(|c| c.passed.is_some()).count();
-        let failed = r.checks.iter().filter(|c| c.passed == Some(false)).count();
-        println!(
-            "{:<36} {:>6} {:>10.2} @{:<3} {:>6.2} {:>10.5} @{:<3} {:>6.4} {:>7}",
-            r.scene,
-            r.frames.len(),
-            r.psnr.worst,
-            r.psnr.worst_frame,
-            r.psnr.mean,
-            r.ssim.worst,
-            r.ssim.worst_frame,
-            r.ssim.mean,
-            if failed == 0 {
-                format!("{applied} ok")
-            } else {
-                format!("{failed} FAIL")
-            }
-        );
-        for c in r.checks.iter().filter(|c| c.passed == Some(false)) {
-            println!("    FAIL {}", c.detail);
-        }
-    }
-    if let Some(ctx) = &ctx {
-        let ad = &ctx.adapter;
-        println!(
-            "renderer: {} ({}, {}), 1 spp, intermediates {:?}, reduction {:?}",
-            ad.name, ad.backend, ad.driver_info, a.gpu.hdr_format, a.gpu.reduction
-        );
-        println!("{:<36} (FPS with readback)", "GPU median ms per stage");
-        for r in &results {
-            let stages: Vec<String> = r
-                .timings
-                .iter()
-                .map(|t| format!("{} {:.2}", t.name, t.median_ms))
-                .collect();
-            println!(
-                "{:<36} {} ({:.1} FPS)",
-                r.scene,
-                stages.join(", "),
-                r.fps.unwrap_or(0.0)
-            );
-        }
-    }
-    println!(
-        "goldens: cpu-reference at {} spp; CPU path under test (--cpu) renders at {} spp; SSIM: {}",
-        scenes.first().map(|s| s.reference_spp).unwrap_or(16),
-        a.spp,
-        crate::metrics::SSIM_DEFINITION
-    );
-    if let Some(path) = &a.json {
-        write_json(path, &results)?;
-    }
-    let failed = results.iter().any(|r| !r.passed());
-    Ok(if failed {
-        ExitCode::from(1)
-    } else {
-        ExitCode::SUCCESS
-    })
 }

@@ -1,0 +1,93 @@
+//! Artifacts of failing frames: actual, golden, diff heat map and SSIM map
+//! PNGs named `<scene>-<frame>-<adapter>-<kind>.png` (wgpu's test harness
+//! names its images by adapter the same way).
+
+use super::CheckError;
+use crate::metrics::{diff_heatmap, ssim, ssim_map_image};
+use crate::suite::FailedFrame;
+use std::path::Path;
+
+/// The adapter name as a file-name part: lowercase ASCII letters and digits,
+/// runs of anything else as one '-', at most 48 characters.
+pub fn adapter_slug(name: &str) -> String {
+    let mut slug = String::with_capacity(name.len());
+    for c in name.chars() {
+        if c.is_ascii_alphanumeric() {
+            slug.push(c.to_ascii_lowercase());
+        } else if !slug.ends_with('-') && !slug.is_empty() {
+            slug.push('-');
+        }
+    }
+    let mut slug: String = slug.chars().take(48).collect();
+    while slug.ends_with('-') {
+        slug.pop();
+    }
+    if slug.is_empty() {
+        "unknown".into()
+    } else {
+        slug
+    }
+}
+
+/// `<scene>-<frame>-<adapter>-<kind>.png`, the frame as three digits.
+pub fn artifact_name(scene: &str, frame: u32, adapter_slug: &str, kind: &str) -> String {
+    format!("{scene}-{frame:03}-{adapter_slug}-{kind}.png")
+}
+
+/// Writes the four images of one failing frame; returns their file names.
+pub(super) fn write_frame(
+    dir: &Path,
+    scene: &str,
+    slug: &str,
+    f: &FailedFrame,
+) -> Result<Vec<String>, CheckError> {
+    std::fs::create_dir_all(dir).map_err(|e| CheckError::Artifact {
+        path: dir.to_owned(),
+        detail: e.to_string(),
+    })?;
+    let metric = |e: crate::metrics::MetricsError| CheckError::Artifact {
+        path: dir.to_owned(),
+        detail: e.to_string(),
+    };
+    let diff = diff_heatmap(f.actual.raster(), f.golden.raster()).map_err(metric)?;
+    let map = ssim_map_image(&ssim(f.actual.raster(), f.golden.raster()).map_err(metric)?);
+    let mut names = Vec::with_capacity(4);
+    for (kind, img) in [
+        ("actual", &f.actual),
+        ("golden", &f.golden),
+        ("diff", &diff),
+        ("ssim", &map),
+    ] {
+        let name = artifact_name(scene, f.frame, slug, kind);
+        let path = dir.join(&name);
+        crate::io::write_png8(&path, img).map_err(|e| CheckError::Artifact {
+            path: path.clone(),
+            detail: e.to_string(),
+        })?;
+        names.push(name);
+    }
+    Ok(names)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn adapter_names_become_safe_file_name_parts() {
+        assert_eq!(
+            adapter_slug("llvmpipe (LLVM 15.0.6, 256 bits)"),
+            "llvmpipe-llvm-15-0-6-256-bits"
+        );
+        assert_eq!(
+            adapter_slug("NVIDIA H100 80GB HBM3"),
+            "nvidia-h100-80gb-hbm3"
+        );
+        assert_eq!(adapter_slug("../../etc"), "etc");
+        assert_eq!(adapter_slug("()"), "unknown");
+        assert_eq!(
+            artifact_name("sky", 7, "llvmpipe", "diff"),
+            "sky-007-llvmpipe-diff.png"
+        );
+    }
+}

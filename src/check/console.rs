@@ -1,0 +1,140 @@
+//! The console view of a check report: one line a scene, the failures with
+//! their numbers and artifacts, stage times, regressions and a summary.
+
+use super::CheckReport;
+use crate::suite::check_label;
+use std::fmt::Write;
+
+fn fmt_metric(v: f64, decimals: usize) -> String {
+    if v.is_infinite() {
+        if v > 0.0 {
+            "inf".into()
+        } else {
+            "-inf".into()
+        }
+    } else {
+        format!("{v:.decimals$}")
+    }
+}
+
+/// The report as the console prints it.
+pub fn render(r: &CheckReport) -> String {
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "{:<36} {:<6} {:>6} {:>18} {:>8} {:>18} {:>8} {:>8}",
+        "scene", "test", "frames", "PSNR dB worst@f", "mean", "SSIM worst@f", "mean", "checks"
+    );
+    for s in &r.scenes {
+        let applied = s.checks.iter().filter(|c| c.passed.is_some()).count();
+        let failed = s.failed_checks().count();
+        let status = if !s.problems.is_empty() {
+            "FAIL".to_string()
+        } else if failed == 0 {
+            format!("{applied} ok")
+        } else {
+            format!("{failed} FAIL")
+        };
+        let (p, q) = (s.summary("psnr"), s.summary("ssim"));
+        let worst = |m: Option<&crate::suite::Summary>, d: usize| {
+            m.map(|m| format!("{} @{}", fmt_metric(m.worst, d), m.worst_frame))
+                .unwrap_or_default()
+        };
+        let mean = |m: Option<&crate::suite::Summary>, d: usize| {
+            m.map(|m| fmt_metric(m.mean, d)).unwrap_or_default()
+        };
+        let test = match s.test {
+            crate::suite::TestKind::Static => "static",
+            crate::suite::TestKind::Moving => "moving",
+        };
+        let _ = writeln!(
+            out,
+            "{:<36} {:<6} {:>6} {:>18} {:>8} {:>18} {:>8} {:>8}",
+            s.scene,
+            test,
+            s.frames.len(),
+            worst(p, 2),
+            mean(p, 2),
+            worst(q, 5),
+            mean(q, 5),
+            status
+        );
+        for p in &s.problems {
+            let _ = writeln!(out, "    FAIL {p}");
+        }
+        for c in s.failed_checks() {
+            let _ = writeln!(out, "    FAIL {}: {}", check_label(&c.spec), c.detail);
+        }
+        let with_artifacts: Vec<&crate::suite::FrameResult> = s
+            .frames
+            .iter()
+            .filter(|f| !f.artifacts.is_empty())
+            .collect();
+        if let (Some(dir), Some(first)) = (&r.artifacts_dir, with_artifacts.first()) {
+            let _ = writeln!(
+                out,
+                "    artifacts of {} failing frame(s) ({}) in {}, e.g. {}",
+                with_artifacts.len(),
+                with_artifacts
+                    .iter()
+                    .map(|f| f.frame.to_string())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                dir.display(),
+                first.artifacts.join(" ")
+            );
+        }
+    }
+    if r.scenes.iter().any(|s| !s.timings.is_empty()) {
+        let _ = writeln!(out, "\nGPU median ms per stage (FPS with readback):");
+        for s in &r.scenes {
+            let stages: Vec<String> = s
+                .timings
+                .iter()
+                .map(|t| format!("{} {:.3}", t.name, t.median_ms))
+                .collect();
+            let _ = writeln!(
+                out,
+                "  {:<34} {} ({:.1} FPS)",
+                s.scene,
+                stages.join(", "),
+                s.fps.unwrap_or(f64::NAN)
+            );
+        }
+    }
+    if !r.regressions.is_empty() {
+        let verdict = if r.performance.fail_on_regression {
+            "FAIL"
+        } else {
+            "flagged (not failing: the suite does not set fail_on_regression)"
+        };
+        let _ = writeln!(out, "\nperformance regressions, {verdict}:");
+        for g in &r.regressions {
+            let unit = if g.metric == "fps" { " FPS" } else { " ms" };
+            let _ = writeln!(
+                out,
+                "  {} {}: {:.3}{unit} vs median {:.3}{unit} of {} runs (x{:.2}; bound {:.3}, MAD {:.3})",
+                g.scene, g.metric, g.value, g.median, g.runs, g.ratio, g.bound, g.mad
+            );
+        }
+    }
+    let failed = r.scenes_failed();
+    let _ = writeln!(
+        out,
+        "\n{}: {} of {} scenes passed, {} failed, {} regressions; adapter {} ({}, {}); renderer {}",
+        if r.passed { "PASSED" } else { "FAILED" },
+        r.scenes.len() - failed,
+        r.scenes.len(),
+        failed,
+        r.regressions.len(),
+        r.adapter.name,
+        r.adapter.backend,
+        r.adapter.driver_info,
+        r.renderer
+    );
+    if let (Some(id), Some(db)) = (r.run_id, &r.db) {
+        let _ = writeln!(out, "recorded as run {id} in {}", db.display());
+    }
+    let _ = writeln!(out, "SSIM: {}", r.ssim_definition);
+    out
+}

@@ -1,0 +1,104 @@
+//! JUnit XML of a check report, the format CI systems render: one test suite
+//! a scene, one test case a check, failures with their numbers and the
+//! artifact paths; performance regressions in a suite of their own.
+
+use super::CheckReport;
+use crate::suite::check_label;
+use quick_junit::{NonSuccessKind, Report, TestCase, TestCaseStatus, TestSuite};
+
+pub fn render(r: &CheckReport) -> Result<String, String> {
+    let mut report = Report::new("tonegate check");
+    for s in &r.scenes {
+        let mut suite = TestSuite::new(s.scene.clone());
+        suite.add_property(("adapter", r.adapter.name.as_str()));
+        suite.add_property(("test", format!("{:?}", s.test).to_lowercase().as_str()));
+        let classname = format!("tonegate.{}", s.scene);
+        for p in &s.problems {
+            let mut status = TestCaseStatus::non_success(NonSuccessKind::Failure);
+            status.set_message(p.clone());
+            let mut case = TestCase::new("scene", status);
+            case.set_classname(classname.clone());
+            suite.add_test_case(case);
+        }
+        for (i, c) in s.checks.iter().enumerate() {
+            let status = match c.passed {
+                Some(true) => TestCaseStatus::success(),
+                None => {
+                    let mut st = TestCaseStatus::skipped();
+                    st.set_message(c.detail.clone());
+                    st
+                }
+                Some(false) => {
+                    let mut st = TestCaseStatus::non_success(NonSuccessKind::Failure);
+                    let mut description = format!("{}\n", c.detail);
+                    if let Some(set_by) = &c.spec.set_by {
+                        description.push_str(&format!("bound set by: {set_by}\n"));
+                    }
+                    for f in s.frames.iter().filter(|f| f.failed_checks.contains(&i)) {
+                        let m = &f.metrics;
+                        description.push_str(&format!(
+                            "frame {}: PSNR {:.2} dB, SSIM {:.5}, MSE {:.4}, max abs diff {}",
+                            f.frame, m.psnr, m.ssim, m.mse, m.max_abs_diff
+                        ));
+                        if let Some(dir) = &r.artifacts_dir {
+                            for a in &f.artifacts {
+                                description.push_str(&format!(" {}", dir.join(a).display()));
+                            }
+                        }
+                        description.push('\n');
+                    }
+                    st.set_message(c.detail.clone());
+                    st.set_type(crate::suite::check_kind(&c.spec.check));
+                    st.set_description(description);
+                    st
+                }
+            };
+            let mut case = TestCase::new(check_label(&c.spec), status);
+            case.set_classname(classname.clone());
+            suite.add_test_case(case);
+        }
+        report.add_test_suite(suite);
+    }
+    let mut perf = TestSuite::new("performance");
+    for g in &r.regressions {
+        let message = format!(
+            "{} {}: {:.3} vs median {:.3} of {} runs on this adapter (bound {:.3}, MAD {:.3}, x{:.2})",
+            g.scene, g.metric, g.value, g.median, g.runs, g.bound, g.mad, g.ratio
+        );
+        let mut case = if r.performance.fail_on_regression {
+            let mut st = TestCaseStatus::non_success(NonSuccessKind::Failure);
+            st.set_message(message);
+            st.set_type("performance_regression");
+            TestCase::new(format!("regression {} {}", g.scene, g.metric), st)
+        } else {
+            let mut case = TestCase::new(
+                format!("regression {} {}", g.scene, g.metric),
+                TestCaseStatus::success(),
+            );
+            case.set_system_out(format!(
+                "flagged, not failing (fail_on_regression = false): {message}"
+            ));
+            case
+        };
+        case.set_classname("tonegate.performance");
+        perf.add_test_case(case);
+    }
+    if !r.regressions.is_empty() {
+        report.add_test_suite(perf);
+    }
+    report.to_string().map_err(|e| e.to_string())
+}
+
+/// JUnit for a run that could not happen: one errored test case, so CI shows
+/// the reason instead of a missing report.
+pub fn render_error(message: &str) -> Result<String, String> {
+    let mut report = Report::new("tonegate check");
+    let mut suite = TestSuite::new("tonegate");
+    let mut status = TestCaseStatus::non_success(NonSuccessKind::Error);
+    status.set_message(message.to_owned());
+    let mut case = TestCase::new("run", status);
+    case.set_classname("tonegate");
+    suite.add_test_case(case);
+    report.add_test_suite(suite);
+    report.to_string().map_err(|e| e.to_string())
+}

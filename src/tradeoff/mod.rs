@@ -1,0 +1,365 @@
+//! Error against run time: sweeps every GPU knob that trades accuracy for
+//! speed and measures, per configuration, the GPU time per frame (timestamps,
+//! median) and the error against the f64 reference at 128 spp (PSNR, SSIM,
+//! relative error of the adaptation luminance). The Pareto front (no other
+//! configuration both faster and more accurate) is marked.
+
+pub mod svg;
+
+use crate::conventions::rotation_matrix;
+use crate::golden::{scene_environment, GoldenError};
+use crate::gpu::{
+    EnvFilter, GpuConfig, GpuContext, GpuError, GpuInput, GpuRenderer, HdrFormat, ReductionMethod,
+};
+use crate::metrics::compare;
+use crate::plan::StagePlan;
+use crate::reference::{render_frame, scene_camera, Pipeline};
+use crate::scene::{Factor, Scene};
+use serde::Serialize;
+
+/// One configuration of the knobs.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Knobs {
+    pub hdr_format: HdrFormat,
+    pub reduction: ReductionMethod,
+    pub env_filter: EnvFilter,
+    /// Bloom downsample factor (None for scenes without bloom).
+    pub bloom_downsample: Option<u32>,
+    pub spp: u32,
+}
+
+impl Knobs {
+    /// A short, stable name: "f32 block manual ds2 1spp".
+    pub fn label(&self) -> String {
+        let f = match self.hdr_format {
+            HdrFormat::Rgba32Float => "f32",
+            HdrFormat::Rgba16Float => "f16",
+        };
+        let r = match self.reduction {
+            ReductionMethod::BlockPartials => "block",
+            ReductionMethod::PingPong => "pingpong",
+        };
+        let e = match self.env_filter {
+            EnvFilter::Manual => "manual",
+            EnvFilter::Hardware => "hardware",
+        };
+        let ds = self
+            .bloom_downsample
+            .map(|d| format!(" ds{d}"))
+            .unwrap_or_default();
+        format!("{f} {r} {e}{ds} {}spp", self.spp)
+    }
+}
+
+/// The sweep: the product of every knob's values.
+pub fn sweep(scene: &Scene, spps: &[u32], downsamples: &[u32]) -> Vec<Knobs> {
+    let ds: Vec<Option<u32>> = if scene.bloom.is_some() {
+        downsamples.iter().map(|&d| Some(d)).collect()
+    } else {
+        vec![None]
+    };
+    let mut all = Vec::new();
+    for hdr_format in [HdrFormat::Rgba32Float, HdrFormat::Rgba16Float] {
+        for reduction in [ReductionMethod::BlockPartials, ReductionMethod::PingPong] {
+            for env_filter in [EnvFilter::Manual, EnvFilter::Hardware] {
+                for &bloom_downsample in &ds {
+                    for &spp in spps {
+                        all.push(Knobs {
+                            hdr_format,
+                            reduction,
+                            env_filter,
+                            bloom_downsample,
+                            spp,
+                        });
+                    }
+                }
+            }
+        }
+    }
+    all
+}
+
+/// One measured configuration of one scene.
+#[derive(Clone, Debug, Serialize)]
+pub struct Point {
+    pub scene: String,
+    pub label: String,
+    pub knobs: Knobs,
+    /// Median GPU time per frame (sum of the stages' timestamps), ms.
+    pub ms: f64,
+    /// Worst over the measured frames, against the reference's 8-bit frame.
+    #[serde(with = "crate::metrics::json::extended_f64")]
+    pub psnr: f64,
+    pub ssim: f64,
+    /// Largest |adaptation − reference| / reference over the frames.
+    pub log_average_rel_error: f64,
+    /// No other configuration of this scene is at least as fast and as
+    /// accurate (PSNR) and strictly better in one.
+    pub pareto: bool,
+}
+
+#[derive(Clone, Debug)]
+pub struct TradeoffOptions {
+    /// Frames of each scene measured (clamped to the scene's length).
+    pub frames: Vec<u32>,
+    /// Samples per pixel of the reference (SPEC §5: up to 128).
+    pub reference_spp: u32,
+    pub spps: Vec<u32>,
+    pub downsamples: Vec<u32>,
+    /// Timed renders per frame and configuration (after one warm-up).
+    pub repeats: u32,
+}
+
+impl Default for TradeoffOptions {
+    fn default() -> Self {
+        TradeoffOptions {
+            frames: vec![0, 3],
+            reference_spp: 128,
+            spps: vec![1, 4, 16],
+            downsamples: vec![2, 4, 8],
+            repeats: 5,
+        }
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum TradeoffError {
+    /// The scene's environment could not be made or read.
+    #[error(transparent)]
+    Golden(#[from] GoldenError),
+    /// The GPU failed for one configuration.
+    #[error("scene {scene}, {label}: {source}")]
+    Gpu {
+        scene: String,
+        label: String,
+        source: GpuError,
+    },
+    /// A knob value the scene cannot take.
+    #[error("scene {scene}: {detail}")]
+    Invalid { scene: String, detail: String },
+}
+
+/// Marks the Pareto front of `points` (minimise ms, maximise PSNR).
+pub fn mark_pareto(points: &mut [Point]) {
+    let snapshot: Vec<(f64, f64)> = points.iter().map(|p| (p.ms, p.psnr)).collect();
+    for (i, p) in points.iter_mut().enumerate() {
+        let (ms, psnr) = snapshot[i];
+        p.pareto = !snapshot
+            .iter()
+            .enumerate()
+            .any(|(j, &(m, q))| j != i && m <= ms && q >= psnr && (m < ms || q > psnr));
+    }
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    match v.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => v[n / 2],
+        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
+    }
+}
+
+/// Measures every configuration of `scene`; `progress` is called after each.
+pub fn measure_scene(
+    ctx: &GpuContext,
+    scene: &Scene,
+    opts: &TradeoffOptions,
+    mut progress: impl FnMut(&Point),
+) -> Result<Vec<Point>, TradeoffError> {
+    let env = scene_environment(scene)?;
+    let frames: Vec<u32> = {
+        let mut f: Vec<u32> = opts
+            .frames
+            .iter()
+            .map(|&n| n.min(scene.frames - 1))
+            .collect();
+        f.dedup();
+        f
+    };
+    // The reference: the scene as written, at reference_spp, in f64.
+    let references: Vec<_> = frames
+        .iter()
+        .map(|&n| render_frame(scene, &env, n, opts.reference_spp))
+        .collect();
+    let mut points = Vec::new();
+    for knobs in sweep(scene, &opts.spps, &opts.downsamples) {
+        let label = knobs.label();
+        let mut variant = scene.clone();
+        if let (Some(b), Some(d)) = (variant.bloom.as_mut(), knobs.bloom_downsample) {
+            b.downsample = Factor::try_from(d).map_err(|detail| TradeoffError::Invalid {
+                scene: scene.name.clone(),
+                detail,
+            })?;
+        }
+        let gpu = |source| TradeoffError::Gpu {
+            scene: scene.name.clone(),
+            label: label.clone(),
+            source,
+        };
+        let r = GpuRenderer::new(
+            ctx,
+            StagePlan::for_scene(&variant, knobs.spp),
+            GpuInput::Sphere {
+                env: &env,
+                camera: scene_camera(&variant),
+                spp: knobs.spp,
+            },
+            &Pipeline::of_scene(&variant),
+            GpuConfig {
+                hdr_format: knobs.hdr_format,
+                reduction: knobs.reduction,
+                env_filter: knobs.env_filter,
+                fault_gain: None,
+            },
+        )
+        .map_err(gpu)?;
+        let mut times = Vec::new();
+        let (mut psnr, mut ssim, mut rel): (f64, f64, f64) = (f64::INFINITY, 1.0, 0.0);
+        for (&n, reference) in frames.iter().zip(&references) {
+            r.set_rotation(&rotation_matrix(variant.rotation.axis, variant.angle(n)));
+            let out = r.render(true).map_err(gpu)?;
+            let frame = out
+                .frame
+                .ok_or_else(|| gpu(GpuError::Readback("no frame".into())))?;
+            let m = compare(frame.raster(), reference.frame.raster()).map_err(|e| {
+                TradeoffError::Invalid {
+                    scene: scene.name.clone(),
+                    detail: e.to_string(),
+                }
+            })?;
+            psnr = psnr.min(m.psnr);
+            ssim = ssim.min(m.ssim);
+            let want = reference.tone.log_average;
+            let got = out.stats.adaptation as f64;
+            let e = ((got - want) / want).abs();
+            rel = if e.is_nan() {
+                f64::INFINITY
+            } else {
+                rel.max(e)
+            };
+            for _ in 0..opts.repeats {
+                let t = r.render(false).map_err(gpu)?;
+                times.push(t.timings.iter().map(|s| s.ms).sum::<f64>());
+            }
+        }
+        let p = Point {
+            scene: scene.name.clone(),
+            label,
+            knobs,
+            ms: median(times),
+            psnr,
+            ssim,
+            log_average_rel_error: rel,
+            pareto: false,
+        };
+        progress(&p);
+        points.push(p);
+    }
+    mark_pareto(&mut points);
+    Ok(points)
+}
+
+/// One configuration over the whole suite: time summed over scenes, worst
+/// PSNR and SSIM, largest adaptation error. Only configurations every scene
+/// measured (knobs without the bloom factor match any factor of the
+/// bloom-less scenes).
+pub fn aggregate(points: &[Point], scenes: &[String]) -> Vec<Point> {
+    let same = |p: &Knobs, k: &Knobs| {
+        let mut q = *p;
+        if q.bloom_downsample.is_none() {
+            q.bloom_downsample = k.bloom_downsample;
+        }
+        q == *k
+    };
+    let any_bloom = points.iter().any(|p| p.knobs.bloom_downsample.is_some());
+    let mut keys: Vec<Knobs> = Vec::new();
+    for p in points {
+        if (p.knobs.bloom_downsample.is_some() || !any_bloom) && !keys.contains(&p.knobs) {
+            keys.push(p.knobs);
+        }
+    }
+    let mut out = Vec::new();
+    for k in keys {
+        let matching: Vec<&Point> = scenes
+            .iter()
+            .filter_map(|s| points.iter().find(|p| &p.scene == s && same(&p.knobs, &k)))
+            .collect();
+        if matching.len() != scenes.len() {
+            continue;
+        }
+        out.push(Point {
+            scene: "suite".into(),
+            label: k.label(),
+            knobs: k,
+            ms: matching.iter().map(|p| p.ms).sum(),
+            psnr: matching
+                .iter()
+                .map(|p| p.psnr)
+                .fold(f64::INFINITY, f64::min),
+            ssim: matching.iter().map(|p| p.ssim).fold(1.0, f64::min),
+            log_average_rel_error: matching
+                .iter()
+                .map(|p| p.log_average_rel_error)
+                .fold(0.0, f64::max),
+            pareto: false,
+        });
+    }
+    mark_pareto(&mut out);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn point(ms: f64, psnr: f64) -> Point {
+        Point {
+            scene: "s".into(),
+            label: format!("{ms} {psnr}"),
+            knobs: Knobs {
+                hdr_format: HdrFormat::Rgba32Float,
+                reduction: ReductionMethod::BlockPartials,
+                env_filter: EnvFilter::Manual,
+                bloom_downsample: None,
+                spp: 1,
+            },
+            ms,
+            psnr,
+            ssim: 1.0,
+            log_average_rel_error: 0.0,
+            pareto: false,
+        }
+    }
+
+    #[test]
+    fn the_front_keeps_exactly_the_undominated_points() {
+        let mut p = vec![
+            point(1.0, 30.0), // fastest
+            point(2.0, 40.0), // front
+            point(2.5, 35.0), // dominated by (2, 40)
+            point(4.0, 50.0), // most accurate
+            point(4.0, 45.0), // dominated by (4, 50)
+            point(1.0, 30.0), // a tie with the first: both stay
+        ];
+        mark_pareto(&mut p);
+        let front: Vec<bool> = p.iter().map(|p| p.pareto).collect();
+        assert_eq!(front, [true, true, false, true, false, true]);
+    }
+
+    #[test]
+    fn the_sweep_covers_every_knob_and_bloom_only_where_there_is_bloom() {
+        let text = std::fs::read_to_string("golden/scenes/night-seed001-bloom.toml").unwrap();
+        let bloom = Scene::parse(&text, std::path::Path::new("x.toml")).unwrap();
+        let text = std::fs::read_to_string("golden/scenes/grid-static.toml").unwrap();
+        let plain = Scene::parse(&text, std::path::Path::new("x.toml")).unwrap();
+        let a = sweep(&bloom, &[1, 4, 16], &[2, 4, 8]);
+        let b = sweep(&plain, &[1, 4, 16], &[2, 4, 8]);
+        assert_eq!(a.len(), 2 * 2 * 2 * 3 * 3);
+        assert_eq!(b.len(), 2 * 2 * 2 * 3);
+        let mut labels: Vec<String> = a.iter().map(Knobs::label).collect();
+        labels.sort();
+        labels.dedup();
+        assert_eq!(labels.len(), a.len(), "labels name configurations uniquely");
+    }
+}

@@ -1,0 +1,351 @@
+//! The CI gate end to end, through the binary: exit codes, JUnit, JSON,
+//! artifacts, the history and what a kill -9 leaves behind.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::time::{Duration, Instant};
+use tonegate::history::History;
+
+fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn tonegate(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_tonegate"))
+        .args(args)
+        .current_dir(repo())
+        .env_remove("TONEGATE_DB")
+        .output()
+        .expect("tonegate runs")
+}
+
+fn text(o: &Output) -> String {
+    format!(
+        "{}\n{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().expect("utf-8 temp path")
+}
+
+/// Copies golden/ (suite, scenes, goldens, manifest) into `to`.
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let e = e.unwrap();
+        let target = to.join(e.file_name());
+        if e.file_type().unwrap().is_dir() {
+            copy_dir(&e.path(), &target);
+        } else {
+            std::fs::copy(e.path(), target).unwrap();
+        }
+    }
+}
+
+/// Reads a report; +-inf is written as the literal 1e999 (what Python and
+/// JavaScript read back as infinity), which serde_json's `Value` cannot hold.
+fn read_json(path: &Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(path).unwrap();
+    serde_json::from_str(&text.replace("1e999", "1e308")).unwrap()
+}
+
+fn run_status(db: &Path, id: i64) -> String {
+    History::open_read_only(db)
+        .unwrap()
+        .status(id)
+        .unwrap()
+        .expect("run recorded")
+}
+
+#[test]
+fn check_passes_on_main_writes_junit_json_and_records_the_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let (db, junit, json) = (
+        dir.path().join("h.sqlite"),
+        dir.path().join("junit.xml"),
+        dir.path().join("report.json"),
+    );
+    let o = tonegate(&[
+        "check",
+        "--db",
+        s(&db),
+        "--junit",
+        s(&junit),
+        "--json",
+        s(&json),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let xml = std::fs::read_to_string(&junit).unwrap();
+    assert_eq!(xml.matches("<testsuite ").count(), 8, "{xml}");
+    assert!(!xml.contains("<failure"), "{xml}");
+    assert!(
+        xml.contains("PSNR &gt;= 50 dB") || xml.contains("PSNR >= 50 dB"),
+        "{xml}"
+    );
+    let report = read_json(&json);
+    assert_eq!(report["passed"], true);
+    let scenes = report["scenes"].as_array().unwrap();
+    assert_eq!(scenes.len(), 8);
+    for sc in scenes {
+        // Every scene judged something, at the goldens' spp, and has per-frame metrics.
+        assert!(
+            sc["checks"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .any(|c| c["passed"] == true),
+            "{sc}"
+        );
+        assert_eq!(sc["spp"], 16);
+        assert!(!sc["frames"].as_array().unwrap().is_empty());
+        assert!(sc["summaries"]["psnr"]["worst_frame"].is_u64());
+    }
+    let static_scene = scenes.iter().find(|s| s["scene"] == "grid-static").unwrap();
+    assert_eq!(static_scene["test"], "static");
+    assert_eq!(static_scene["judged_frames"], serde_json::json!([5]));
+    let id = report["run_id"].as_i64().unwrap();
+    assert_eq!(run_status(&db, id), "passed");
+    let h = History::open_read_only(&db).unwrap();
+    let runs = h.runs(10).unwrap();
+    assert_eq!(runs[0].scenes, 8);
+    assert_eq!(
+        runs[0].adapter.as_deref(),
+        report["adapter"]["name"].as_str()
+    );
+    assert!(runs[0].suite_hash.is_some());
+}
+
+#[test]
+fn a_tone_mapper_two_percent_too_bright_fails_with_artifacts_and_junit_failures() {
+    let dir = tempfile::tempdir().unwrap();
+    let (db, junit, art) = (
+        dir.path().join("h.sqlite"),
+        dir.path().join("junit.xml"),
+        dir.path().join("artifacts"),
+    );
+    let o = tonegate(&[
+        "check",
+        "--db",
+        s(&db),
+        "--junit",
+        s(&junit),
+        "--artifacts",
+        s(&art),
+        "--fault-gain",
+        "1.02",
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    let out = text(&o);
+    assert!(out.contains("FAIL PSNR >= 50 dB"), "{out}");
+    // Four images per failing frame, named <scene>-<frame>-<adapter>-<kind>.png.
+    let names: Vec<String> = std::fs::read_dir(&art)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    let actual: Vec<&String> = names
+        .iter()
+        .filter(|n| n.starts_with("sky-seed000-000-llvmpipe") || n.starts_with("sky-seed000-000-"))
+        .collect();
+    assert_eq!(actual.len(), 4, "{names:?}");
+    for kind in ["actual", "golden", "diff", "ssim"] {
+        let name = names
+            .iter()
+            .find(|n| n.starts_with("sky-seed000-000-") && n.ends_with(&format!("-{kind}.png")))
+            .unwrap_or_else(|| panic!("no {kind} artifact in {names:?}"));
+        let img = tonegate::io::read_png8(&art.join(name)).unwrap();
+        assert_eq!((img.width, img.height), (320, 180));
+    }
+    // The actual frame really is brighter than the golden.
+    let read = |kind: &str| {
+        let name = names
+            .iter()
+            .find(|n| n.starts_with("sky-seed000-000-") && n.ends_with(&format!("-{kind}.png")))
+            .unwrap();
+        tonegate::io::read_png8(&art.join(name)).unwrap()
+    };
+    let sum = |img: &tonegate::image::Rgb8Image| -> u64 {
+        img.raster().samples.iter().map(|&v| v as u64).sum()
+    };
+    assert!(sum(&read("actual")) > sum(&read("golden")));
+    let xml = std::fs::read_to_string(&junit).unwrap();
+    assert!(xml.contains("<failure"), "{xml}");
+    assert!(xml.contains("worst PSNR"), "{xml}");
+    assert!(
+        xml.contains(&art.join(&actual[0]).display().to_string()) || xml.contains("-actual.png"),
+        "{xml}"
+    );
+    let h = History::open_read_only(&db).unwrap();
+    assert_eq!(h.runs(1).unwrap()[0].status, "failed");
+}
+
+#[test]
+fn a_run_that_cannot_happen_exits_2_and_is_recorded_as_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("h.sqlite");
+    let junit = dir.path().join("junit.xml");
+    // An unknown key in the suite file.
+    let bad = dir.path().join("bad.toml");
+    std::fs::write(&bad, "scenes = []\ncolour = 1\n").unwrap();
+    let o = tonegate(&[
+        "check",
+        "--db",
+        s(&db),
+        "--suite",
+        s(&bad),
+        "--junit",
+        s(&junit),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("colour"), "{}", text(&o));
+    assert!(std::fs::read_to_string(&junit).unwrap().contains("<error"));
+    // A missing golden.
+    let copy = dir.path().join("golden");
+    copy_dir(&repo().join("golden"), &copy);
+    std::fs::remove_file(copy.join("night-seed000/003.png")).unwrap();
+    let o = tonegate(&[
+        "check",
+        "--db",
+        s(&db),
+        "--suite",
+        s(&copy.join("suite.toml")),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        text(&o).contains("night-seed000: golden frame 003.png is missing"),
+        "{}",
+        text(&o)
+    );
+    // No such adapter.
+    let o = tonegate(&["check", "--db", s(&db), "--adapter", "no-such-gpu-anywhere"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    let h = History::open_read_only(&db).unwrap();
+    let runs = h.runs(10).unwrap();
+    assert_eq!(runs.len(), 3);
+    assert!(
+        runs.iter()
+            .all(|r| r.status == "error" && r.detail.is_some()),
+        "{runs:?}"
+    );
+}
+
+#[test]
+fn a_scene_with_no_checks_fails() {
+    let dir = tempfile::tempdir().unwrap();
+    let copy = dir.path().join("golden");
+    copy_dir(&repo().join("golden"), &copy);
+    let path = copy.join("scenes/grid-static.toml");
+    let scene = std::fs::read_to_string(&path).unwrap();
+    let head = &scene[..scene.find("[[checks]]").unwrap()];
+    std::fs::write(&path, head).unwrap();
+    std::fs::write(
+        copy.join("suite.toml"),
+        "scenes = [\"scenes/grid-static.toml\"]\n",
+    )
+    .unwrap();
+    let o = tonegate(&[
+        "check",
+        "--no-history",
+        "--suite",
+        s(&copy.join("suite.toml")),
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o).contains("a scene with no checks fails"),
+        "{}",
+        text(&o)
+    );
+}
+
+#[test]
+fn kill_9_during_a_check_leaves_a_consistent_database_with_the_run_aborted() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("h.sqlite");
+    // A finished run first: the kill must not touch it.
+    let o = tonegate(&[
+        "check",
+        "--db",
+        s(&db),
+        "--cpu",
+        "--spp",
+        "16",
+        "--suite",
+        "golden/suite.toml",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let mut child = Command::new(env!("CARGO_BIN_EXE_tonegate"))
+        .args(["check", "--db", s(&db)])
+        .current_dir(repo())
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // Wait until the run has committed at least one scene, then kill it mid-run.
+    let start = Instant::now();
+    let id = loop {
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "the run never started"
+        );
+        if let Ok(h) = History::open_read_only(&db) {
+            let runs = h.runs(1).unwrap_or_default();
+            if let Some(r) = runs.first().filter(|r| r.id == 2 && r.scenes >= 1) {
+                assert_eq!(r.status, "running");
+                break r.id;
+            }
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    child.kill().unwrap(); // SIGKILL
+    child.wait().unwrap(); // reap it, so /proc no longer shows the pid
+                           // Readers see the run as it was left.
+    assert_eq!(run_status(&db, id), "running");
+    // The next writer's start marks it aborted; the file is sound and the
+    // committed rows of both runs are intact.
+    let h = History::open(&db).unwrap();
+    assert_eq!(h.status(id).unwrap().as_deref(), Some("aborted"));
+    assert_eq!(h.status(1).unwrap().as_deref(), Some("passed"));
+    assert_eq!(h.integrity().unwrap(), "ok");
+    let runs = h.runs(10).unwrap();
+    assert_eq!(runs[1].scenes, 8);
+    assert!(runs[0].scenes >= 1 && runs[0].scenes <= 8);
+    assert!(runs[0].detail.as_deref().unwrap().contains("crash or kill"));
+    drop(h);
+    let o = tonegate(&["history", "--db", s(&db)]);
+    assert_eq!(o.status.code(), Some(0));
+    assert!(text(&o).contains("aborted"), "{}", text(&o));
+}
+
+#[test]
+fn history_prints_a_metric_trend_and_refuses_unknown_metrics() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("h.sqlite");
+    for _ in 0..2 {
+        let o = tonegate(&["check", "--db", s(&db), "--cpu", "--spp", "1"]);
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    }
+    let o = tonegate(&[
+        "history",
+        "--db",
+        s(&db),
+        "--scene",
+        "grid-static",
+        "--metric",
+        "psnr",
+        "--json",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let points: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let points = points.as_array().unwrap();
+    assert_eq!(points.len(), 2);
+    // The CPU reference at 1 spp is deterministic: the same worst PSNR both times.
+    assert_eq!(points[0]["value"], points[1]["value"]);
+    assert!((points[0]["value"].as_f64().unwrap() - 22.24).abs() < 0.01);
+    let o = tonegate(&["history", "--db", s(&db), "--metric", "bogus metric"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o).contains("unknown metric"), "{}", text(&o));
+    let o = tonegate(&["history", "--db", s(&dir.path().join("none.sqlite"))]);
+    assert_eq!(o.status.code(), Some(2));
+}

@@ -1,0 +1,160 @@
+//! The history database: migrations, WAL, and nightly regressions found
+//! against the previous runs on the same adapter and configuration.
+
+use std::collections::BTreeMap;
+use tonegate::gpu::timing::TimingSummary;
+use tonegate::history::{
+    find_regressions, History, RunAdapter, RunKind, RunMeta, RunStatus, SCHEMA_VERSION,
+};
+use tonegate::scene::Performance;
+use tonegate::suite::{SceneResult, TestKind};
+
+fn scene(name: &str, sphere_ms: f64, fps: f64) -> SceneResult {
+    SceneResult {
+        scene: name.into(),
+        test: TestKind::Moving,
+        renderer: "test".into(),
+        adapter: "llvmpipe".into(),
+        spp: 16,
+        plan: vec!["sphere", "encode"],
+        frames: Vec::new(),
+        judged_frames: Vec::new(),
+        summaries: BTreeMap::new(),
+        checks: Vec::new(),
+        problems: Vec::new(),
+        timings: vec![
+            TimingSummary {
+                name: "sphere".into(),
+                median_ms: sphere_ms,
+                p95_ms: sphere_ms * 1.1,
+            },
+            TimingSummary {
+                name: "encode".into(),
+                median_ms: 0.4,
+                p95_ms: 0.5,
+            },
+        ],
+        fps: Some(fps),
+    }
+}
+
+fn adapter(name: &str, config: &str) -> RunAdapter {
+    RunAdapter {
+        name: name.into(),
+        backend: "Vulkan".into(),
+        driver: "llvmpipe".into(),
+        driver_info: "Mesa".into(),
+        config: config.into(),
+    }
+}
+
+/// Records a finished run with one scene; returns its id.
+fn record(h: &mut History, a: &RunAdapter, r: &SceneResult) -> i64 {
+    let id = h.start_run(RunKind::Check, &RunMeta::default()).unwrap();
+    h.set_adapter(id, a).unwrap();
+    h.record_scene(id, r).unwrap();
+    h.finish_run(id, RunStatus::Passed, None, None).unwrap();
+    id
+}
+
+#[test]
+fn migrations_are_versioned_idempotent_and_a_newer_schema_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("sub/h.sqlite");
+    let h = History::open(&db).unwrap();
+    assert_eq!(h.schema_version().unwrap(), SCHEMA_VERSION);
+    drop(h);
+    // Opening again applies nothing twice.
+    let h = History::open(&db).unwrap();
+    assert_eq!(h.schema_version().unwrap(), SCHEMA_VERSION);
+    drop(h);
+    // WAL mode persists in the file.
+    let conn = rusqlite::Connection::open(&db).unwrap();
+    let mode: String = conn
+        .query_row("PRAGMA journal_mode", [], |r| r.get(0))
+        .unwrap();
+    assert_eq!(mode, "wal");
+    conn.pragma_update(None, "user_version", SCHEMA_VERSION + 5)
+        .unwrap();
+    drop(conn);
+    let err = History::open(&db)
+        .err()
+        .expect("a newer schema must be refused");
+    assert!(err.to_string().contains("schema version"), "{err}");
+    // Nothing was lost by the refusal.
+    let conn = rusqlite::Connection::open(&db).unwrap();
+    let tables: i64 = conn
+        .query_row(
+            "SELECT COUNT(*) FROM sqlite_master WHERE name = 'runs'",
+            [],
+            |r| r.get(0),
+        )
+        .unwrap();
+    assert_eq!(tables, 1);
+}
+
+#[test]
+fn a_slowdown_is_flagged_against_the_same_adapter_and_config_only() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = History::open(&dir.path().join("h.sqlite")).unwrap();
+    let llvm = adapter("llvmpipe", "{\"spp\":16}");
+    // Five nightly runs with ~2 % noise.
+    for ms in [10.0, 10.2, 9.9, 10.1, 9.8] {
+        record(&mut h, &llvm, &scene("sky", ms, 100.0 / ms));
+    }
+    // Another adapter's and another config's slow runs must not be the baseline.
+    record(
+        &mut h,
+        &adapter("other gpu", "{\"spp\":16}"),
+        &scene("sky", 1.0, 900.0),
+    );
+    record(
+        &mut h,
+        &adapter("llvmpipe", "{\"spp\":1}"),
+        &scene("sky", 1.0, 900.0),
+    );
+    let p = Performance::default();
+    // A run within the noise: nothing flagged.
+    let ok = scene("sky", 10.3, 9.7);
+    let id = record(&mut h, &llvm, &ok);
+    let found = find_regressions(&h, id, "llvmpipe", "{\"spp\":16}", &[ok], &p).unwrap();
+    assert!(found.is_empty(), "{found:?}");
+    // A 30 % slower sphere and the FPS it costs: both flagged, encode not.
+    let slow = scene("sky", 13.0, 7.7);
+    let id = record(&mut h, &llvm, &slow);
+    let found = find_regressions(&h, id, "llvmpipe", "{\"spp\":16}", &[slow], &p).unwrap();
+    let metrics: Vec<&str> = found.iter().map(|g| g.metric.as_str()).collect();
+    assert_eq!(metrics, ["fps", "sphere"], "{found:?}");
+    let sphere = &found[1];
+    assert_eq!(sphere.runs, 6);
+    assert!((sphere.median - 10.05).abs() < 1e-9, "{sphere:?}");
+    assert!(sphere.bound > 10.3 && sphere.bound < 13.0, "{sphere:?}");
+    h.record_regressions(id, &found).unwrap();
+    let trend = h
+        .trend(
+            "sphere",
+            &tonegate::history::query::TrendFilter {
+                scene: Some("sky"),
+                adapter: Some("llvmpipe"),
+                limit: 50,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+    assert_eq!(trend.len(), 8);
+    assert!(trend.last().unwrap().regression);
+    assert!(!trend[0].regression);
+}
+
+#[test]
+fn with_too_few_previous_runs_nothing_is_flagged() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = History::open(&dir.path().join("h.sqlite")).unwrap();
+    let a = adapter("llvmpipe", "{}");
+    record(&mut h, &a, &scene("sky", 10.0, 10.0));
+    let slow = scene("sky", 50.0, 2.0);
+    let id = record(&mut h, &a, &slow);
+    let found =
+        find_regressions(&h, id, "llvmpipe", "{}", &[slow], &Performance::default()).unwrap();
+    assert!(found.is_empty());
+}
