@@ -14,7 +14,7 @@ use crate::gpu::{
 use crate::metrics::compare;
 use crate::plan::StagePlan;
 use crate::reference::{render_frame, scene_camera, Pipeline};
-use crate::scene::{Factor, Scene};
+use crate::scene::{Factor, Positive, Radius, Scene};
 use serde::Serialize;
 
 /// One configuration of the knobs.
@@ -23,7 +23,8 @@ pub struct Knobs {
     pub hdr_format: HdrFormat,
     pub reduction: ReductionMethod,
     pub env_filter: EnvFilter,
-    /// Bloom downsample factor (None for scenes without bloom).
+    /// Bloom downsample factor (None for scenes without bloom); the blur is
+    /// rescaled to keep its full-resolution extent (see [`with_downsample`]).
     pub bloom_downsample: Option<u32>,
     pub spp: u32,
 }
@@ -139,6 +140,21 @@ pub enum TradeoffError {
     Invalid { scene: String, detail: String },
 }
 
+/// `scene` with its bloom computed at downsample factor `d`, the blur's
+/// radius and σ rescaled (they are in low-resolution pixels) so the glow keeps
+/// its full-resolution extent: the knob trades accuracy for speed, not for a
+/// different look. The rounding of the radius is what remains of the change.
+pub fn with_downsample(scene: &Scene, d: Option<u32>) -> Result<Scene, String> {
+    let mut variant = scene.clone();
+    if let (Some(b), Some(d)) = (variant.bloom.as_mut(), d) {
+        let ratio = b.downsample.get() as f64 / d as f64;
+        b.downsample = Factor::try_from(d)?;
+        b.sigma = Positive::try_from(b.sigma.get() * ratio)?;
+        b.radius = Radius::try_from(((b.radius.get() as f64 * ratio).round() as u32).max(1))?;
+    }
+    Ok(variant)
+}
+
 /// Marks the Pareto front of `points` (minimise ms, maximise PSNR).
 pub fn mark_pareto(points: &mut [Point]) {
     let snapshot: Vec<(f64, f64)> = points.iter().map(|p| (p.ms, p.psnr)).collect();
@@ -185,13 +201,12 @@ pub fn measure_scene(
     let mut points = Vec::new();
     for knobs in sweep(scene, &opts.spps, &opts.downsamples) {
         let label = knobs.label();
-        let mut variant = scene.clone();
-        if let (Some(b), Some(d)) = (variant.bloom.as_mut(), knobs.bloom_downsample) {
-            b.downsample = Factor::try_from(d).map_err(|detail| TradeoffError::Invalid {
+        let variant = with_downsample(scene, knobs.bloom_downsample).map_err(|detail| {
+            TradeoffError::Invalid {
                 scene: scene.name.clone(),
                 detail,
-            })?;
-        }
+            }
+        })?;
         let gpu = |source| TradeoffError::Gpu {
             scene: scene.name.clone(),
             label: label.clone(),

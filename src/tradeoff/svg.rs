@@ -133,17 +133,37 @@ pub fn scatter(points: &[Point], title: &str) -> String {
             p.psnr
         );
     }
+    // Labels of the front, moved up or down until they overlap no other
+    // (front points often sit a few pixels apart).
+    let mut placed: Vec<(f64, f64, f64)> = Vec::new(); // (x, y, width)
     for p in &front {
+        let (cx, cy) = (px(p.ms), py(p.psnr));
+        let width = 6.2 * p.label.chars().count() as f64;
+        let x = if cx + 7.0 + width > w - right {
+            cx - 7.0 - width
+        } else {
+            cx + 7.0
+        };
+        let y = (0..12)
+            .map(|k| {
+                let step = 13.0 * ((k + 1) / 2) as f64;
+                cy - 6.0 + if k % 2 == 0 { step } else { -step }
+            })
+            .find(|&y| {
+                y > top + 10.0
+                    && y < h - bottom
+                    && placed.iter().all(|&(px_, py_, pw)| {
+                        (y - py_).abs() >= 12.0 || x + width < px_ || px_ + pw < x
+                    })
+            })
+            .unwrap_or(cy - 6.0);
+        placed.push((x, y, width));
         let _ = writeln!(
             s,
-            r##"<circle class="pareto" cx="{:.1}" cy="{:.1}" r="5" fill="#d9480f"><title>{}: {:.3} ms, {:.2} dB (Pareto)</title></circle><text x="{:.1}" y="{:.1}" fill="#d9480f">{}</text>"##,
-            px(p.ms),
-            py(p.psnr),
+            r##"<circle class="pareto" cx="{cx:.1}" cy="{cy:.1}" r="5" fill="#d9480f"><title>{}: {:.3} ms, {:.2} dB (Pareto)</title></circle><text x="{x:.1}" y="{y:.1}" fill="#d9480f">{}</text>"##,
             escape(&p.label),
             p.ms,
             p.psnr,
-            px(p.ms) + 7.0,
-            py(p.psnr) - 6.0,
             escape(&p.label)
         );
     }
