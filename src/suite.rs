@@ -302,15 +302,27 @@ pub fn not_applied(specs: &[CheckSpec], index: usize, on: Judged) -> Option<Stri
     None
 }
 
+/// `v < min`, with NaN failing too.
+fn below(v: f64, min: f64) -> bool {
+    v.partial_cmp(&min)
+        .is_none_or(|o| o == std::cmp::Ordering::Less)
+}
+
+/// `v > max`, with NaN failing too.
+fn above(v: f64, max: f64) -> bool {
+    v.partial_cmp(&max)
+        .is_none_or(|o| o == std::cmp::Ordering::Greater)
+}
+
 /// Whether `frame` fails a per-frame check; None for run-level checks.
 fn frame_fails(check: &Check, frame: &FrameResult) -> Option<bool> {
     let m = &frame.metrics;
     Some(match check {
-        Check::MinPsnr(b) => !(m.psnr >= *b),
-        Check::MinSsim(b) => !(m.ssim >= *b),
-        Check::MaxMse(b) => !(m.mse <= *b),
+        Check::MinPsnr(b) => below(m.psnr, *b),
+        Check::MinSsim(b) => below(m.ssim, *b),
+        Check::MaxMse(b) => above(m.mse, *b),
         Check::MaxAbsDiff(b) => m.max_abs_diff > *b,
-        Check::MaxFractionOver { lsb, fraction } => !(frame.fraction(*lsb) <= *fraction),
+        Check::MaxFractionOver { lsb, fraction } => above(frame.fraction(*lsb), *fraction),
         Check::MaxStageMs { .. } | Check::MinFps(_) => return None,
     })
 }

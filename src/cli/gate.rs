@@ -219,15 +219,8 @@ pub fn history(a: HistoryArgs) -> Result<ExitCode> {
             return Ok(ExitCode::SUCCESS);
         }
         println!(
-            "{:>5} {:<9} {:<8} {:<24} {:>7} {:>6} {:>5}  {}",
-            "run",
-            "kind",
-            "status",
-            "started (UTC)",
-            "scenes",
-            "failed",
-            "regr",
-            "adapter / detail"
+            "{:>5} {:<9} {:<8} {:<24} {:>7} {:>6} {:>5}  adapter / detail",
+            "run", "kind", "status", "started (UTC)", "scenes", "failed", "regr"
         );
         for r in &runs {
             println!(
