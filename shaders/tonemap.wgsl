@@ -40,14 +40,6 @@ struct ToneConfig {
 @group(0) @binding(2) var hdr: texture_2d<f32>;
 @group(0) @binding(3) var toned_out: texture_storage_2d<HDR_FORMAT, write>;
 
-fn positive_or_zero_inverse(v: f32) -> f32 {
-    // 1/v for a usable white², 0 ("never burn") for 0, ∞ or NaN.
-    if (v > 0.0 && v < 3.0e38) {
-        return 1.0 / v;
-    }
-    return 0.0;
-}
-
 // a = 0.18·2^(2(B − A)/(A + B)); A + B = Lmax − Lmin, 0 for a uniform frame.
 fn automatic_key(lmin: f32, lavg: f32, lmax: f32) -> f32 {
     let span = lmax - lmin;
@@ -73,33 +65,35 @@ fn resolve() {
     if (OPERATOR == 1u && AUTO_KEY) {
         key = automatic_key(stats.min_y, lavg, stats.max_y);
     }
-    var white_sq = 0.0;
+    // white itself, never white²: squaring leaves f32's range long before
+    // white does (see reinhard_curve).
+    var white = 0.0;
     if (OPERATOR == 0u) {
         var lmax = config.fixed_max;
         if (lmax <= 0.0) {
             lmax = stats.max_y;
         }
-        white_sq = config.white_fraction * config.white_fraction * lmax;
+        // Seed 000: white² = w²·Lmax.
+        white = config.white_fraction * sqrt(lmax);
     } else {
-        var white = config.white;
+        white = config.white;
         if (OPERATOR == 1u || white <= 0.0) {
             white = key * stats.max_y / lavg;
         }
-        white_sq = white * white;
     }
     stats.key = key;
     stats.adaptation = lavg;
     stats.scale = key / lavg;
-    stats.inv_white_sq = positive_or_zero_inverse(white_sq);
+    stats.white = white;
 }
 
-fn tonemap_pixel(c: vec3<f32>, scale: f32, inv_white_sq: f32) -> vec3<f32> {
+fn tonemap_pixel(c: vec3<f32>, scale: f32, white: f32) -> vec3<f32> {
     if (COLOUR == 0u) {
         let y = luminance_with(c, config.weights.xyz);
         if (!(y > 0.0)) {
             return vec3<f32>(0.0);
         }
-        return c * (reinhard_curve(scale * y, inv_white_sq) / y);
+        return c * (reinhard_curve(scale * y, white) / y);
     }
     let xyz = vec3<f32>(dot(config.to_xyz0.xyz, c), dot(config.to_xyz1.xyz, c), dot(config.to_xyz2.xyz, c));
     let sum = xyz.x + xyz.y + xyz.z;
@@ -108,7 +102,7 @@ fn tonemap_pixel(c: vec3<f32>, scale: f32, inv_white_sq: f32) -> vec3<f32> {
     }
     let x = xyz.x / sum;
     let y = xyz.y / sum;
-    let ld = reinhard_curve(scale * xyz.y, inv_white_sq);
+    let ld = reinhard_curve(scale * xyz.y, white);
     let out = vec3<f32>(x * ld / y, ld, (1.0 - x - y) * ld / y);
     return vec3<f32>(dot(config.to_rgb0.xyz, out), dot(config.to_rgb1.xyz, out), dot(config.to_rgb2.xyz, out));
 }
@@ -120,6 +114,6 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let c = textureLoad(hdr, id.xy, 0).rgb;
-    let out = tonemap_pixel(c, stats.scale, stats.inv_white_sq) * FAULT_GAIN;
+    let out = tonemap_pixel(c, stats.scale, stats.white) * FAULT_GAIN;
     textureStore(toned_out, vec2<i32>(id.xy), vec4<f32>(out, 1.0));
 }

@@ -760,6 +760,9 @@ struct SuiteFile {
     scenes: Vec<PathBuf>,
     #[serde(default)]
     performance: Performance,
+    /// Run the stress suite (extreme inputs, `tonegate stress`) as part of `check`.
+    #[serde(default)]
+    stress: bool,
 }
 
 /// How `check` compares this run's speed with the history (nightly
@@ -817,6 +820,8 @@ impl Default for Performance {
 pub struct Suite {
     pub scenes: Vec<Scene>,
     pub performance: Performance,
+    /// `check` runs the stress suite too.
+    pub stress: bool,
     /// SHA-256 of the scenes' canonical forms and the policy: two runs with the
     /// same hash ran the same gate.
     pub hash: String,
@@ -867,9 +872,11 @@ pub fn load_suite_file(path: &Path) -> Result<Suite, SceneError> {
         h.update(s.hash());
     }
     h.update(serde_json::to_vec(&suite.performance).unwrap_or_default());
+    h.update([suite.stress as u8]);
     Ok(Suite {
         scenes,
         performance: suite.performance,
+        stress: suite.stress,
         hash: hex::encode(h.finalize()),
     })
 }

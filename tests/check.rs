@@ -79,7 +79,9 @@ fn check_passes_on_main_writes_junit_json_and_records_the_run() {
     ]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
     let xml = std::fs::read_to_string(&junit).unwrap();
-    assert_eq!(xml.matches("<testsuite ").count(), 8, "{xml}");
+    // One test suite a scene, and the stress suite (the built-in suite sets `stress = true`).
+    assert_eq!(xml.matches("<testsuite ").count(), 9, "{xml}");
+    assert!(xml.contains("<testsuite name=\"stress\""), "{xml}");
     assert!(!xml.contains("<failure"), "{xml}");
     assert!(
         xml.contains("PSNR &gt;= 50 dB") || xml.contains("PSNR >= 50 dB"),
@@ -87,6 +89,8 @@ fn check_passes_on_main_writes_junit_json_and_records_the_run() {
     );
     let report = read_json(&json);
     assert_eq!(report["passed"], true);
+    assert_eq!(report["stress"]["passed"], true);
+    assert!(report["stress"]["cases"].as_array().unwrap().len() >= 32);
     let scenes = report["scenes"].as_array().unwrap();
     assert_eq!(scenes.len(), 8);
     for sc in scenes {

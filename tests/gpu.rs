@@ -409,6 +409,8 @@ fn half_float_intermediates_render_within_a_few_lsb_where_in_range() {
         ..Default::default()
     };
     let r = renderer(&ctx, &scene, &env, config);
+    // The night map stays below 65504: f16 really is used, not promoted.
+    assert_eq!(r.config.hdr_format, HdrFormat::Rgba16Float, "{:?}", r.notes);
     r.set_rotation(&rotation_matrix(scene.rotation.axis, scene.angle(2)));
     let frame = r.render(true).unwrap().frame.unwrap();
     let cpu = reference::render_frame(&scene, &env, 2, 1);

@@ -7,11 +7,12 @@ struct Stats {
     max_y: f32,
     weight_sum: f32,
     // Resolved by tonemap: the key, the adaptation luminance it is relative
-    // to (measured or fixed), key/adaptation, and 1/white² (0 = no burn).
+    // to (measured or fixed), key/adaptation, and Lwhite (<= 0 or +Inf = no burn).
     key: f32,
     adaptation: f32,
     scale: f32,
-    inv_white_sq: f32,
+    // Lwhite in the curve's sense (white² = the reference's white_sq).
+    white: f32,
 }
 
 // A partial reduction: min, max and three compensated (Kahan) sums.

@@ -118,6 +118,28 @@ pub fn render(r: &CheckReport) -> String {
             );
         }
     }
+    if let Some(st) = &r.stress {
+        let failing: Vec<&crate::stress::Row> = st.cases.iter().filter(|c| !c.passed).collect();
+        let worst = st
+            .cases
+            .iter()
+            .filter_map(|c| c.max_rel_error)
+            .fold(0.0, f64::max);
+        let _ = writeln!(
+            out,
+            "\nstress suite: {} of {} rows passed; worst statistics error {worst:.2e} (bound {:e}); `tonegate stress` prints the table",
+            st.cases.len() - failing.len(),
+            st.cases.len(),
+            st.bound
+        );
+        for c in failing {
+            let _ = writeln!(
+                out,
+                "    FAIL {} on {}: finite {}, max rel {:?}, {}",
+                c.name, c.renderer, c.finite, c.max_rel_error, c.observed
+            );
+        }
+    }
     let failed = r.scenes_failed();
     let _ = writeln!(
         out,

@@ -59,6 +59,26 @@ pub fn render(r: &CheckReport) -> Result<String, String> {
         }
         report.add_test_suite(suite);
     }
+    if let Some(st) = &r.stress {
+        let mut suite = TestSuite::new("stress");
+        for c in &st.cases {
+            let status = if c.passed {
+                TestCaseStatus::success()
+            } else {
+                let mut s = TestCaseStatus::non_success(NonSuccessKind::Failure);
+                s.set_message(format!(
+                    "finite {}, max rel error {:?} (bound {:e}): {}",
+                    c.finite, c.max_rel_error, c.bound, c.observed
+                ));
+                s.set_description(c.behaviour.clone());
+                s
+            };
+            let mut case = TestCase::new(format!("{} [{}]", c.name, c.renderer), status);
+            case.set_classname("tonegate.stress");
+            suite.add_test_case(case);
+        }
+        report.add_test_suite(suite);
+    }
     let mut perf = TestSuite::new("performance");
     for g in &r.regressions {
         let message = format!(

@@ -111,6 +111,9 @@ pub struct CheckReport {
     pub artifacts_dir: Option<PathBuf>,
     /// Artifact files written, relative to `artifacts_dir`.
     pub artifacts: Vec<String>,
+    /// The stress suite's table, when the suite asks for it (`stress = true`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stress: Option<crate::stress::StressReport>,
 }
 
 impl CheckReport {
@@ -314,8 +317,16 @@ fn run_inner(
         }
         _ => Vec::new(),
     };
+    let stress = suite.stress.then(|| {
+        bar.set_message("stress suite");
+        crate::stress::run(
+            &crate::stress::cases::all(true),
+            ctx.as_ref().map(|(c, _)| c),
+        )
+    });
     let passed = scenes.iter().all(|s| s.passed())
-        && (regressions.is_empty() || !suite.performance.fail_on_regression);
+        && (regressions.is_empty() || !suite.performance.fail_on_regression)
+        && stress.as_ref().is_none_or(|s| s.passed);
     Ok(CheckReport {
         run_id,
         db: opts.db.clone(),
@@ -334,5 +345,6 @@ fn run_inner(
         regressions,
         artifacts_dir: opts.artifacts.clone(),
         artifacts: written,
+        stress,
     })
 }

@@ -537,3 +537,51 @@ fn tradeoff_table(r: &TradeoffReport) -> String {
     );
     out
 }
+
+#[derive(Args)]
+pub struct StressArgs {
+    /// Print the JSON report instead of the table.
+    #[arg(long)]
+    pub json: bool,
+    /// Leave out the 8.4 Mpx case.
+    #[arg(long)]
+    pub no_large: bool,
+    /// Only these cases (names as in the table).
+    #[arg(long, value_delimiter = ',')]
+    pub cases: Vec<String>,
+    /// Run the CPU reference only (no GPU needed).
+    #[arg(long)]
+    pub cpu_only: bool,
+    /// Adapter: "default", "any", or a name substring.
+    #[arg(long, default_value = "default")]
+    pub adapter: crate::gpu::AdapterChoice,
+}
+
+pub fn stress(a: StressArgs) -> Result<ExitCode> {
+    let mut cases = crate::stress::cases::all(!a.no_large);
+    if !a.cases.is_empty() {
+        let known: Vec<&str> = cases.iter().map(|c| c.name).collect();
+        if let Some(bad) = a.cases.iter().find(|n| !known.contains(&n.as_str())) {
+            return Err(invalid(format!(
+                "no stress case {bad:?}; the cases are: {}",
+                known.join(", ")
+            )));
+        }
+        cases.retain(|c| a.cases.iter().any(|n| n == c.name));
+    }
+    let ctx = if a.cpu_only {
+        None
+    } else {
+        Some(crate::gpu::GpuContext::new(&a.adapter).map_err(gpu_error)?)
+    };
+    let report = crate::stress::run(&cases, ctx.as_ref());
+    if a.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&report).map_err(|e| invalid(e.to_string()))?
+        );
+    } else {
+        print!("{}", crate::stress::table(&report));
+    }
+    Ok(ExitCode::from(if report.passed { 0 } else { 1 }))
+}

@@ -35,6 +35,8 @@ pub enum Command {
     History(gate::HistoryArgs),
     /// Sweep every knob that trades accuracy for speed; time and error per configuration, Pareto front.
     Tradeoff(gate::TradeoffArgs),
+    /// Stiff and extreme inputs through both renderers: finiteness, error against f64, time.
+    Stress(gate::StressArgs),
     /// Time every stage of the full plan on the GPU: per-stage table, floor ratio, FPS.
     Bench(BenchArgs),
     /// Tone-map one HDR image (.hdr, .exr, .pfm); output format from the extension.
@@ -275,6 +277,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         Command::Check(a) => gate::check(a),
         Command::History(a) => gate::history(a),
         Command::Tradeoff(a) => gate::tradeoff(a),
+        Command::Stress(a) => gate::stress(a),
         Command::Bench(a) => bench(a),
         Command::Tonemap(a) => tonemap(a),
         Command::Compare(a) => compare(a),
@@ -501,8 +504,8 @@ fn gpu_flat(
         key: s.key as f64,
         log_average: s.adaptation as f64,
         scale: s.scale as f64,
-        white_sq: if s.inv_white_sq > 0.0 {
-            1.0 / s.inv_white_sq as f64
+        white_sq: if s.white > 0.0 && s.white.is_finite() {
+            (s.white as f64).powi(2)
         } else {
             f64::INFINITY
         },

@@ -60,7 +60,8 @@ pub struct GpuStats {
     pub key: f32,
     pub adaptation: f32,
     pub scale: f32,
-    pub inv_white_sq: f32,
+    /// Lwhite (white² is the reference's `white_sq`); <= 0 or +Inf: never burn.
+    pub white: f32,
 }
 
 /// One rendered frame.
@@ -101,10 +102,24 @@ type EnvResources = (Option<wgpu::Buffer>, Option<(wgpu::Texture, wgpu::Sampler)
 /// Frames in flight whose timestamps can be kept before they are read.
 pub const TIMING_SLOTS: u32 = 32;
 
+/// The largest finite value f16 (rgba16float) can hold.
+pub const F16_MAX: f32 = 65504.0;
+
+/// The largest component of `img` (NaN ignored).
+fn max_component(img: &HdrImage) -> f32 {
+    img.pixels
+        .iter()
+        .flat_map(|p| p.iter().copied())
+        .fold(0.0f32, f32::max)
+}
+
 pub struct GpuRenderer<'a> {
     ctx: &'a GpuContext,
     pub plan: StagePlan,
+    /// The configuration in effect (after any f16 → f32 promotion).
     pub config: GpuConfig,
+    /// What the renderer changed on its own and why (e.g. f16 promoted to f32).
+    pub notes: Vec<String>,
     width: u32,
     height: u32,
     camera: Option<Camera>,
@@ -188,6 +203,22 @@ impl<'a> GpuRenderer<'a> {
         pipeline: &Pipeline,
         config: GpuConfig,
     ) -> Result<GpuRenderer<'a>, GpuError> {
+        // f16 overflow: every HDR intermediate before `tonemap` is a filtered
+        // or averaged copy of the input, so none exceeds the input's largest
+        // component. Past f16's 65504 the f16 path would store +Inf, so it is
+        // promoted to f32 here and the promotion reported (`notes`).
+        let mut config = config;
+        let mut notes = Vec::new();
+        let input_max = match &input {
+            GpuInput::Sphere { env, .. } => max_component(env),
+            GpuInput::Flat(img) => max_component(img),
+        };
+        if config.hdr_format == HdrFormat::Rgba16Float && input_max > F16_MAX {
+            notes.push(format!(
+                "rgba16float intermediates promoted to rgba32float: the input reaches {input_max:.4e}, beyond f16's largest value {F16_MAX}"
+            ));
+            config.hdr_format = HdrFormat::Rgba32Float;
+        }
         let format = config.hdr_format;
         let (width, height) = match &input {
             GpuInput::Sphere { camera, .. } => (camera.width, camera.height),
@@ -487,6 +518,7 @@ impl<'a> GpuRenderer<'a> {
             ctx,
             plan,
             config,
+            notes,
             width,
             height,
             camera,
