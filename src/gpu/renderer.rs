@@ -658,7 +658,12 @@ impl<'a> GpuRenderer<'a> {
             bytemuck::pod_read_unaligned(&stats_bytes[..std::mem::size_of::<GpuStats>()]);
         let frame = if read_frame {
             let bytes = self.ctx.read_buffer(&self.frame_read)?;
-            let pixels = bytes.chunks_exact(4).map(|c| [c[0], c[1], c[2]]).collect();
+            // Buffers are at least 16 bytes: a frame under 4 pixels has padding.
+            let pixels = bytes
+                .chunks_exact(4)
+                .take(self.width as usize * self.height as usize)
+                .map(|c| [c[0], c[1], c[2]])
+                .collect();
             Some(Rgb8Image {
                 width: self.width,
                 height: self.height,
