@@ -4,6 +4,7 @@
 
 use super::query::TrendFilter;
 use super::{History, HistoryError};
+use crate::gpu::timing::quantile;
 use crate::scene::Performance;
 use crate::suite::SceneResult;
 use serde::Serialize;
@@ -32,16 +33,6 @@ pub struct Regression {
     pub ratio: f64,
 }
 
-fn median(values: &mut [f64]) -> f64 {
-    values.sort_by(f64::total_cmp);
-    let n = values.len();
-    if n % 2 == 1 {
-        values[n / 2]
-    } else {
-        0.5 * (values[n / 2 - 1] + values[n / 2])
-    }
-}
-
 /// The bound for `value` given its history, and whether it is crossed.
 /// `higher_is_worse` for times, not for FPS. None with too little history.
 pub fn judge(
@@ -50,13 +41,13 @@ pub fn judge(
     higher_is_worse: bool,
     policy: &Performance,
 ) -> Option<(f64, f64, f64, bool)> {
-    let mut past: Vec<f64> = history.iter().copied().filter(|v| v.is_finite()).collect();
+    let past: Vec<f64> = history.iter().copied().filter(|v| v.is_finite()).collect();
     if past.len() < policy.min_runs as usize || !value.is_finite() {
         return None;
     }
-    let m = median(&mut past);
-    let mut dev: Vec<f64> = past.iter().map(|v| (v - m).abs()).collect();
-    let mad = median(&mut dev);
+    let m = quantile(&past, 0.5);
+    let dev: Vec<f64> = past.iter().map(|v| (v - m).abs()).collect();
+    let mad = quantile(&dev, 0.5);
     let margin = (policy.mads * MAD_TO_SIGMA * mad).max(policy.min_relative * m.abs());
     let (bound, crossed) = if higher_is_worse {
         (m + margin, value > m + margin)

@@ -8,6 +8,7 @@ pub mod svg;
 
 use crate::conventions::rotation_matrix;
 use crate::golden::{scene_environment, GoldenError};
+use crate::gpu::timing::quantile;
 use crate::gpu::{
     EnvFilter, GpuConfig, GpuContext, GpuError, GpuInput, GpuRenderer, HdrFormat, ReductionMethod,
 };
@@ -167,15 +168,6 @@ pub fn mark_pareto(points: &mut [Point]) {
     }
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    match v.len() {
-        0 => f64::NAN,
-        n if n % 2 == 1 => v[n / 2],
-        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
-    }
-}
-
 /// Measures every configuration of `scene`; `progress` is called after each.
 pub fn measure_scene(
     ctx: &GpuContext,
@@ -262,7 +254,7 @@ pub fn measure_scene(
             scene: scene.name.clone(),
             label,
             knobs,
-            ms: median(times),
+            ms: quantile(&times, 0.5),
             psnr,
             ssim,
             log_average_rel_error: rel,
