@@ -492,13 +492,7 @@ fn gpu_flat(
         .map_err(gpu_error)?
         .unwrap_or_else(|| img.to_linear());
     let s = out.stats;
-    let stats = crate::reference::luminance_stats::LuminanceStats {
-        log_average: Some(s.log_average as f64),
-        weighted_log_average: Some(s.weighted_log_average as f64),
-        min: Some(s.min as f64),
-        max: Some(s.max as f64),
-        weight_sum: Some(s.weight_sum as f64),
-    };
+    let stats = s.luminance_stats();
     let (weights, _) = crate::reference::tonemap::operator_constants(pipeline.operator);
     let tone = crate::reference::tonemap::ToneParams {
         key: s.key as f64,

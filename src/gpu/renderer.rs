@@ -64,6 +64,19 @@ pub struct GpuStats {
     pub white: f32,
 }
 
+impl GpuStats {
+    /// The statistics in the reference's shape, for comparing and reporting.
+    pub fn luminance_stats(&self) -> crate::reference::luminance_stats::LuminanceStats {
+        crate::reference::luminance_stats::LuminanceStats {
+            log_average: Some(self.log_average as f64),
+            weighted_log_average: Some(self.weighted_log_average as f64),
+            min: Some(self.min as f64),
+            max: Some(self.max as f64),
+            weight_sum: Some(self.weight_sum as f64),
+        }
+    }
+}
+
 /// One rendered frame.
 #[derive(Clone, Debug)]
 pub struct GpuFrame {

@@ -261,6 +261,15 @@ pub fn git_commit(dir: &Path) -> Option<String> {
     (out.status.success() && !s.trim().is_empty()).then(|| s.trim().to_owned())
 }
 
+/// Maps a rusqlite error to one that names the file; owned, so it can be used
+/// while a transaction borrows the connection.
+fn sqlite_error(path: PathBuf) -> impl Fn(rusqlite::Error) -> HistoryError {
+    move |source| HistoryError::Sqlite {
+        path: path.clone(),
+        source,
+    }
+}
+
 impl History {
     /// Opens (creating when absent) the history at `path`, migrates it to
     /// this build's schema and marks dead runs `aborted`.
@@ -361,17 +370,13 @@ impl History {
             });
         }
         for (i, sql) in MIGRATIONS.iter().enumerate().skip(version as usize) {
-            let path = self.path.clone();
-            let err = |source| HistoryError::Sqlite {
-                path: path.clone(),
-                source,
-            };
+            let err = sqlite_error(self.path.clone());
             // Each migration and its version bump commit together.
-            let tx = self.conn.transaction().map_err(err)?;
-            tx.execute_batch(sql).map_err(err)?;
+            let tx = self.conn.transaction().map_err(&err)?;
+            tx.execute_batch(sql).map_err(&err)?;
             tx.pragma_update(None, "user_version", (i + 1) as i64)
-                .map_err(err)?;
-            tx.commit().map_err(err)?;
+                .map_err(&err)?;
+            tx.commit().map_err(&err)?;
         }
         Ok(())
     }
@@ -459,13 +464,9 @@ impl History {
 
     /// Records one scene's result, frames, timings and checks in one transaction.
     pub fn record_scene(&mut self, run: i64, r: &SceneResult) -> Result<(), HistoryError> {
-        let path = self.path.clone();
-        let err = |source| HistoryError::Sqlite {
-            path: path.clone(),
-            source,
-        };
+        let err = sqlite_error(self.path.clone());
         let json = serde_json::to_string(r).map_err(|e| HistoryError::Invalid(e.to_string()))?;
-        let tx = self.conn.transaction().map_err(err)?;
+        let tx = self.conn.transaction().map_err(&err)?;
         tx.execute(
             "INSERT INTO scene_results (run_id, scene, test, passed, fps, frames, result)
              VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)",
@@ -481,7 +482,7 @@ impl History {
                 json
             ],
         )
-        .map_err(err)?;
+        .map_err(&err)?;
         {
             let mut frame = tx
                 .prepare(
@@ -489,7 +490,7 @@ impl History {
                                                 max_abs_diff, fraction_over_1lsb)
                      VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10)",
                 )
-                .map_err(err)?;
+                .map_err(&err)?;
             for f in &r.frames {
                 let m = &f.metrics;
                 frame
@@ -505,25 +506,25 @@ impl History {
                         m.max_abs_diff,
                         m.fraction_over_1lsb
                     ])
-                    .map_err(err)?;
+                    .map_err(&err)?;
             }
             let mut stage = tx
                 .prepare(
                     "INSERT INTO stage_timings (run_id, scene, stage, median_ms, p95_ms)
                      VALUES (?1, ?2, ?3, ?4, ?5)",
                 )
-                .map_err(err)?;
+                .map_err(&err)?;
             for t in &r.timings {
                 stage
                     .execute(params![run, r.scene, t.name, t.median_ms, t.p95_ms])
-                    .map_err(err)?;
+                    .map_err(&err)?;
             }
             let mut check = tx
                 .prepare(
                     "INSERT INTO check_results (run_id, scene, idx, label, passed, detail, adapter, set_by)
                      VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)",
                 )
-                .map_err(err)?;
+                .map_err(&err)?;
             for (i, c) in r.checks.iter().enumerate() {
                 check
                     .execute(params![
@@ -536,10 +537,10 @@ impl History {
                         c.spec.adapter,
                         c.spec.set_by
                     ])
-                    .map_err(err)?;
+                    .map_err(&err)?;
             }
         }
-        tx.commit().map_err(err)
+        tx.commit().map_err(&err)
     }
 
     /// Records the regressions flagged for a run.
@@ -548,12 +549,8 @@ impl History {
         run: i64,
         found: &[Regression],
     ) -> Result<(), HistoryError> {
-        let path = self.path.clone();
-        let err = |source| HistoryError::Sqlite {
-            path: path.clone(),
-            source,
-        };
-        let tx = self.conn.transaction().map_err(err)?;
+        let err = sqlite_error(self.path.clone());
+        let tx = self.conn.transaction().map_err(&err)?;
         for g in found {
             tx.execute(
                 "INSERT INTO regressions (run_id, scene, metric, value, median, mad, bound, runs)
@@ -569,9 +566,9 @@ impl History {
                     g.runs as i64
                 ],
             )
-            .map_err(err)?;
+            .map_err(&err)?;
         }
-        tx.commit().map_err(err)
+        tx.commit().map_err(&err)
     }
 
     /// Records a trade-off sweep's points (every scene's, in one transaction).
@@ -580,12 +577,8 @@ impl History {
         run: i64,
         points: &[crate::tradeoff::Point],
     ) -> Result<(), HistoryError> {
-        let path = self.path.clone();
-        let err = |source| HistoryError::Sqlite {
-            path: path.clone(),
-            source,
-        };
-        let tx = self.conn.transaction().map_err(err)?;
+        let err = sqlite_error(self.path.clone());
+        let tx = self.conn.transaction().map_err(&err)?;
         for p in points {
             let knobs = serde_json::to_string(&p.knobs).unwrap_or_default();
             tx.execute(
@@ -604,9 +597,9 @@ impl History {
                     p.pareto
                 ],
             )
-            .map_err(err)?;
+            .map_err(&err)?;
         }
-        tx.commit().map_err(err)
+        tx.commit().map_err(&err)
     }
 
     /// Ends a run: its status, an optional message and the full JSON report.

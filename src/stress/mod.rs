@@ -293,13 +293,7 @@ pub fn run(cases: &[Case], ctx: Option<&GpuContext>) -> StressReport {
                         }
                         Ok((notes, out, toned, display)) => {
                             let s = out.stats;
-                            let got = LuminanceStats {
-                                log_average: Some(s.log_average as f64),
-                                weighted_log_average: Some(s.weighted_log_average as f64),
-                                min: Some(s.min as f64),
-                                max: Some(s.max as f64),
-                                weight_sum: Some(s.weight_sum as f64),
-                            };
+                            let got = s.luminance_stats();
                             // Only what the plan measured is compared.
                             let want = reference.stats;
                             let mut err = stats_error(&got, &want);
