@@ -20,6 +20,7 @@ pub mod reference;
 pub mod scene;
 pub mod stress;
 pub mod suite;
+pub mod toning;
 pub mod tradeoff;
 
 pub use error::{Error, Result};

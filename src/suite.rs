@@ -68,7 +68,8 @@ pub struct FrameResult {
     /// Indices (into the scene's `checks`) of the per-frame checks this frame fails.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub failed_checks: Vec<usize>,
-    /// Artifact files written for this frame (failing frames only).
+    /// Artifact files written for this frame (failing frames, and each
+    /// scene's worst judged frame).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub artifacts: Vec<String>,
 }
@@ -425,20 +426,24 @@ pub struct Rendered {
     pub fps: Option<f64>,
 }
 
-/// A frame that failed a check, with what the artifacts are made of.
-pub struct FailedFrame {
+/// A frame whose images are kept as artifacts (a failing frame, or the
+/// scene's worst judged frame so a passing run can be looked at too).
+pub struct KeptFrame {
     pub frame: u32,
+    /// Whether the frame failed a check (else it is the scene's worst frame).
+    pub failed: bool,
     pub actual: Rgb8Image,
     pub golden: Rgb8Image,
 }
 
 /// Compares rendered frames with the goldens under `root` and evaluates the
-/// scene's checks. Returns the failing frames' images for artifacts.
+/// scene's checks. Returns the images of the failing frames and of the worst
+/// judged frame (lowest PSNR), for artifacts.
 pub fn judge(
     root: &Path,
     scene: &Scene,
     rendered: Rendered,
-) -> Result<(SceneResult, Vec<FailedFrame>), SuiteError> {
+) -> Result<(SceneResult, Vec<KeptFrame>), SuiteError> {
     let Rendered {
         renderer,
         adapter,
@@ -531,11 +536,17 @@ pub fn judge(
             .collect();
         summaries.insert(name.to_string(), Summary::of(&values, higher_is_better));
     }
-    let failed: Vec<FailedFrame> = frames
+    let worst = frames
         .iter()
-        .filter(|f| !f.failed_checks.is_empty())
-        .map(|f| FailedFrame {
+        .filter(|f| judged_frames.contains(&f.frame))
+        .min_by(|a, b| a.metrics.psnr.total_cmp(&b.metrics.psnr))
+        .map(|f| f.frame);
+    let kept: Vec<KeptFrame> = frames
+        .iter()
+        .filter(|f| !f.failed_checks.is_empty() || Some(f.frame) == worst)
+        .map(|f| KeptFrame {
             frame: f.frame,
+            failed: !f.failed_checks.is_empty(),
             actual: images[f.frame as usize].clone(),
             golden: goldens[f.frame as usize].clone(),
         })
@@ -556,7 +567,7 @@ pub fn judge(
             timings,
             fps,
         },
-        failed,
+        kept,
     ))
 }
 

@@ -1,10 +1,10 @@
-//! Artifacts of failing frames: actual, golden, diff heat map and SSIM map
+//! Artifacts of failing frames (and of each scene's worst frame): actual, golden, diff heat map and SSIM map
 //! PNGs named `<scene>-<frame>-<adapter>-<kind>.png` (wgpu's test harness
 //! names its images by adapter the same way).
 
 use super::CheckError;
 use crate::metrics::{diff_heatmap, ssim, ssim_map_image};
-use crate::suite::FailedFrame;
+use crate::suite::KeptFrame;
 use std::path::Path;
 
 /// The adapter name as a file-name part: lowercase ASCII letters and digits,
@@ -34,12 +34,12 @@ pub fn artifact_name(scene: &str, frame: u32, adapter_slug: &str, kind: &str) ->
     format!("{scene}-{frame:03}-{adapter_slug}-{kind}.png")
 }
 
-/// Writes the four images of one failing frame; returns their file names.
+/// Writes the four images of one kept frame; returns their file names.
 pub(super) fn write_frame(
     dir: &Path,
     scene: &str,
     slug: &str,
-    f: &FailedFrame,
+    f: &KeptFrame,
 ) -> Result<Vec<String>, CheckError> {
     std::fs::create_dir_all(dir).map_err(|e| CheckError::Artifact {
         path: dir.to_owned(),

@@ -68,7 +68,7 @@ pub fn render(r: &CheckReport) -> String {
         let with_artifacts: Vec<&crate::suite::FrameResult> = s
             .frames
             .iter()
-            .filter(|f| !f.artifacts.is_empty())
+            .filter(|f| !f.artifacts.is_empty() && !f.failed_checks.is_empty())
             .collect();
         if let (Some(dir), Some(first)) = (&r.artifacts_dir, with_artifacts.first()) {
             let _ = writeln!(

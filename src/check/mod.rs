@@ -1,6 +1,6 @@
 //! `tonegate check`: the CI gate. Renders every scene of a suite, compares
 //! every frame with its golden, evaluates the typed checks, writes artifacts
-//! for failing frames, flags performance regressions against the history and
+//! for failing frames (and each scene's worst frame), flags performance regressions against the history and
 //! records the run.
 //!
 //! The outcome is one of three, and the exit code says which (see
@@ -43,12 +43,15 @@ pub enum Renderer {
 pub struct CheckOptions {
     pub suite: PathBuf,
     pub renderer: Renderer,
-    /// Where failing frames' PNGs go; None writes none.
+    /// Where the kept frames' PNGs go (failing frames, each scene's worst frame); None writes none.
     pub artifacts: Option<PathBuf>,
     /// The history database; None records nothing (and finds no regressions).
     pub db: Option<PathBuf>,
     /// Show a progress bar on stderr (hidden anyway when not a terminal).
     pub progress: bool,
+    /// Told the run's id as soon as the history has it (the HTTP API answers
+    /// `POST /runs` with it while the run goes on).
+    pub started: Option<std::sync::mpsc::Sender<i64>>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -161,6 +164,9 @@ pub fn run(opts: &CheckOptions) -> CheckOutcome {
         Ok(id) => id,
         Err(e) => return CheckOutcome::Error(e.into(), None),
     };
+    if let (Some(tx), Some(id)) = (&opts.started, run_id) {
+        let _ = tx.send(id);
+    }
     let started_at = crate::history::now();
     // Without --artifacts, a recorded run keeps its images beside the
     // database, one folder a run, where the API can serve them.

@@ -37,7 +37,7 @@ pub struct CheckArgs {
     /// Write the full report as JSON here ("-" for stdout; the table then goes to stderr).
     #[arg(long)]
     pub json: Option<PathBuf>,
-    /// Write failing frames' actual/golden/diff/ssim PNGs here
+    /// Write the actual/golden/diff/ssim PNGs of failing frames (and of each scene's worst frame) here
     /// (default: beside the database, artifacts/run-<id>).
     #[arg(long)]
     pub artifacts: Option<PathBuf>,
@@ -148,6 +148,7 @@ pub fn check(a: CheckArgs) -> Result<ExitCode> {
         artifacts: a.artifacts.clone(),
         db: (!a.no_history).then(|| a.db.db.clone()),
         progress: true,
+        started: None,
     };
     let outcome = crate::check::run(&opts);
     match &outcome {

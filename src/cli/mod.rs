@@ -4,11 +4,9 @@
 //! not happen (bad arguments, unreadable files, missing goldens).
 
 use crate::error::{Error, Result};
-use crate::scene::{
-    Bloom, BrightPass, ColourPath, Encoding, Factor, Grade, Key, NonNegative, Operator, Positive,
-    Radius, Scene, Size,
-};
-use clap::{Args, Parser, Subcommand, ValueEnum};
+use crate::scene::{Scene, Size};
+use crate::toning::ToneSettings;
+use clap::{Args, Parser, Subcommand};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -98,31 +96,6 @@ pub struct BenchArgs {
     pub gpu: GpuArgs,
 }
 
-#[derive(Clone, Copy, ValueEnum)]
-pub enum OperatorKind {
-    Seed000,
-    Seed001,
-    Reinhard02,
-}
-
-#[derive(Clone, Copy, ValueEnum)]
-pub enum Preset {
-    /// pfstmo_reinhard02 in global mode: pfstools' luminance, δ = 1e-5, Lwhite = max scaled.
-    Reinhard02,
-}
-
-#[derive(Clone, Copy, ValueEnum)]
-pub enum ColourArg {
-    Ratio,
-    Xyy,
-}
-
-#[derive(Clone, Copy, ValueEnum)]
-pub enum BrightPassArg {
-    Seed001,
-    Threshold,
-}
-
 #[derive(Args)]
 pub struct TonemapArgs {
     /// Input HDR image.
@@ -135,47 +108,8 @@ pub struct TonemapArgs {
     pub gpu: bool,
     #[command(flatten)]
     pub gpu_options: GpuArgs,
-    /// A preset that fixes the operator (overrides --operator and --colour).
-    #[arg(long, value_enum)]
-    pub preset: Option<Preset>,
-    #[arg(long, value_enum, default_value = "seed000")]
-    pub operator: OperatorKind,
-    /// Key a (a number, or "auto" for seed001's automatic key).
-    #[arg(long)]
-    pub key: Option<String>,
-    /// Seed000: fraction of the scene maximum that maps to white, (0, 1].
-    #[arg(long)]
-    pub white_fraction: Option<f64>,
-    /// Reinhard02: absolute Lwhite (default: the maximum scaled luminance).
-    #[arg(long)]
-    pub white: Option<f64>,
-    /// Fixed adaptation luminance instead of the measured log-average.
-    #[arg(long)]
-    pub log_average: Option<f64>,
-    #[arg(long, value_enum, default_value = "ratio")]
-    pub colour: ColourArg,
-    /// Bloom strength k (0 = no bloom).
-    #[arg(long, default_value_t = 0.0)]
-    pub bloom: f64,
-    #[arg(long, value_enum, default_value = "seed001")]
-    pub bloom_pass: BrightPassArg,
-    #[arg(long, default_value_t = 1.0)]
-    pub bloom_threshold: f64,
-    #[arg(long, default_value_t = 2)]
-    pub bloom_downsample: u32,
-    #[arg(long, default_value_t = 6)]
-    pub bloom_radius: u32,
-    #[arg(long, default_value_t = 3.0)]
-    pub bloom_sigma: f64,
-    #[arg(long, default_value_t = 1.0)]
-    pub brightness: f64,
-    #[arg(long, default_value_t = 1.0)]
-    pub contrast: f64,
-    #[arg(long, default_value_t = 1.0)]
-    pub saturation: f64,
-    /// Encode with a 1/γ power instead of the sRGB OETF.
-    #[arg(long)]
-    pub gamma: Option<f64>,
+    #[command(flatten)]
+    pub settings: ToneSettings,
     /// Set NaN and ±Inf input values to 0 (and count them) instead of refusing the file.
     #[arg(long)]
     pub sanitize: bool,
@@ -293,14 +227,6 @@ fn invalid(msg: impl Into<String>) -> Error {
     Error::Invalid(msg.into())
 }
 
-fn positive(name: &str, v: f64) -> Result<Positive> {
-    Positive::try_from(v).map_err(|e| invalid(format!("--{name}: {e}")))
-}
-
-fn non_negative(name: &str, v: f64) -> Result<NonNegative> {
-    NonNegative::try_from(v).map_err(|e| invalid(format!("--{name}: {e}")))
-}
-
 fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<()> {
     let text = serde_json::to_string_pretty(value).map_err(|e| invalid(e.to_string()))?;
     if path == Path::new("-") {
@@ -314,114 +240,23 @@ fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<()> {
     }
 }
 
-/// The operator the tonemap flags describe.
-pub fn operator_from_args(a: &TonemapArgs) -> Result<Operator> {
-    let colour = match a.colour {
-        ColourArg::Ratio => ColourPath::Ratio,
-        ColourArg::Xyy => ColourPath::Xyy,
-    };
-    let key = match a.key.as_deref() {
-        None => None,
-        Some("auto") => Some(Key::Auto),
-        Some(s) => {
-            let v: f64 = s
-                .parse()
-                .map_err(|_| invalid(format!("--key: expected a number or \"auto\", got {s:?}")))?;
-            Some(Key::Fixed(positive("key", v)?))
-        }
-    };
-    let fixed_key = |k: Option<Key>| -> Result<Positive> {
-        match k {
-            None => positive("key", 0.18),
-            Some(Key::Fixed(v)) => Ok(v),
-            Some(Key::Auto) => Err(invalid("--key auto applies to --operator seed001 only")),
-        }
-    };
-    let log_average = a
-        .log_average
-        .map(|v| positive("log-average", v))
-        .transpose()?;
-    if let Some(Preset::Reinhard02) = a.preset {
-        let op = Operator::reinhard02_preset(fixed_key(key)?.get()).map_err(invalid)?;
-        return Ok(op);
-    }
-    Ok(match a.operator {
-        OperatorKind::Seed000 => {
-            let w = a.white_fraction.unwrap_or(0.8);
-            if !(w > 0.0 && w <= 1.0) {
-                return Err(invalid(format!(
-                    "--white-fraction: must be in (0, 1], got {w}"
-                )));
-            }
-            Operator::Seed000 {
-                key: fixed_key(key)?,
-                white_fraction: positive("white-fraction", w)?,
-                log_average,
-                max_luminance: None,
-                colour,
-            }
-        }
-        OperatorKind::Seed001 => Operator::Seed001 {
-            key: key.unwrap_or(Key::Auto),
-            colour,
-        },
-        OperatorKind::Reinhard02 => Operator::Reinhard02 {
-            key: fixed_key(key)?,
-            white: a.white.map(|w| positive("white", w)).transpose()?,
-            log_average,
-            colour,
-            pfs_compatible: false,
-        },
-    })
-}
-
-fn bloom_from_args(a: &TonemapArgs) -> Result<Option<Bloom>> {
-    if a.bloom == 0.0 {
-        return Ok(None);
-    }
-    Ok(Some(Bloom {
-        bright_pass: match a.bloom_pass {
-            BrightPassArg::Seed001 => BrightPass::Seed001,
-            BrightPassArg::Threshold => BrightPass::Threshold,
-        },
-        threshold: non_negative("bloom-threshold", a.bloom_threshold)?,
-        downsample: Factor::try_from(a.bloom_downsample)
-            .map_err(|e| invalid(format!("--bloom-downsample: {e}")))?,
-        radius: Radius::try_from(a.bloom_radius)
-            .map_err(|e| invalid(format!("--bloom-radius: {e}")))?,
-        sigma: positive("bloom-sigma", a.bloom_sigma)?,
-        strength: non_negative("bloom", a.bloom)?,
-    }))
-}
-
 fn tonemap(a: TonemapArgs) -> Result<ExitCode> {
-    let operator = operator_from_args(&a)?;
-    let bloom = bloom_from_args(&a)?;
-    let grade = Grade {
-        brightness: non_negative("brightness", a.brightness)?,
-        contrast: non_negative("contrast", a.contrast)?,
-        saturation: non_negative("saturation", a.saturation)?,
-    };
-    let encoding = match a.gamma {
-        Some(g) => Encoding::Gamma(positive("gamma", g)?),
-        None => Encoding::Srgb,
-    };
+    let resolved = a.settings.resolve()?;
     let opts = crate::io::LoadOptions {
         sanitize: a.sanitize,
         max_pixels: a.max_pixels,
     };
     let (img, load_report) = crate::io::load_hdr(&a.input, &opts)?;
-    let pipeline = crate::reference::Pipeline {
-        operator: &operator,
-        bloom: bloom.as_ref(),
-        grade: Some(&grade),
-        encoding,
-    };
-    let (plan, out) = if a.gpu {
-        gpu_flat(&img, &pipeline, &a.gpu_options)?
+    let ctx = if a.gpu {
+        Some(crate::gpu::GpuContext::new(&a.gpu_options.adapter).map_err(gpu_error)?)
     } else {
-        crate::reference::render_flat(&img, &pipeline)
+        None
     };
+    let (plan, out) = crate::toning::tone_map(
+        &img,
+        &resolved.pipeline(),
+        ctx.as_ref().map(|c| (c, a.gpu_options.config())),
+    )?;
     let ext = a
         .output
         .extension()
@@ -462,66 +297,6 @@ fn tonemap(a: TonemapArgs) -> Result<ExitCode> {
 
 fn gpu_error(e: crate::gpu::GpuError) -> Error {
     invalid(e.to_string())
-}
-
-/// Tone-maps a flat image on the GPU; the outputs the CLI writes come back as
-/// the reference's `FrameOutputs` shape (statistics from the GPU).
-fn gpu_flat(
-    img: &crate::image::HdrImage,
-    pipeline: &crate::reference::Pipeline,
-    gpu: &GpuArgs,
-) -> Result<(crate::plan::StagePlan, crate::reference::FrameOutputs)> {
-    let ctx = crate::gpu::GpuContext::new(&gpu.adapter).map_err(gpu_error)?;
-    let plan = crate::plan::StagePlan::build(
-        crate::plan::Input::Flat,
-        pipeline.operator,
-        pipeline.bloom,
-        pipeline.grade,
-    );
-    let r = crate::gpu::GpuRenderer::new(
-        &ctx,
-        plan.clone(),
-        crate::gpu::GpuInput::Flat(img),
-        pipeline,
-        gpu.config(),
-    )
-    .map_err(gpu_error)?;
-    let out = r.render(true).map_err(gpu_error)?;
-    let display = r
-        .read_output("display")
-        .map_err(gpu_error)?
-        .unwrap_or_else(|| img.to_linear());
-    let s = out.stats;
-    let stats = s.luminance_stats();
-    let (weights, _) = crate::reference::tonemap::operator_constants(pipeline.operator);
-    let tone = crate::reference::tonemap::ToneParams {
-        key: s.key as f64,
-        log_average: s.adaptation as f64,
-        scale: s.scale as f64,
-        white_sq: if s.white > 0.0 && s.white.is_finite() {
-            (s.white as f64).powi(2)
-        } else {
-            f64::INFINITY
-        },
-        weights,
-        colour: pipeline.operator.colour(),
-    };
-    let frame = out
-        .frame
-        .ok_or_else(|| invalid("GPU frame was not read back"))?;
-    Ok((
-        plan,
-        crate::reference::FrameOutputs {
-            hdr: img.to_linear(),
-            stats,
-            tone,
-            toned: display.clone(),
-            bloom: None,
-            grade_mean: None,
-            display,
-            frame,
-        },
-    ))
 }
 
 fn bench(a: BenchArgs) -> Result<ExitCode> {

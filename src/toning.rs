@@ -1,0 +1,364 @@
+//! Tone-mapping one flat HDR image with user-chosen settings: the knobs the
+//! `tonemap` command's flags and the HTTP API's `POST /tonemap` parameters
+//! share (one definition, so the two cannot drift), and the CPU and GPU paths.
+
+use crate::error::{Error, Result};
+use crate::gpu::{GpuConfig, GpuContext};
+use crate::image::HdrImage;
+use crate::plan::StagePlan;
+use crate::reference::{FrameOutputs, Pipeline};
+use crate::scene::{
+    Bloom, BrightPass, ColourPath, Encoding, Factor, Grade, Key, NonNegative, Operator, Positive,
+    Radius,
+};
+use clap::{Args, ValueEnum};
+use serde::{Deserialize, Serialize};
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum OperatorKind {
+    Seed000,
+    Seed001,
+    Reinhard02,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Preset {
+    /// pfstmo_reinhard02 in global mode: pfstools' luminance, δ = 1e-5, Lwhite = max scaled.
+    Reinhard02,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ColourArg {
+    Ratio,
+    Xyy,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BrightPassArg {
+    Seed001,
+    Threshold,
+}
+
+/// The operator, bloom, grade and encoding of a flat tone-map. As flags
+/// (`--white-fraction`) and as API parameters (`white_fraction`); unknown API
+/// parameters are refused. `Default` is what the flags default to (a test
+/// holds the two together).
+#[derive(Args, Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ToneSettings {
+    /// A preset that fixes the operator (overrides --operator and --colour).
+    #[arg(long, value_enum)]
+    pub preset: Option<Preset>,
+    #[arg(long, value_enum, default_value = "seed000")]
+    pub operator: OperatorKind,
+    /// Key a (a number, or "auto" for seed001's automatic key).
+    #[arg(long)]
+    pub key: Option<String>,
+    /// Seed000: fraction of the scene maximum that maps to white, (0, 1].
+    #[arg(long)]
+    pub white_fraction: Option<f64>,
+    /// Reinhard02: absolute Lwhite (default: the maximum scaled luminance).
+    #[arg(long)]
+    pub white: Option<f64>,
+    /// Fixed adaptation luminance instead of the measured log-average.
+    #[arg(long)]
+    pub log_average: Option<f64>,
+    #[arg(long, value_enum, default_value = "ratio")]
+    pub colour: ColourArg,
+    /// Bloom strength k (0 = no bloom).
+    #[arg(long, default_value_t = 0.0)]
+    pub bloom: f64,
+    #[arg(long, value_enum, default_value = "seed001")]
+    pub bloom_pass: BrightPassArg,
+    #[arg(long, default_value_t = 1.0)]
+    pub bloom_threshold: f64,
+    #[arg(long, default_value_t = 2)]
+    pub bloom_downsample: u32,
+    #[arg(long, default_value_t = 6)]
+    pub bloom_radius: u32,
+    #[arg(long, default_value_t = 3.0)]
+    pub bloom_sigma: f64,
+    #[arg(long, default_value_t = 1.0)]
+    pub brightness: f64,
+    #[arg(long, default_value_t = 1.0)]
+    pub contrast: f64,
+    #[arg(long, default_value_t = 1.0)]
+    pub saturation: f64,
+    /// Encode with a 1/γ power instead of the sRGB OETF.
+    #[arg(long)]
+    pub gamma: Option<f64>,
+}
+
+impl Default for ToneSettings {
+    fn default() -> Self {
+        ToneSettings {
+            preset: None,
+            operator: OperatorKind::Seed000,
+            key: None,
+            white_fraction: None,
+            white: None,
+            log_average: None,
+            colour: ColourArg::Ratio,
+            bloom: 0.0,
+            bloom_pass: BrightPassArg::Seed001,
+            bloom_threshold: 1.0,
+            bloom_downsample: 2,
+            bloom_radius: 6,
+            bloom_sigma: 3.0,
+            brightness: 1.0,
+            contrast: 1.0,
+            saturation: 1.0,
+            gamma: None,
+        }
+    }
+}
+
+/// Validated settings, ready to become a [`Pipeline`].
+#[derive(Clone, Debug)]
+pub struct Resolved {
+    pub operator: Operator,
+    pub bloom: Option<Bloom>,
+    pub grade: Grade,
+    pub encoding: Encoding,
+}
+
+impl Resolved {
+    pub fn pipeline(&self) -> Pipeline<'_> {
+        Pipeline {
+            operator: &self.operator,
+            bloom: self.bloom.as_ref(),
+            grade: Some(&self.grade),
+            encoding: self.encoding,
+        }
+    }
+}
+
+fn invalid(msg: impl Into<String>) -> Error {
+    Error::Invalid(msg.into())
+}
+
+fn positive(name: &str, v: f64) -> Result<Positive> {
+    Positive::try_from(v).map_err(|e| invalid(format!("{name}: {e}")))
+}
+
+fn non_negative(name: &str, v: f64) -> Result<NonNegative> {
+    NonNegative::try_from(v).map_err(|e| invalid(format!("{name}: {e}")))
+}
+
+impl ToneSettings {
+    /// Checks every value and builds the operator, bloom, grade and encoding;
+    /// the error names the parameter and what it must be.
+    pub fn resolve(&self) -> Result<Resolved> {
+        Ok(Resolved {
+            operator: self.operator()?,
+            bloom: self.bloom()?,
+            grade: Grade {
+                brightness: non_negative("brightness", self.brightness)?,
+                contrast: non_negative("contrast", self.contrast)?,
+                saturation: non_negative("saturation", self.saturation)?,
+            },
+            encoding: match self.gamma {
+                Some(g) => Encoding::Gamma(positive("gamma", g)?),
+                None => Encoding::Srgb,
+            },
+        })
+    }
+
+    fn operator(&self) -> Result<Operator> {
+        let colour = match self.colour {
+            ColourArg::Ratio => ColourPath::Ratio,
+            ColourArg::Xyy => ColourPath::Xyy,
+        };
+        let key = match self.key.as_deref() {
+            None => None,
+            Some("auto") => Some(Key::Auto),
+            Some(s) => {
+                let v: f64 = s
+                    .parse()
+                    .map_err(|_| invalid(format!("key: expected a number or \"auto\", got {s:?}")))?;
+                Some(Key::Fixed(positive("key", v)?))
+            }
+        };
+        let fixed_key = |k: Option<Key>| -> Result<Positive> {
+            match k {
+                None => positive("key", 0.18),
+                Some(Key::Fixed(v)) => Ok(v),
+                Some(Key::Auto) => Err(invalid("key auto applies to operator seed001 only")),
+            }
+        };
+        let log_average = self
+            .log_average
+            .map(|v| positive("log_average", v))
+            .transpose()?;
+        if let Some(Preset::Reinhard02) = self.preset {
+            return Operator::reinhard02_preset(fixed_key(key)?.get()).map_err(invalid);
+        }
+        Ok(match self.operator {
+            OperatorKind::Seed000 => {
+                let w = self.white_fraction.unwrap_or(0.8);
+                if !(w > 0.0 && w <= 1.0) {
+                    return Err(invalid(format!("white_fraction: must be in (0, 1], got {w}")));
+                }
+                Operator::Seed000 {
+                    key: fixed_key(key)?,
+                    white_fraction: positive("white_fraction", w)?,
+                    log_average,
+                    max_luminance: None,
+                    colour,
+                }
+            }
+            OperatorKind::Seed001 => Operator::Seed001 {
+                key: key.unwrap_or(Key::Auto),
+                colour,
+            },
+            OperatorKind::Reinhard02 => Operator::Reinhard02 {
+                key: fixed_key(key)?,
+                white: self.white.map(|w| positive("white", w)).transpose()?,
+                log_average,
+                colour,
+                pfs_compatible: false,
+            },
+        })
+    }
+
+    fn bloom(&self) -> Result<Option<Bloom>> {
+        if self.bloom == 0.0 {
+            return Ok(None);
+        }
+        Ok(Some(Bloom {
+            bright_pass: match self.bloom_pass {
+                BrightPassArg::Seed001 => BrightPass::Seed001,
+                BrightPassArg::Threshold => BrightPass::Threshold,
+            },
+            threshold: non_negative("bloom_threshold", self.bloom_threshold)?,
+            downsample: Factor::try_from(self.bloom_downsample)
+                .map_err(|e| invalid(format!("bloom_downsample: {e}")))?,
+            radius: Radius::try_from(self.bloom_radius)
+                .map_err(|e| invalid(format!("bloom_radius: {e}")))?,
+            sigma: positive("bloom_sigma", self.bloom_sigma)?,
+            strength: non_negative("bloom", self.bloom)?,
+        }))
+    }
+}
+
+/// Tone-maps a flat image with the CPU reference, or on the GPU when a
+/// context is given; the GPU's outputs come back in the reference's
+/// `FrameOutputs` shape (statistics from the GPU).
+pub fn tone_map(
+    img: &HdrImage,
+    pipeline: &Pipeline,
+    gpu: Option<(&GpuContext, GpuConfig)>,
+) -> Result<(StagePlan, FrameOutputs)> {
+    match gpu {
+        None => Ok(crate::reference::render_flat(img, pipeline)),
+        Some((ctx, config)) => gpu_flat(img, pipeline, ctx, config),
+    }
+}
+
+fn gpu_error(e: crate::gpu::GpuError) -> Error {
+    invalid(e.to_string())
+}
+
+fn gpu_flat(
+    img: &HdrImage,
+    pipeline: &Pipeline,
+    ctx: &GpuContext,
+    config: GpuConfig,
+) -> Result<(StagePlan, FrameOutputs)> {
+    let plan = StagePlan::build(
+        crate::plan::Input::Flat,
+        pipeline.operator,
+        pipeline.bloom,
+        pipeline.grade,
+    );
+    let r = crate::gpu::GpuRenderer::new(
+        ctx,
+        plan.clone(),
+        crate::gpu::GpuInput::Flat(img),
+        pipeline,
+        config,
+    )
+    .map_err(gpu_error)?;
+    let out = r.render(true).map_err(gpu_error)?;
+    let display = r
+        .read_output("display")
+        .map_err(gpu_error)?
+        .unwrap_or_else(|| img.to_linear());
+    let s = out.stats;
+    let stats = s.luminance_stats();
+    let (weights, _) = crate::reference::tonemap::operator_constants(pipeline.operator);
+    let tone = crate::reference::tonemap::ToneParams {
+        key: s.key as f64,
+        log_average: s.adaptation as f64,
+        scale: s.scale as f64,
+        white_sq: if s.white > 0.0 && s.white.is_finite() {
+            (s.white as f64).powi(2)
+        } else {
+            f64::INFINITY
+        },
+        weights,
+        colour: pipeline.operator.colour(),
+    };
+    let frame = out
+        .frame
+        .ok_or_else(|| invalid("GPU frame was not read back"))?;
+    Ok((
+        plan,
+        FrameOutputs {
+            hdr: img.to_linear(),
+            stats,
+            tone,
+            toned: display.clone(),
+            bloom: None,
+            grade_mean: None,
+            display,
+            frame,
+        },
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Flags {
+        #[command(flatten)]
+        settings: ToneSettings,
+    }
+
+    #[test]
+    fn defaults_of_flags_and_api_are_the_same() {
+        let flags = Flags::try_parse_from(["x"]).unwrap();
+        assert_eq!(flags.settings, ToneSettings::default());
+        let api: ToneSettings = serde_json::from_str("{}").unwrap();
+        assert_eq!(api, ToneSettings::default());
+    }
+
+    #[test]
+    fn unknown_and_bad_parameters_are_refused_by_name() {
+        let e = serde_json::from_str::<ToneSettings>(r#"{"kee": 0.2}"#).unwrap_err();
+        assert!(e.to_string().contains("unknown field `kee`"), "{e}");
+        let s = ToneSettings {
+            white_fraction: Some(1.5),
+            ..Default::default()
+        };
+        let e = s.resolve().unwrap_err().to_string();
+        assert!(e.contains("white_fraction") && e.contains("1.5"), "{e}");
+        let s = ToneSettings {
+            key: Some("bright".into()),
+            ..Default::default()
+        };
+        assert!(s.resolve().unwrap_err().to_string().contains("key"));
+        let s = ToneSettings {
+            gamma: Some(f64::NAN),
+            ..Default::default()
+        };
+        assert!(s.resolve().unwrap_err().to_string().contains("gamma"));
+    }
+}
