@@ -16,6 +16,9 @@ pub enum Error {
         path: PathBuf,
         source: std::io::Error,
     },
+    /// No usable adapter, or the GPU failed.
+    #[error(transparent)]
+    Gpu(#[from] crate::gpu::GpuError),
     /// A command-line argument or parameter that cannot be used.
     #[error("{0}")]
     Invalid(String),

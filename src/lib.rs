@@ -18,6 +18,7 @@ pub mod metrics;
 pub mod plan;
 pub mod reference;
 pub mod scene;
+pub mod server;
 pub mod stress;
 pub mod suite;
 pub mod toning;

@@ -177,9 +177,9 @@ impl ToneSettings {
             None => None,
             Some("auto") => Some(Key::Auto),
             Some(s) => {
-                let v: f64 = s
-                    .parse()
-                    .map_err(|_| invalid(format!("key: expected a number or \"auto\", got {s:?}")))?;
+                let v: f64 = s.parse().map_err(|_| {
+                    invalid(format!("key: expected a number or \"auto\", got {s:?}"))
+                })?;
                 Some(Key::Fixed(positive("key", v)?))
             }
         };
@@ -201,7 +201,9 @@ impl ToneSettings {
             OperatorKind::Seed000 => {
                 let w = self.white_fraction.unwrap_or(0.8);
                 if !(w > 0.0 && w <= 1.0) {
-                    return Err(invalid(format!("white_fraction: must be in (0, 1], got {w}")));
+                    return Err(invalid(format!(
+                        "white_fraction: must be in (0, 1], got {w}"
+                    )));
                 }
                 Operator::Seed000 {
                     key: fixed_key(key)?,
@@ -259,10 +261,6 @@ pub fn tone_map(
     }
 }
 
-fn gpu_error(e: crate::gpu::GpuError) -> Error {
-    invalid(e.to_string())
-}
-
 fn gpu_flat(
     img: &HdrImage,
     pipeline: &Pipeline,
@@ -281,13 +279,9 @@ fn gpu_flat(
         crate::gpu::GpuInput::Flat(img),
         pipeline,
         config,
-    )
-    .map_err(gpu_error)?;
-    let out = r.render(true).map_err(gpu_error)?;
-    let display = r
-        .read_output("display")
-        .map_err(gpu_error)?
-        .unwrap_or_else(|| img.to_linear());
+    )?;
+    let out = r.render(true)?;
+    let display = r.read_output("display")?.unwrap_or_else(|| img.to_linear());
     let s = out.stats;
     let stats = s.luminance_stats();
     let (weights, _) = crate::reference::tonemap::operator_constants(pipeline.operator);

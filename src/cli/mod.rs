@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 mod gate;
+mod serve;
 
 #[derive(Parser)]
 #[command(
@@ -50,6 +51,8 @@ pub enum Command {
     Golden(GoldenCommand),
     /// Export a built-in HDR environment, or list them.
     Env(EnvArgs),
+    /// Serve the HTTP API (/api/v1), Prometheus metrics (/metrics) and the dashboard (/).
+    Serve(serve::ServeArgs),
 }
 
 /// The GPU knobs shared by every GPU command.
@@ -220,6 +223,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         Command::Golden(GoldenCommand::Bless { scenes, suite }) => golden_bless(&suite, &scenes),
         Command::Golden(GoldenCommand::Verify { scenes, suite }) => golden_verify(&suite, &scenes),
         Command::Env(a) => env(a),
+        Command::Serve(a) => serve::serve(a),
     }
 }
 

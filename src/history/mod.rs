@@ -11,7 +11,7 @@
 pub mod query;
 pub mod regress;
 
-pub use query::{RunRow, TrendPoint};
+pub use query::{RunRow, TradeoffRow, TrendFilter, TrendPoint};
 pub use regress::{find_regressions, Regression};
 
 use crate::suite::SceneResult;

@@ -1,11 +1,11 @@
 //! Reading the history: run lists and per-scene metric trends.
 
 use super::{History, HistoryError};
-use rusqlite::params;
+use rusqlite::{params, OptionalExtension};
 use serde::Serialize;
 
 /// One run as the run list shows it.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, utoipa::ToSchema)]
 pub struct RunRow {
     pub id: i64,
     pub kind: String,
@@ -27,8 +27,24 @@ pub struct RunRow {
     pub regressions: i64,
 }
 
+/// One configuration a tradeoff run measured.
+#[derive(Clone, Debug, Serialize, utoipa::ToSchema)]
+pub struct TradeoffRow {
+    pub scene: String,
+    pub label: String,
+    #[schema(value_type = Object)]
+    pub config: serde_json::Value,
+    pub ms: f64,
+    #[serde(with = "crate::metrics::json::extended_f64")]
+    pub psnr: f64,
+    #[serde(with = "crate::metrics::json::extended_f64")]
+    pub ssim: f64,
+    pub log_average_rel_error: Option<f64>,
+    pub pareto: bool,
+}
+
 /// One value of a metric for one scene in one run.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, utoipa::ToSchema)]
 pub struct TrendPoint {
     pub run_id: i64,
     pub started_at: String,
@@ -82,20 +98,81 @@ pub struct TrendFilter<'a> {
 impl History {
     /// The newest `limit` runs, newest first.
     pub fn runs(&self, limit: u32) -> Result<Vec<RunRow>, HistoryError> {
+        self.select_runs("ORDER BY r.id DESC LIMIT ?1", limit as i64)
+    }
+
+    /// One run, when it exists.
+    pub fn run(&self, id: i64) -> Result<Option<RunRow>, HistoryError> {
+        Ok(self.select_runs("WHERE r.id = ?1", id)?.pop())
+    }
+
+    /// The full JSON report a finished run stored (None while running, or
+    /// when the run ended in an error).
+    pub fn report(&self, id: i64) -> Result<Option<String>, HistoryError> {
+        self.conn()
+            .query_row("SELECT report FROM runs WHERE id = ?1", [id], |r| r.get(0))
+            .optional()
+            .map(Option::flatten)
+            .map_err(|e| self.err(e))
+    }
+
+    /// How many runs there are of each status.
+    pub fn status_counts(&self) -> Result<Vec<(String, i64)>, HistoryError> {
+        let mut stmt = self
+            .conn()
+            .prepare("SELECT status, COUNT(*) FROM runs GROUP BY status ORDER BY status")
+            .map_err(|e| self.err(e))?;
+        let rows = stmt
+            .query_map([], |r| Ok((r.get(0)?, r.get(1)?)))
+            .and_then(|rows| rows.collect())
+            .map_err(|e| self.err(e))?;
+        Ok(rows)
+    }
+
+    /// The points a tradeoff run stored, in the order they were measured.
+    pub fn tradeoff_points(&self, run: i64) -> Result<Vec<TradeoffRow>, HistoryError> {
         let mut stmt = self
             .conn()
             .prepare(
+                "SELECT scene, label, config, ms, psnr, ssim, log_average_rel_error, pareto
+                 FROM tradeoff_points WHERE run_id = ?1 ORDER BY rowid",
+            )
+            .map_err(|e| self.err(e))?;
+        let rows = stmt
+            .query_map([run], |r| {
+                let config: String = r.get(2)?;
+                Ok(TradeoffRow {
+                    scene: r.get(0)?,
+                    label: r.get(1)?,
+                    config: serde_json::from_str(&config)
+                        .unwrap_or(serde_json::Value::String(config)),
+                    ms: r.get(3)?,
+                    psnr: r.get::<_, Option<f64>>(4)?.unwrap_or(f64::NAN),
+                    ssim: r.get::<_, Option<f64>>(5)?.unwrap_or(f64::NAN),
+                    log_average_rel_error: r.get(6)?,
+                    pareto: r.get(7)?,
+                })
+            })
+            .and_then(|rows| rows.collect())
+            .map_err(|e| self.err(e))?;
+        Ok(rows)
+    }
+
+    fn select_runs(&self, tail: &str, arg: i64) -> Result<Vec<RunRow>, HistoryError> {
+        let mut stmt = self
+            .conn()
+            .prepare(&format!(
                 "SELECT r.id, r.kind, r.status, r.started_at, r.ended_at, r.tonegate_version,
                         r.git_commit, r.suite, r.suite_hash, r.adapter, r.backend, r.driver,
                         r.driver_info, r.host, r.detail,
                         (SELECT COUNT(*) FROM scene_results s WHERE s.run_id = r.id),
                         (SELECT COUNT(*) FROM scene_results s WHERE s.run_id = r.id AND NOT s.passed),
                         (SELECT COUNT(*) FROM regressions g WHERE g.run_id = r.id)
-                 FROM runs r ORDER BY r.id DESC LIMIT ?1",
-            )
+                 FROM runs r {tail}"
+            ))
             .map_err(|e| self.err(e))?;
         let rows = stmt
-            .query_map([limit as i64], |r| {
+            .query_map([arg], |r| {
                 Ok(RunRow {
                     id: r.get(0)?,
                     kind: r.get(1)?,

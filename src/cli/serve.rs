@@ -1,0 +1,140 @@
+//! `tonegate serve`: the API and dashboard on the run history.
+
+use super::gate::DbArgs;
+use super::GpuArgs;
+use crate::error::{Error, Result};
+use crate::server::{Limits, ServeOptions, Server};
+use clap::Args;
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Args)]
+pub struct ServeArgs {
+    /// Address to listen on (port 0: any free port, printed at start).
+    #[arg(long, default_value = "127.0.0.1:8080")]
+    pub bind: std::net::SocketAddr,
+    #[command(flatten)]
+    pub db: DbArgs,
+    /// The bearer token for requests that change state; created (random,
+    /// mode 0600) when the file does not exist. Default: `token` beside the database.
+    #[arg(long, env = "TONEGATE_TOKEN_FILE")]
+    pub token_file: Option<PathBuf>,
+    /// Require the token for reads too (the dashboard then asks for it).
+    #[arg(long)]
+    pub private_reads: bool,
+    /// The suite `POST /api/v1/runs` runs.
+    #[arg(long, default_value = "golden/suite.toml")]
+    pub suite: PathBuf,
+    /// Run the suite once at start (the dashboard shows it as it goes).
+    #[arg(long)]
+    pub run_suite: bool,
+    /// POST /tonemap: largest body in MiB.
+    #[arg(long, default_value_t = 256)]
+    pub max_body_mib: usize,
+    /// POST /tonemap: largest image in pixels, checked from the header before decoding.
+    #[arg(long, default_value_t = Limits::default().max_pixels)]
+    pub max_pixels: u64,
+    /// POST /tonemap: jobs that may wait per queue (GPU, CPU) before the answer is 503.
+    #[arg(long, default_value_t = Limits::default().queue)]
+    pub queue: usize,
+    /// POST /tonemap: seconds a request may take, upload and waiting included.
+    #[arg(long, default_value_t = 60)]
+    pub timeout: u64,
+    #[command(flatten)]
+    pub gpu: GpuArgs,
+}
+
+pub fn serve(a: ServeArgs) -> Result<ExitCode> {
+    if a.max_body_mib == 0 || a.max_body_mib > 4096 {
+        return Err(Error::Invalid(format!(
+            "--max-body-mib: must be 1 to 4096, got {}",
+            a.max_body_mib
+        )));
+    }
+    if a.timeout == 0 {
+        return Err(Error::Invalid(
+            "--timeout: must be at least 1 second".into(),
+        ));
+    }
+    let token_file = a.token_file.clone().unwrap_or_else(|| {
+        a.db.db
+            .parent()
+            .unwrap_or(std::path::Path::new("."))
+            .join("token")
+    });
+    let token = crate::server::load_or_make_token(&token_file)?;
+    let opts = ServeOptions {
+        bind: a.bind,
+        db: a.db.db.clone(),
+        token,
+        private_reads: a.private_reads,
+        suite: a.suite.clone(),
+        adapter: a.gpu.adapter.clone(),
+        gpu_config: a.gpu.config(),
+        limits: Limits {
+            max_body: a.max_body_mib << 20,
+            max_pixels: a.max_pixels,
+            queue: a.queue,
+            timeout: std::time::Duration::from_secs(a.timeout),
+        },
+        hold_workers: None,
+    };
+    let _ = tracing_subscriber::fmt()
+        .with_writer(std::io::stderr)
+        .with_max_level(tracing::Level::INFO)
+        .try_init();
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .map_err(|e| Error::Invalid(format!("starting the async runtime: {e}")))?;
+    rt.block_on(async move {
+        let server = Server::bind(opts).await?;
+        let addr = server
+            .local_addr()
+            .map_err(|e| Error::Invalid(e.to_string()))?;
+        println!(
+            "tonegate serving http://{addr}/  (history {}, token in {})",
+            a.db.db.display(),
+            token_file.display()
+        );
+        if a.run_suite {
+            let renderer = crate::check::Renderer::Gpu {
+                adapter: a.gpu.adapter.clone(),
+                config: a.gpu.config(),
+                spp: None,
+            };
+            match crate::server::start_run(server.state(), renderer).await {
+                Ok(id) => println!(
+                    "running the suite {} as run {id}: http://{addr}/#/runs/{id}",
+                    a.suite.display()
+                ),
+                Err(e) => eprintln!("error: the suite run could not start: {}", e.detail),
+            }
+        }
+        let _ = std::io::stdout().flush();
+        server
+            .run(shutdown_signal())
+            .await
+            .map_err(|e| Error::Invalid(format!("serving: {e}")))
+    })?;
+    Ok(ExitCode::SUCCESS)
+}
+
+async fn shutdown_signal() {
+    let ctrl_c = async {
+        let _ = tokio::signal::ctrl_c().await;
+    };
+    let term = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(_) => std::future::pending().await,
+        }
+    };
+    tokio::select! {
+        _ = ctrl_c => {},
+        _ = term => {},
+    }
+}

@@ -1,0 +1,395 @@
+//! The read and run endpoints under `/api/v1`: runs, artifacts, trends,
+//! tradeoff points, health.
+
+use super::error::{ApiError, ErrorBody};
+use super::{AppState, RunSlot};
+use crate::history::{History, HistoryError, RunRow, TradeoffRow, TrendFilter, TrendPoint};
+use axum::body::Bytes;
+use axum::extract::{Path, RawQuery, State};
+use axum::http::{header, HeaderMap, HeaderValue, StatusCode};
+use axum::response::{IntoResponse, Response};
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
+use std::sync::Arc;
+use utoipa::{IntoParams, ToSchema};
+
+/// Parses a query string, answering 400 with the parameter's name when it is unknown or bad.
+pub fn query<T: DeserializeOwned>(q: Option<String>) -> Result<T, ApiError> {
+    serde_urlencoded::from_str(q.as_deref().unwrap_or(""))
+        .map_err(|e| ApiError::bad(format!("query: {e}")))
+}
+
+fn run_id(s: &str) -> Result<i64, ApiError> {
+    s.parse::<i64>()
+        .ok()
+        .filter(|&v| v > 0)
+        .ok_or_else(|| ApiError::bad(format!("run id: expected a positive integer, got {s:?}")))
+}
+
+/// Runs `f` on the history, opened read-only, off the async threads.
+pub async fn read<T: Send + 'static>(
+    st: &AppState,
+    f: impl FnOnce(&History) -> Result<T, HistoryError> + Send + 'static,
+) -> Result<T, ApiError> {
+    let db = st.db.clone();
+    tokio::task::spawn_blocking(move || {
+        let h = History::open_read_only(&db).map_err(|e| ApiError::of_history(&e))?;
+        f(&h).map_err(|e| match e {
+            HistoryError::Invalid(d) => ApiError::bad(d),
+            e => ApiError::of_history(&e),
+        })
+    })
+    .await
+    .map_err(|e| ApiError::internal(e.to_string()))?
+}
+
+#[derive(Deserialize, IntoParams)]
+#[serde(deny_unknown_fields)]
+#[into_params(parameter_in = Query)]
+pub struct RunsQuery {
+    /// passed, failed, error, aborted or running.
+    status: Option<String>,
+    /// check or tradeoff.
+    kind: Option<String>,
+    /// A substring of the adapter name.
+    adapter: Option<String>,
+    /// Newest runs returned (default 100, at most 1000).
+    limit: Option<u32>,
+}
+
+/// The run list, newest first.
+#[utoipa::path(get, path = "/api/v1/runs", tag = "runs", params(RunsQuery),
+    responses((status = 200, body = Vec<RunRow>), (status = 400, body = ErrorBody)))]
+pub async fn list_runs(
+    State(st): State<Arc<AppState>>,
+    headers: HeaderMap,
+    RawQuery(q): RawQuery,
+) -> Result<Response, ApiError> {
+    st.authorize_read(&headers)?;
+    let q: RunsQuery = query(q)?;
+    let limit = q.limit.unwrap_or(100);
+    if !(1..=1000).contains(&limit) {
+        return Err(ApiError::bad(format!(
+            "limit: must be 1 to 1000, got {limit}"
+        )));
+    }
+    if let Some(s) = &q.status {
+        if !["running", "passed", "failed", "error", "aborted"].contains(&s.as_str()) {
+            return Err(ApiError::bad(format!(
+                "status: expected running, passed, failed, error or aborted, got {s:?}"
+            )));
+        }
+    }
+    let rows = read(&st, |h| h.runs(100_000)).await?;
+    let rows: Vec<RunRow> = rows
+        .into_iter()
+        .filter(|r| q.status.as_ref().is_none_or(|s| &r.status == s))
+        .filter(|r| q.kind.as_ref().is_none_or(|k| &r.kind == k))
+        .filter(|r| {
+            q.adapter
+                .as_ref()
+                .is_none_or(|a| r.adapter.as_deref().unwrap_or("").contains(a.as_str()))
+        })
+        .take(limit as usize)
+        .collect();
+    Ok(axum::Json(rows).into_response())
+}
+
+/// How a run looks in `GET /runs/{id}` (documentation of the shape).
+#[derive(Serialize, ToSchema)]
+pub struct RunDetail {
+    pub run: RunRow,
+    /// The full report of a finished run: scenes, per-frame metrics, checks,
+    /// timings, regressions, artifacts. Null while the run is going or when
+    /// it ended in an error (see `run.detail`). Infinite PSNR is `1e999`.
+    #[schema(value_type = Option<Object>)]
+    pub report: Option<serde_json::Value>,
+}
+
+/// One run: status, per-frame metrics, timings and checks.
+#[utoipa::path(get, path = "/api/v1/runs/{id}", tag = "runs",
+    params(("id" = i64, Path, description = "Run id")),
+    responses((status = 200, body = RunDetail), (status = 404, body = ErrorBody)))]
+pub async fn get_run(
+    State(st): State<Arc<AppState>>,
+    headers: HeaderMap,
+    Path(id): Path<String>,
+) -> Result<Response, ApiError> {
+    st.authorize_read(&headers)?;
+    let id = run_id(&id)?;
+    let (row, report) = read(&st, move |h| Ok((h.run(id)?, h.report(id)?))).await?;
+    let row = row.ok_or_else(|| ApiError::not_found(format!("there is no run {id}")))?;
+    // The stored report is served as stored: it may hold 1e999 (infinite
+    // PSNR), which serde_json's Value cannot hold but JSON.parse reads.
+    let run = serde_json::to_string(&row).map_err(|e| ApiError::internal(e.to_string()))?;
+    let body = format!(
+        "{{\"run\":{run},\"report\":{}}}",
+        report.as_deref().unwrap_or("null")
+    );
+    Ok(([(header::CONTENT_TYPE, "application/json")], body).into_response())
+}
+
+/// What `POST /runs` may ask for.
+#[derive(Deserialize, ToSchema, Default)]
+#[serde(deny_unknown_fields)]
+pub struct RunRequest {
+    /// gpu (default) or cpu (the reference itself, to check the gate).
+    pub renderer: Option<String>,
+    /// Samples per pixel (default: each scene's goldens' spp).
+    pub spp: Option<u32>,
+}
+
+#[derive(Serialize, ToSchema)]
+pub struct RunStarted {
+    pub id: i64,
+    pub status: String,
+    /// Where to follow it.
+    pub url: String,
+}
+
+/// Start a run of the server's suite in the background (needs the token).
+#[utoipa::path(post, path = "/api/v1/runs", tag = "runs",
+    request_body(content = Option<RunRequest>, content_type = "application/json"),
+    security(("bearer" = [])),
+    responses((status = 202, body = RunStarted), (status = 400, body = ErrorBody),
+        (status = 401, body = ErrorBody), (status = 403, body = ErrorBody),
+        (status = 409, description = "A run is already going", body = ErrorBody)))]
+pub async fn post_run(
+    State(st): State<Arc<AppState>>,
+    headers: HeaderMap,
+    body: Bytes,
+) -> Result<Response, ApiError> {
+    st.authorize_write(&headers)?;
+    let req: RunRequest = if body.iter().all(|b| b.is_ascii_whitespace()) {
+        RunRequest::default()
+    } else {
+        serde_json::from_slice(&body).map_err(|e| ApiError::bad(format!("body: {e}")))?
+    };
+    let spp = match req.spp {
+        None => None,
+        Some(n @ 1..=256) => Some(n),
+        Some(n) => return Err(ApiError::bad(format!("spp: must be 1 to 256, got {n}"))),
+    };
+    let renderer = match req.renderer.as_deref() {
+        None | Some("gpu") => crate::check::Renderer::Gpu {
+            adapter: st.adapter.clone(),
+            config: st.gpu_config,
+            spp,
+        },
+        Some("cpu") => crate::check::Renderer::Cpu { spp },
+        Some(other) => {
+            return Err(ApiError::bad(format!(
+                "renderer: expected gpu or cpu, got {other:?}"
+            )))
+        }
+    };
+    let id = super::start_run(st.clone(), renderer).await?;
+    let body = RunStarted {
+        id,
+        status: "running".into(),
+        url: format!("/api/v1/runs/{id}"),
+    };
+    let mut r = (StatusCode::ACCEPTED, axum::Json(body)).into_response();
+    if let Ok(v) = HeaderValue::from_str(&format!("/api/v1/runs/{id}")) {
+        r.headers_mut().insert(header::LOCATION, v);
+    }
+    Ok(r)
+}
+
+/// Whether `name` can be an artifact's file name: letters, digits, '-', '_'
+/// and '.', not starting with '.', ending in .png. Everything else (slashes,
+/// "..", encoded separators, NUL) is refused before the file system is asked.
+pub fn valid_artifact_name(name: &str) -> bool {
+    name.len() <= 200
+        && name.ends_with(".png")
+        && !name.starts_with('.')
+        && !name.contains("..")
+        && name
+            .bytes()
+            .all(|b| b.is_ascii_alphanumeric() || matches!(b, b'-' | b'_' | b'.'))
+}
+
+/// One artifact image of a run (golden, actual, diff or SSIM map).
+#[utoipa::path(get, path = "/api/v1/runs/{id}/artifacts/{name}", tag = "runs",
+    params(("id" = i64, Path), ("name" = String, Path, description = "<scene>-<frame>-<adapter>-<kind>.png")),
+    responses((status = 200, content_type = "image/png"), (status = 400, body = ErrorBody), (status = 404, body = ErrorBody)))]
+pub async fn get_artifact(
+    State(st): State<Arc<AppState>>,
+    headers: HeaderMap,
+    Path((id, name)): Path<(String, String)>,
+) -> Result<Response, ApiError> {
+    st.authorize_read(&headers)?;
+    let id = run_id(&id)?;
+    if !valid_artifact_name(&name) {
+        return Err(ApiError::bad(format!(
+            "artifact name {name:?} is not a file name of this run (letters, digits, '-', '_', '.', ending .png)"
+        )));
+    }
+    let report = read(&st, move |h| h.report(id)).await?;
+    // Only files the run's report lists are served, from the folder it names.
+    let (dir, listed) = match report
+        .as_deref()
+        .map(serde_json::from_str::<ReportArtifacts>)
+    {
+        Some(Ok(r)) => (r.artifacts_dir, r.artifacts),
+        _ => (None, Vec::new()),
+    };
+    if !listed.iter().any(|a| a == &name) {
+        return Err(ApiError::not_found(format!(
+            "run {id} has no artifact {name:?}"
+        )));
+    }
+    let dir = dir.unwrap_or_else(|| crate::check::artifacts_dir_of(&st.db, id));
+    let path = dir.join(&name);
+    let bytes = tokio::fs::read(&path)
+        .await
+        .map_err(|e| ApiError::not_found(format!("artifact {name:?} of run {id}: {e}")))?;
+    Ok((
+        [
+            (header::CONTENT_TYPE, "image/png"),
+            (header::CACHE_CONTROL, "public, max-age=86400, immutable"),
+        ],
+        bytes,
+    )
+        .into_response())
+}
+
+#[derive(Deserialize)]
+struct ReportArtifacts {
+    artifacts_dir: Option<std::path::PathBuf>,
+    #[serde(default)]
+    artifacts: Vec<String>,
+}
+
+#[derive(Deserialize, IntoParams)]
+#[serde(deny_unknown_fields)]
+#[into_params(parameter_in = Query)]
+pub struct TrendsQuery {
+    /// One scene (default: every scene).
+    scene: Option<String>,
+    /// psnr (default), ssim, snr, mse, rmse, max_abs_diff, fraction_over_1lsb, fps, or a stage name (median ms).
+    metric: Option<String>,
+    /// Exact adapter name.
+    adapter: Option<String>,
+    /// Newest runs (default 200, at most 5000).
+    limit: Option<u32>,
+}
+
+/// One metric per scene over check runs, oldest first; regressions marked.
+#[utoipa::path(get, path = "/api/v1/trends", tag = "runs", params(TrendsQuery),
+    responses((status = 200, body = Vec<TrendPoint>), (status = 400, body = ErrorBody)))]
+pub async fn trends(
+    State(st): State<Arc<AppState>>,
+    headers: HeaderMap,
+    RawQuery(q): RawQuery,
+) -> Result<Response, ApiError> {
+    st.authorize_read(&headers)?;
+    let q: TrendsQuery = query(q)?;
+    let limit = q.limit.unwrap_or(200);
+    if !(1..=5000).contains(&limit) {
+        return Err(ApiError::bad(format!(
+            "limit: must be 1 to 5000, got {limit}"
+        )));
+    }
+    let metric = q.metric.unwrap_or_else(|| "psnr".into());
+    let points = read(&st, move |h| {
+        h.trend(
+            &metric,
+            &TrendFilter {
+                scene: q.scene.as_deref(),
+                adapter: q.adapter.as_deref(),
+                limit,
+                ..Default::default()
+            },
+        )
+    })
+    .await?;
+    json_text(&points)
+}
+
+/// Serialises with serde_json's text writer, which keeps `1e999` for +∞.
+fn json_text(v: &impl Serialize) -> Result<Response, ApiError> {
+    let s = serde_json::to_string(v).map_err(|e| ApiError::internal(e.to_string()))?;
+    Ok(([(header::CONTENT_TYPE, "application/json")], s).into_response())
+}
+
+#[derive(Serialize, ToSchema)]
+pub struct TradeoffResponse {
+    pub run: RunRow,
+    /// Every configuration measured; `scene` "suite" is the aggregate.
+    pub points: Vec<TradeoffRow>,
+}
+
+/// The error-against-run-time points of a tradeoff run, Pareto front marked.
+#[utoipa::path(get, path = "/api/v1/tradeoff/{run}", tag = "runs",
+    params(("run" = i64, Path, description = "A tradeoff run's id")),
+    responses((status = 200, body = TradeoffResponse), (status = 404, body = ErrorBody)))]
+pub async fn tradeoff(
+    State(st): State<Arc<AppState>>,
+    headers: HeaderMap,
+    Path(run): Path<String>,
+) -> Result<Response, ApiError> {
+    st.authorize_read(&headers)?;
+    let id = run_id(&run)?;
+    let (row, points) = read(&st, move |h| Ok((h.run(id)?, h.tradeoff_points(id)?))).await?;
+    let row = row.ok_or_else(|| ApiError::not_found(format!("there is no run {id}")))?;
+    if row.kind != "tradeoff" {
+        return Err(ApiError::not_found(format!(
+            "run {id} is a {} run, not a tradeoff run",
+            row.kind
+        )));
+    }
+    json_text(&TradeoffResponse { run: row, points })
+}
+
+#[derive(Serialize, ToSchema)]
+pub struct QueueHealth {
+    pub depth: usize,
+    pub capacity: usize,
+}
+
+#[derive(Serialize, ToSchema)]
+pub struct Health {
+    pub status: String,
+    pub version: String,
+    pub schema_version: i64,
+    pub runs: i64,
+    /// The run going now, if any.
+    pub active_run: Option<i64>,
+    pub gpu_queue: QueueHealth,
+    pub cpu_queue: QueueHealth,
+}
+
+/// Liveness and readiness: the history answers, the queues' depths.
+#[utoipa::path(get, path = "/api/v1/healthz", tag = "service",
+    responses((status = 200, body = Health), (status = 503, body = ErrorBody)))]
+pub async fn healthz(State(st): State<Arc<AppState>>) -> Result<Response, ApiError> {
+    let (schema, runs) = read(&st, |h| {
+        Ok((
+            h.schema_version()?,
+            h.status_counts()?.iter().map(|(_, n)| n).sum::<i64>(),
+        ))
+    })
+    .await
+    .map_err(|e| ApiError::unavailable("unhealthy", e.detail, 5))?;
+    let active = match *st.slot.lock().unwrap_or_else(|p| p.into_inner()) {
+        RunSlot::Running(id) => Some(id),
+        _ => None,
+    };
+    Ok(axum::Json(Health {
+        status: "ok".into(),
+        version: env!("CARGO_PKG_VERSION").into(),
+        schema_version: schema,
+        runs,
+        active_run: active,
+        gpu_queue: QueueHealth {
+            depth: st.gpu.depth(),
+            capacity: st.gpu.capacity(),
+        },
+        cpu_queue: QueueHealth {
+            depth: st.cpu.depth(),
+            capacity: st.cpu.capacity(),
+        },
+    })
+    .into_response())
+}

@@ -1,0 +1,122 @@
+//! The API's errors: a status, a stable machine-readable code and a sentence
+//! for people, always as JSON `{ "error": code, "detail": … }`.
+
+use axum::http::{header, HeaderValue, StatusCode};
+use axum::response::{IntoResponse, Response};
+use serde::Serialize;
+use utoipa::ToSchema;
+
+/// The body of every error answer.
+#[derive(Serialize, ToSchema)]
+pub struct ErrorBody {
+    /// Stable code: bad_parameter, unauthorized, forbidden, not_found, conflict,
+    /// too_large, unsupported_media_type, bad_image, busy, timeout,
+    /// no_adapter, gpu_error, internal.
+    pub error: String,
+    /// What was wrong and where, for a person.
+    pub detail: String,
+}
+
+#[derive(Debug)]
+pub struct ApiError {
+    pub status: StatusCode,
+    pub code: &'static str,
+    pub detail: String,
+    /// Seconds for `Retry-After` (503 answers).
+    pub retry_after: Option<u64>,
+}
+
+impl ApiError {
+    pub fn new(status: StatusCode, code: &'static str, detail: impl Into<String>) -> Self {
+        ApiError {
+            status,
+            code,
+            detail: detail.into(),
+            retry_after: None,
+        }
+    }
+    pub fn bad(detail: impl Into<String>) -> Self {
+        Self::new(StatusCode::BAD_REQUEST, "bad_parameter", detail)
+    }
+    pub fn not_found(detail: impl Into<String>) -> Self {
+        Self::new(StatusCode::NOT_FOUND, "not_found", detail)
+    }
+    pub fn internal(detail: impl Into<String>) -> Self {
+        Self::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", detail)
+    }
+    /// 503 with `Retry-After`: the designed answer to overload.
+    pub fn unavailable(code: &'static str, detail: impl Into<String>, retry_after: u64) -> Self {
+        ApiError {
+            retry_after: Some(retry_after.max(1)),
+            ..Self::new(StatusCode::SERVICE_UNAVAILABLE, code, detail)
+        }
+    }
+
+    /// How an image could not be read, as a status: too large 413, not an HDR
+    /// format 415, anything wrong inside the file 422.
+    pub fn of_image(e: &crate::io::HdrIoError) -> Self {
+        use crate::io::HdrIoError as E;
+        let (status, code) = match e {
+            E::TooLarge { .. } => (StatusCode::PAYLOAD_TOO_LARGE, "too_large"),
+            E::UnknownFormat { .. } | E::UnsupportedExtension { .. } => {
+                (StatusCode::UNSUPPORTED_MEDIA_TYPE, "unsupported_media_type")
+            }
+            E::Io { .. } => (StatusCode::INTERNAL_SERVER_ERROR, "internal"),
+            _ => (StatusCode::UNPROCESSABLE_ENTITY, "bad_image"),
+        };
+        Self::new(status, code, e.to_string())
+    }
+
+    /// GPU failures: no adapter is the server's set-up (503), a refused size
+    /// is the request's (413), anything else is the device's (500).
+    pub fn of_gpu(e: &crate::gpu::GpuError) -> Self {
+        use crate::gpu::GpuError as G;
+        match e {
+            G::NoAdapter | G::AdapterNotFound { .. } => {
+                Self::unavailable("no_adapter", e.to_string(), 60)
+            }
+            G::TooLarge { .. } | G::EnvironmentTooLarge { .. } => {
+                Self::new(StatusCode::PAYLOAD_TOO_LARGE, "too_large", e.to_string())
+            }
+            _ => Self::new(
+                StatusCode::INTERNAL_SERVER_ERROR,
+                "gpu_error",
+                e.to_string(),
+            ),
+        }
+    }
+
+    pub fn of_crate(e: &crate::Error) -> Self {
+        match e {
+            crate::Error::HdrIo(e) => Self::of_image(e),
+            crate::Error::Gpu(e) => Self::of_gpu(e),
+            crate::Error::Invalid(d) => Self::bad(d.clone()),
+            other => Self::internal(other.to_string()),
+        }
+    }
+
+    pub fn of_history(e: &crate::history::HistoryError) -> Self {
+        Self::internal(format!("history: {e}"))
+    }
+}
+
+impl IntoResponse for ApiError {
+    fn into_response(self) -> Response {
+        let body = ErrorBody {
+            error: self.code.into(),
+            detail: self.detail,
+        };
+        let mut r = (self.status, axum::Json(body)).into_response();
+        if let Some(s) = self.retry_after {
+            r.headers_mut()
+                .insert(header::RETRY_AFTER, HeaderValue::from(s));
+        }
+        if self.status == StatusCode::UNAUTHORIZED {
+            r.headers_mut().insert(
+                header::WWW_AUTHENTICATE,
+                HeaderValue::from_static("Bearer realm=\"tonegate\""),
+            );
+        }
+        r
+    }
+}

@@ -1,0 +1,372 @@
+//! `tonegate serve`: the HTTP API under `/api/v1`, Prometheus metrics at
+//! `/metrics`, the OpenAPI document at `/api/v1/openapi.json` and the
+//! embedded dashboard at `/` (static files compiled into the binary; no CDN).
+//!
+//! Reads are open unless `private_reads`; everything that changes state
+//! (`POST /runs`) needs the bearer token. `POST /tonemap` changes nothing
+//! stored: it is open like a read, and bounded by its queues instead.
+
+pub mod api;
+mod assets;
+pub mod error;
+mod prom;
+pub mod queue;
+mod tonemap;
+
+use crate::gpu::{AdapterChoice, GpuConfig};
+use axum::http::{header, HeaderMap, StatusCode};
+use axum::routing::{get, post};
+use axum::Router;
+use error::ApiError;
+use queue::{Engine, Queue};
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex, RwLock};
+use std::time::Duration;
+use utoipa::OpenApi;
+
+/// Request limits of `POST /tonemap`.
+#[derive(Clone, Debug)]
+pub struct Limits {
+    /// Largest body, in bytes.
+    pub max_body: usize,
+    /// Largest image, in pixels, checked from the file's header before decoding.
+    pub max_pixels: u64,
+    /// Jobs that may wait per queue (GPU, CPU) besides the running one.
+    pub queue: usize,
+    /// Whole-request limit: upload, waiting and rendering.
+    pub timeout: Duration,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Limits {
+            max_body: 256 << 20,
+            max_pixels: 32 << 20,
+            queue: 8,
+            timeout: Duration::from_secs(60),
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct ServeOptions {
+    pub bind: SocketAddr,
+    pub db: PathBuf,
+    /// The bearer token state-changing requests must carry.
+    pub token: String,
+    /// Require the token for reads too.
+    pub private_reads: bool,
+    /// The suite `POST /runs` runs.
+    pub suite: PathBuf,
+    pub adapter: AdapterChoice,
+    pub gpu_config: GpuConfig,
+    pub limits: Limits,
+    /// Tests only: the tone-map workers read-lock this around every job.
+    pub hold_workers: Option<Arc<RwLock<()>>>,
+}
+
+/// The one suite run the server lets go at a time.
+pub enum RunSlot {
+    Idle,
+    Starting,
+    Running(i64),
+}
+
+pub struct AppState {
+    pub db: PathBuf,
+    token: String,
+    private_reads: bool,
+    pub suite: PathBuf,
+    pub adapter: AdapterChoice,
+    pub gpu_config: GpuConfig,
+    pub limits: Limits,
+    pub gpu: Queue,
+    pub cpu: Queue,
+    pub slot: Mutex<RunSlot>,
+    requests: prom::Requests,
+}
+
+/// Compares in time independent of where the strings differ.
+fn same_secret(a: &[u8], b: &[u8]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
+}
+
+impl AppState {
+    pub fn authorize_write(&self, headers: &HeaderMap) -> Result<(), ApiError> {
+        let given = headers
+            .get(header::AUTHORIZATION)
+            .and_then(|v| v.to_str().ok())
+            .and_then(|v| v.strip_prefix("Bearer "));
+        match given {
+            None => Err(ApiError::new(
+                StatusCode::UNAUTHORIZED,
+                "unauthorized",
+                "this needs the bearer token: Authorization: Bearer <token> (serve --token-file)",
+            )),
+            Some(t) if same_secret(t.trim().as_bytes(), self.token.as_bytes()) => Ok(()),
+            Some(_) => Err(ApiError::new(
+                StatusCode::FORBIDDEN,
+                "forbidden",
+                "the bearer token is not this server's",
+            )),
+        }
+    }
+
+    pub fn authorize_read(&self, headers: &HeaderMap) -> Result<(), ApiError> {
+        if self.private_reads {
+            self.authorize_write(headers)
+        } else {
+            Ok(())
+        }
+    }
+}
+
+/// Starts a check run of the server's suite on a blocking thread; answers
+/// with its id once the history has it, 409 when one is already going.
+pub async fn start_run(
+    st: Arc<AppState>,
+    renderer: crate::check::Renderer,
+) -> Result<i64, ApiError> {
+    {
+        let mut slot = st.slot.lock().unwrap_or_else(|p| p.into_inner());
+        match *slot {
+            RunSlot::Idle => *slot = RunSlot::Starting,
+            RunSlot::Starting => {
+                return Err(ApiError::new(
+                    StatusCode::CONFLICT,
+                    "conflict",
+                    "a run is starting",
+                ))
+            }
+            RunSlot::Running(id) => {
+                return Err(ApiError::new(
+                    StatusCode::CONFLICT,
+                    "conflict",
+                    format!("run {id} is going; one run at a time (GET /api/v1/runs/{id})"),
+                ))
+            }
+        }
+    }
+    let (tx, rx) = std::sync::mpsc::channel();
+    let opts = crate::check::CheckOptions {
+        suite: st.suite.clone(),
+        renderer,
+        artifacts: None,
+        db: Some(st.db.clone()),
+        progress: false,
+        started: Some(tx),
+    };
+    let state = st.clone();
+    std::thread::Builder::new()
+        .name("suite-run".into())
+        .spawn(move || {
+            let outcome = crate::check::run(&opts);
+            if let crate::check::CheckOutcome::Error(e, id) = &outcome {
+                tracing::warn!("run {id:?} could not happen: {e}");
+            }
+            *state.slot.lock().unwrap_or_else(|p| p.into_inner()) = RunSlot::Idle;
+        })
+        .map_err(|e| ApiError::internal(e.to_string()))?;
+    let got = tokio::task::spawn_blocking(move || rx.recv_timeout(Duration::from_secs(60)))
+        .await
+        .map_err(|e| ApiError::internal(e.to_string()))?;
+    match got {
+        Ok(id) => {
+            let mut slot = st.slot.lock().unwrap_or_else(|p| p.into_inner());
+            if matches!(*slot, RunSlot::Starting) {
+                *slot = RunSlot::Running(id);
+            }
+            Ok(id)
+        }
+        Err(_) => Err(ApiError::internal(
+            "the run could not start (the history could not be opened or written); see the server log",
+        )),
+    }
+}
+
+#[derive(OpenApi)]
+#[openapi(
+    info(title = "tonegate", description = "HDR tone-mapper validation: runs, metrics, trends, tradeoffs, tone-mapping."),
+    paths(
+        api::list_runs, api::get_run, api::post_run, api::get_artifact, api::trends,
+        api::tradeoff, api::healthz, tonemap::tonemap
+    ),
+    components(schemas(error::ErrorBody)),
+    modifiers(&BearerAuth)
+)]
+pub struct ApiDoc;
+
+struct BearerAuth;
+
+impl utoipa::Modify for BearerAuth {
+    fn modify(&self, doc: &mut utoipa::openapi::OpenApi) {
+        use utoipa::openapi::security::{Http, HttpAuthScheme, SecurityScheme};
+        if let Some(c) = doc.components.as_mut() {
+            c.add_security_scheme(
+                "bearer",
+                SecurityScheme::Http(Http::new(HttpAuthScheme::Bearer)),
+            );
+        }
+    }
+}
+
+async fn openapi() -> axum::response::Response {
+    use axum::response::IntoResponse;
+    axum::Json(ApiDoc::openapi()).into_response()
+}
+
+async fn api_not_found(uri: axum::http::Uri) -> ApiError {
+    ApiError::not_found(format!(
+        "no endpoint {}; see /api/v1/openapi.json",
+        uri.path()
+    ))
+}
+
+async fn method_not_allowed() -> ApiError {
+    ApiError::new(
+        StatusCode::METHOD_NOT_ALLOWED,
+        "method_not_allowed",
+        "this endpoint does not take that method",
+    )
+}
+
+/// The whole application.
+pub fn router(st: Arc<AppState>) -> Router {
+    let api = Router::new()
+        .route("/runs", get(api::list_runs).post(api::post_run))
+        .route("/runs/{id}", get(api::get_run))
+        .route("/runs/{id}/artifacts/{name}", get(api::get_artifact))
+        .route("/trends", get(api::trends))
+        .route("/tradeoff/{run}", get(api::tradeoff))
+        .route("/healthz", get(api::healthz))
+        .route("/openapi.json", get(openapi))
+        .route(
+            "/tonemap",
+            post(tonemap::tonemap)
+                // The handler reads the body itself against this limit.
+                .layer(axum::extract::DefaultBodyLimit::max(st.limits.max_body)),
+        )
+        .fallback(api_not_found)
+        .method_not_allowed_fallback(method_not_allowed);
+    Router::new()
+        .nest("/api/v1", api)
+        .route("/metrics", get(prom::metrics))
+        .route("/healthz", get(api::healthz))
+        .merge(assets::routes())
+        .layer(axum::middleware::from_fn_with_state(
+            st.clone(),
+            prom::track,
+        ))
+        .with_state(st)
+}
+
+/// A bound server, ready to run.
+pub struct Server {
+    listener: tokio::net::TcpListener,
+    state: Arc<AppState>,
+}
+
+impl Server {
+    /// Opens (and migrates) the history, starts the tone-map workers and
+    /// binds the address; port 0 picks a free port (see `local_addr`).
+    pub async fn bind(opts: ServeOptions) -> Result<Server, crate::Error> {
+        let invalid = |e: String| crate::Error::Invalid(e);
+        crate::history::History::open(&opts.db).map_err(|e| invalid(e.to_string()))?;
+        let file = |e: std::io::Error| invalid(format!("starting a tone-map worker: {e}"));
+        let gpu = Queue::start(
+            "gpu",
+            opts.limits.queue,
+            Engine::Gpu {
+                adapter: opts.adapter.clone(),
+                config: opts.gpu_config,
+            },
+            opts.hold_workers.clone(),
+        )
+        .map_err(file)?;
+        let cpu = Queue::start(
+            "cpu",
+            opts.limits.queue,
+            Engine::Cpu,
+            opts.hold_workers.clone(),
+        )
+        .map_err(file)?;
+        let listener = tokio::net::TcpListener::bind(opts.bind)
+            .await
+            .map_err(|e| invalid(format!("binding {}: {e}", opts.bind)))?;
+        Ok(Server {
+            listener,
+            state: Arc::new(AppState {
+                db: opts.db,
+                token: opts.token,
+                private_reads: opts.private_reads,
+                suite: opts.suite,
+                adapter: opts.adapter,
+                gpu_config: opts.gpu_config,
+                limits: opts.limits,
+                gpu,
+                cpu,
+                slot: Mutex::new(RunSlot::Idle),
+                requests: Default::default(),
+            }),
+        })
+    }
+
+    pub fn local_addr(&self) -> std::io::Result<SocketAddr> {
+        self.listener.local_addr()
+    }
+
+    pub fn state(&self) -> Arc<AppState> {
+        self.state.clone()
+    }
+
+    /// Serves until `shutdown` resolves, then lets answers in flight finish.
+    pub async fn run(
+        self,
+        shutdown: impl std::future::Future<Output = ()> + Send + 'static,
+    ) -> std::io::Result<()> {
+        let app = router(self.state);
+        axum::serve(self.listener, app)
+            .with_graceful_shutdown(shutdown)
+            .await
+    }
+}
+
+/// Reads the token from `path`, or makes one there (mode 0600) when the file
+/// does not exist; the token is 32 random bytes in hex.
+pub fn load_or_make_token(path: &std::path::Path) -> Result<String, crate::Error> {
+    let err = |e: std::io::Error| crate::Error::File {
+        path: path.to_owned(),
+        source: e,
+    };
+    match std::fs::read_to_string(path) {
+        Ok(s) if !s.trim().is_empty() => return Ok(s.trim().to_owned()),
+        Ok(_) => {
+            return Err(crate::Error::Invalid(format!(
+                "{}: the token file is empty",
+                path.display()
+            )))
+        }
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(err(e)),
+        Err(_) => {}
+    }
+    let mut bytes = [0u8; 32];
+    use std::io::Read;
+    std::fs::File::open("/dev/urandom")
+        .and_then(|mut f| f.read_exact(&mut bytes))
+        .map_err(|e| crate::Error::Invalid(format!("reading /dev/urandom for a token: {e}")))?;
+    let token = hex::encode(bytes);
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(err)?;
+    }
+    use std::io::Write;
+    use std::os::unix::fs::OpenOptionsExt;
+    let mut f = std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .mode(0o600)
+        .open(path)
+        .map_err(err)?;
+    writeln!(f, "{token}").map_err(err)?;
+    Ok(token)
+}

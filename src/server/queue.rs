@@ -1,0 +1,247 @@
+//! The bounded work queues of `POST /tonemap`: one for the GPU, one for the
+//! CPU reference, each with one worker thread. A request takes a permit
+//! before its body is read, so at most `waiting + 1` bodies per queue are in
+//! memory; with no permit left the answer is 503 with `Retry-After`, never an
+//! unbounded pile-up.
+
+use super::error::ApiError;
+use crate::gpu::{AdapterChoice, GpuConfig, GpuContext};
+use crate::io::LoadOptions;
+use crate::toning::Resolved;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, RwLock};
+use std::time::Instant;
+use tokio::sync::{oneshot, OwnedSemaphorePermit, Semaphore};
+
+/// What one job asks for.
+pub struct JobParams {
+    pub resolved: Resolved,
+    pub load: LoadOptions,
+    pub source_name: String,
+}
+
+/// A tone-mapped image and what was measured on the way.
+pub struct ToneOutput {
+    pub png: Vec<u8>,
+    pub width: u32,
+    pub height: u32,
+    pub plan: Vec<&'static str>,
+    pub adapter: String,
+    /// Load report, statistics and tone parameters, as JSON.
+    pub report: serde_json::Value,
+    pub render_ms: f64,
+    pub queue_ms: f64,
+}
+
+struct Job {
+    bytes: axum::body::Bytes,
+    params: JobParams,
+    queued_at: Instant,
+    reply: oneshot::Sender<Result<ToneOutput, ApiError>>,
+    _permit: OwnedSemaphorePermit,
+}
+
+/// Counters of one queue, for `/metrics` and `/healthz`.
+#[derive(Default)]
+pub struct QueueStats {
+    pub accepted: AtomicU64,
+    pub rejected: AtomicU64,
+    pub succeeded: AtomicU64,
+    pub failed: AtomicU64,
+    /// Jobs whose client had gone (timed out) before the worker reached them.
+    pub abandoned: AtomicU64,
+    pub busy_us: AtomicU64,
+}
+
+pub struct Queue {
+    pub name: &'static str,
+    /// Jobs that may wait besides the one running.
+    pub waiting: usize,
+    permits: Arc<Semaphore>,
+    tx: std::sync::mpsc::SyncSender<Job>,
+    pub stats: Arc<QueueStats>,
+}
+
+/// What a worker renders with.
+#[derive(Clone)]
+pub enum Engine {
+    Cpu,
+    Gpu {
+        adapter: AdapterChoice,
+        config: GpuConfig,
+    },
+}
+
+impl Queue {
+    /// Starts the worker thread. `hold` (tests only) is read-locked around
+    /// every job, so a test can keep the worker busy while it fills the queue.
+    pub fn start(
+        name: &'static str,
+        waiting: usize,
+        engine: Engine,
+        hold: Option<Arc<RwLock<()>>>,
+    ) -> std::io::Result<Queue> {
+        let capacity = waiting + 1;
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Job>(capacity);
+        let stats = Arc::new(QueueStats::default());
+        let s = stats.clone();
+        std::thread::Builder::new()
+            .name(format!("tonemap-{name}"))
+            .spawn(move || worker(rx, engine, s, hold))?;
+        Ok(Queue {
+            name,
+            waiting,
+            permits: Arc::new(Semaphore::new(capacity)),
+            tx,
+            stats,
+        })
+    }
+
+    /// Jobs in the queue, the running one included.
+    pub fn depth(&self) -> usize {
+        self.waiting + 1 - self.permits.available_permits()
+    }
+
+    pub fn capacity(&self) -> usize {
+        self.waiting + 1
+    }
+
+    /// A place in the queue, or 503 with a `Retry-After` of about the time
+    /// the jobs ahead take.
+    pub fn reserve(&self) -> Result<OwnedSemaphorePermit, ApiError> {
+        match self.permits.clone().try_acquire_owned() {
+            Ok(p) => {
+                self.stats.accepted.fetch_add(1, Ordering::Relaxed);
+                Ok(p)
+            }
+            Err(_) => {
+                self.stats.rejected.fetch_add(1, Ordering::Relaxed);
+                let done = self.stats.succeeded.load(Ordering::Relaxed)
+                    + self.stats.failed.load(Ordering::Relaxed);
+                let mean_s = if done == 0 {
+                    1.0
+                } else {
+                    self.stats.busy_us.load(Ordering::Relaxed) as f64 / done as f64 / 1e6
+                };
+                let wait = (mean_s * self.capacity() as f64).ceil() as u64;
+                Err(ApiError::unavailable(
+                    "busy",
+                    format!(
+                        "the {} tone-map queue is full ({} jobs); try again later",
+                        self.name,
+                        self.capacity()
+                    ),
+                    wait,
+                ))
+            }
+        }
+    }
+
+    /// Hands a job to the worker; the answer comes on the returned channel.
+    pub fn submit(
+        &self,
+        permit: OwnedSemaphorePermit,
+        bytes: axum::body::Bytes,
+        params: JobParams,
+    ) -> Result<oneshot::Receiver<Result<ToneOutput, ApiError>>, ApiError> {
+        let (reply, rx) = oneshot::channel();
+        let job = Job {
+            bytes,
+            params,
+            queued_at: Instant::now(),
+            reply,
+            _permit: permit,
+        };
+        // The channel holds as many jobs as there are permits, so with a
+        // permit this never blocks; it fails only if the worker died.
+        self.tx.try_send(job).map_err(|_| {
+            ApiError::internal(format!("the {} tone-map worker stopped", self.name))
+        })?;
+        Ok(rx)
+    }
+}
+
+fn worker(
+    rx: std::sync::mpsc::Receiver<Job>,
+    engine: Engine,
+    stats: Arc<QueueStats>,
+    hold: Option<Arc<RwLock<()>>>,
+) {
+    let mut ctx: Option<GpuContext> = None;
+    while let Ok(job) = rx.recv() {
+        let _held = hold.as_ref().map(|h| h.read());
+        if job.reply.is_closed() {
+            stats.abandoned.fetch_add(1, Ordering::Relaxed);
+            continue;
+        }
+        let queue_ms = job.queued_at.elapsed().as_secs_f64() * 1e3;
+        let start = Instant::now();
+        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            run_job(&job.bytes, &job.params, &engine, &mut ctx)
+        }))
+        .unwrap_or_else(|_| {
+            // A panic may leave the device in any state: start a fresh one.
+            ctx = None;
+            Err(ApiError::internal("the tone mapper panicked on this input"))
+        });
+        let elapsed = start.elapsed();
+        stats
+            .busy_us
+            .fetch_add(elapsed.as_micros() as u64, Ordering::Relaxed);
+        let result = result.map(|mut out| {
+            out.render_ms = elapsed.as_secs_f64() * 1e3;
+            out.queue_ms = queue_ms;
+            out
+        });
+        let counter = if result.is_ok() {
+            &stats.succeeded
+        } else {
+            &stats.failed
+        };
+        counter.fetch_add(1, Ordering::Relaxed);
+        let _ = job.reply.send(result);
+    }
+}
+
+fn run_job(
+    bytes: &[u8],
+    p: &JobParams,
+    engine: &Engine,
+    ctx: &mut Option<GpuContext>,
+) -> Result<ToneOutput, ApiError> {
+    let (img, load_report) = crate::io::decode_hdr(bytes, &p.source_name, &p.load)
+        .map_err(|e| ApiError::of_image(&e))?;
+    let (gpu, adapter) = match engine {
+        Engine::Cpu => (None, "cpu-reference".to_string()),
+        Engine::Gpu { adapter, config } => {
+            if ctx.is_none() {
+                *ctx = Some(GpuContext::new(adapter).map_err(|e| ApiError::of_gpu(&e))?);
+            }
+            let c = ctx.as_ref().expect("set above");
+            (Some((c, *config)), c.adapter.name.clone())
+        }
+    };
+    let result = crate::toning::tone_map(&img, &p.resolved.pipeline(), gpu);
+    if let Err(crate::Error::Gpu(e)) = &result {
+        if !matches!(e, crate::gpu::GpuError::TooLarge { .. }) {
+            // A lost device is not coming back: the next job opens a new one.
+            *ctx = None;
+        }
+    }
+    let (plan, out) = result.map_err(|e| ApiError::of_crate(&e))?;
+    let png = crate::io::encode_png8(&out.frame).map_err(|e| ApiError::internal(e.to_string()))?;
+    Ok(ToneOutput {
+        png,
+        width: out.frame.width,
+        height: out.frame.height,
+        plan: plan.names(),
+        adapter,
+        report: serde_json::json!({
+            "input": load_report,
+            "stats": out.stats,
+            "tone": out.tone,
+        }),
+        render_ms: 0.0,
+        queue_ms: 0.0,
+    })
+}

@@ -1,0 +1,303 @@
+//! `POST /api/v1/tonemap`: an HDR file in (raw body or multipart), a PNG out
+//! with the statistics in `X-Tonegate-*` headers, or JSON with the PNG inline.
+
+use super::error::ApiError;
+use super::queue::{JobParams, ToneOutput};
+use super::AppState;
+use crate::toning::ToneSettings;
+use axum::body::Bytes;
+use axum::extract::{FromRequest, Multipart, RawQuery, Request, State};
+use axum::http::{header, HeaderMap, HeaderValue, StatusCode};
+use axum::response::{IntoResponse, Response};
+use base64::Engine as _;
+use std::sync::Arc;
+
+/// The parameters `POST /tonemap` takes besides the tone settings.
+struct Extra {
+    gpu: bool,
+    json: bool,
+    sanitize: bool,
+}
+
+/// Splits the request's parameters into the renderer choice and the tone
+/// settings; unknown names and bad values are refused with their name.
+fn parse_params(
+    pairs: Vec<(String, String)>,
+    headers: &HeaderMap,
+) -> Result<(Extra, ToneSettings), ApiError> {
+    let mut extra = Extra {
+        gpu: true,
+        json: headers
+            .get(header::ACCEPT)
+            .and_then(|v| v.to_str().ok())
+            .is_some_and(|v| v.contains("application/json")),
+        sanitize: false,
+    };
+    let flag = |name: &str, v: &str| match v {
+        "true" | "1" | "yes" | "" => Ok(true),
+        "false" | "0" | "no" => Ok(false),
+        other => Err(ApiError::bad(format!(
+            "{name}: expected true or false, got {other:?}"
+        ))),
+    };
+    let mut seen = std::collections::BTreeSet::new();
+    let mut rest = Vec::new();
+    for (k, v) in pairs {
+        if !seen.insert(k.clone()) {
+            return Err(ApiError::bad(format!("parameter {k:?} is given twice")));
+        }
+        match k.as_str() {
+            "gpu" => extra.gpu = flag("gpu", &v)?,
+            "sanitize" => extra.sanitize = flag("sanitize", &v)?,
+            "format" => {
+                extra.json = match v.as_str() {
+                    "json" => true,
+                    "png" => false,
+                    other => {
+                        return Err(ApiError::bad(format!(
+                            "format: expected png or json, got {other:?}"
+                        )))
+                    }
+                }
+            }
+            _ => rest.push((k, v)),
+        }
+    }
+    let encoded = serde_urlencoded::to_string(&rest).map_err(|e| ApiError::bad(e.to_string()))?;
+    let settings: ToneSettings = serde_urlencoded::from_str(&encoded)
+        .map_err(|e| ApiError::bad(format!("parameters: {e}")))?;
+    Ok((extra, settings))
+}
+
+fn query_pairs(q: Option<&str>) -> Result<Vec<(String, String)>, ApiError> {
+    serde_urlencoded::from_str(q.unwrap_or("")).map_err(|e| ApiError::bad(format!("query: {e}")))
+}
+
+/// Tone-map an HDR image.
+#[utoipa::path(
+    post,
+    path = "/api/v1/tonemap",
+    tag = "tonemap",
+    params(
+        ("gpu" = Option<bool>, Query, description = "Render on the GPU (default true) or with the CPU reference"),
+        ("format" = Option<String>, Query, description = "png (default) or json (the PNG inline, base64)"),
+        ("operator" = Option<String>, Query, description = "seed000 (default), seed001, reinhard02"),
+        ("preset" = Option<String>, Query, description = "reinhard02: pfstmo_reinhard02's global operator"),
+        ("key" = Option<String>, Query, description = "Key a, or auto (seed001)"),
+        ("white_fraction" = Option<f64>, Query, description = "seed000: fraction of the maximum mapped to white, (0, 1]"),
+        ("white" = Option<f64>, Query, description = "reinhard02: absolute Lwhite"),
+        ("log_average" = Option<f64>, Query, description = "Fixed adaptation luminance"),
+        ("colour" = Option<String>, Query, description = "ratio (default) or xyy"),
+        ("bloom" = Option<f64>, Query, description = "Bloom strength (0 = none); bloom_pass, bloom_threshold, bloom_downsample, bloom_radius, bloom_sigma refine it"),
+        ("brightness" = Option<f64>, Query), ("contrast" = Option<f64>, Query), ("saturation" = Option<f64>, Query),
+        ("gamma" = Option<f64>, Query, description = "Encode with 1/gamma instead of the sRGB OETF"),
+        ("sanitize" = Option<bool>, Query, description = "Set NaN/Inf to 0 instead of refusing the file"),
+    ),
+    request_body(content = Vec<u8>, description = "The .hdr or .exr file (raw, or multipart/form-data with a file field; form fields are parameters too)",
+        content_type = "application/octet-stream"),
+    responses(
+        (status = 200, description = "The tone-mapped image; statistics in X-Tonegate-* headers", content_type = "image/png"),
+        (status = 400, description = "Unknown or bad parameter", body = super::error::ErrorBody),
+        (status = 413, description = "Body or pixel count over the limit", body = super::error::ErrorBody),
+        (status = 415, description = "Not an HDR format", body = super::error::ErrorBody),
+        (status = 422, description = "Corrupt, truncated or non-finite image", body = super::error::ErrorBody),
+        (status = 503, description = "Queue full or timed out (Retry-After), or no GPU adapter", body = super::error::ErrorBody),
+    )
+)]
+pub async fn tonemap(
+    State(st): State<Arc<AppState>>,
+    RawQuery(q): RawQuery,
+    req: Request,
+) -> Result<Response, ApiError> {
+    st.authorize_read(req.headers())?;
+    let started = std::time::Instant::now();
+    let headers = req.headers().clone();
+    let mut pairs = query_pairs(q.as_deref())?;
+    let is_multipart = headers
+        .get(header::CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|v| v.starts_with("multipart/form-data"));
+    // Refuse early what cannot be accepted anyway: the parameters (when all
+    // in the query), the declared length, and a full queue, before reading
+    // a byte of the body.
+    if !is_multipart {
+        let (_, settings) = parse_params(pairs.clone(), &headers)?;
+        settings.resolve().map_err(|e| ApiError::of_crate(&e))?;
+    }
+    let limit = st.limits.max_body;
+    if let Some(len) = headers
+        .get(header::CONTENT_LENGTH)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.parse::<u64>().ok())
+    {
+        if len > limit as u64 {
+            return Err(too_large_body(len, limit));
+        }
+    }
+    let gpu_first = pairs
+        .iter()
+        .find(|(k, _)| k == "gpu")
+        .is_none_or(|(_, v)| !matches!(v.as_str(), "false" | "0" | "no"));
+    let queue = if gpu_first { &st.gpu } else { &st.cpu };
+    let permit = queue.reserve()?;
+    let timeout = st.limits.timeout;
+    let body = tokio::time::timeout(timeout, async {
+        if is_multipart {
+            read_multipart(req, &mut pairs).await
+        } else {
+            axum::body::to_bytes(req.into_body(), limit)
+                .await
+                .map_err(|e| body_error(&e, limit))
+        }
+    })
+    .await
+    .map_err(|_| timed_out(timeout))??;
+    if body.is_empty() {
+        return Err(ApiError::bad(
+            "the body is empty: POST the .hdr or .exr file, raw or as a multipart file field",
+        ));
+    }
+    let (extra, settings) = parse_params(pairs, &headers)?;
+    if extra.gpu != gpu_first {
+        return Err(ApiError::bad(
+            "gpu: give it in the query string, not in the form",
+        ));
+    }
+    let resolved = settings.resolve().map_err(|e| ApiError::of_crate(&e))?;
+    let params = JobParams {
+        resolved,
+        load: crate::io::LoadOptions {
+            sanitize: extra.sanitize,
+            max_pixels: st.limits.max_pixels,
+        },
+        source_name: "upload".into(),
+    };
+    let rx = queue.submit(permit, body, params)?;
+    let left = timeout.saturating_sub(started.elapsed());
+    let out = tokio::time::timeout(left, rx)
+        .await
+        .map_err(|_| timed_out(timeout))?
+        .map_err(|_| ApiError::internal("the tone-map worker dropped the job"))??;
+    Ok(respond(out, extra.json, &settings))
+}
+
+fn too_large_body(len: u64, limit: usize) -> ApiError {
+    ApiError::new(
+        StatusCode::PAYLOAD_TOO_LARGE,
+        "too_large",
+        format!("the body is {len} bytes; the limit is {limit} bytes (serve --max-body)"),
+    )
+}
+
+fn body_error(e: &axum::Error, limit: usize) -> ApiError {
+    let text = e.to_string();
+    if text.contains("length limit") {
+        ApiError::new(
+            StatusCode::PAYLOAD_TOO_LARGE,
+            "too_large",
+            format!("the body is over the limit of {limit} bytes (serve --max-body)"),
+        )
+    } else {
+        ApiError::bad(format!("reading the body: {text}"))
+    }
+}
+
+fn timed_out(t: std::time::Duration) -> ApiError {
+    ApiError::unavailable(
+        "timeout",
+        format!(
+            "the request took longer than {} s (serve --timeout)",
+            t.as_secs()
+        ),
+        t.as_secs(),
+    )
+}
+
+/// The file field of a multipart body; its text fields join the parameters.
+async fn read_multipart(
+    req: Request,
+    pairs: &mut Vec<(String, String)>,
+) -> Result<Bytes, ApiError> {
+    let mut mp = Multipart::from_request(req, &())
+        .await
+        .map_err(|e| ApiError::bad(format!("multipart: {e}")))?;
+    let mut file = None;
+    while let Some(field) = mp.next_field().await.map_err(|e| multipart_error(&e))? {
+        let name = field.name().unwrap_or("").to_owned();
+        if field.file_name().is_some() || name == "file" {
+            if file.is_some() {
+                return Err(ApiError::bad(
+                    "multipart: more than one file; send one image per request",
+                ));
+            }
+            file = Some(field.bytes().await.map_err(|e| multipart_error(&e))?);
+        } else {
+            let v = field.text().await.map_err(|e| multipart_error(&e))?;
+            pairs.push((name, v));
+        }
+    }
+    file.ok_or_else(|| ApiError::bad("multipart: no file field (name it \"file\")"))
+}
+
+fn multipart_error(e: &axum::extract::multipart::MultipartError) -> ApiError {
+    if e.status() == StatusCode::PAYLOAD_TOO_LARGE {
+        ApiError::new(StatusCode::PAYLOAD_TOO_LARGE, "too_large", e.body_text())
+    } else {
+        ApiError::bad(format!("multipart: {}", e.body_text()))
+    }
+}
+
+fn respond(out: ToneOutput, json: bool, settings: &ToneSettings) -> Response {
+    if json {
+        let body = serde_json::json!({
+            "width": out.width,
+            "height": out.height,
+            "adapter": out.adapter,
+            "plan": out.plan,
+            "settings": settings,
+            "render_ms": out.render_ms,
+            "queue_ms": out.queue_ms,
+            "input": out.report["input"],
+            "stats": out.report["stats"],
+            "tone": out.report["tone"],
+            "image": {
+                "content_type": "image/png",
+                "base64": base64::engine::general_purpose::STANDARD.encode(&out.png),
+            },
+        });
+        return axum::Json(body).into_response();
+    }
+    let mut r = (
+        [(header::CONTENT_TYPE, HeaderValue::from_static("image/png"))],
+        out.png,
+    )
+        .into_response();
+    let h = r.headers_mut();
+    let mut put = |name: &'static str, v: String| {
+        if let Ok(v) = HeaderValue::from_str(&v) {
+            h.insert(name, v);
+        }
+    };
+    let num = |v: &serde_json::Value| match v {
+        serde_json::Value::Null => "none".to_string(),
+        v => v.to_string(),
+    };
+    let tone = &out.report["tone"];
+    let input = &out.report["input"];
+    put("x-tonegate-adapter", out.adapter.clone());
+    put("x-tonegate-size", format!("{}x{}", out.width, out.height));
+    put("x-tonegate-plan", out.plan.join(","));
+    put("x-tonegate-key", num(&tone["key"]));
+    put("x-tonegate-log-average", num(&tone["log_average"]));
+    put("x-tonegate-scale", num(&tone["scale"]));
+    put("x-tonegate-white-sq", num(&tone["white_sq"]));
+    put("x-tonegate-min-luminance", num(&input["min_luminance"]));
+    put("x-tonegate-max-luminance", num(&input["max_luminance"]));
+    put(
+        "x-tonegate-dynamic-range-stops",
+        num(&input["dynamic_range_stops"]),
+    );
+    put("x-tonegate-render-ms", format!("{:.3}", out.render_ms));
+    put("x-tonegate-queue-ms", format!("{:.3}", out.queue_ms));
+    r
+}
