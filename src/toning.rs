@@ -227,11 +227,10 @@ impl ToneSettings {
         })
     }
 
+    /// The bloom, None at strength 0; its other knobs are checked either way
+    /// (a bad radius is a mistake even while bloom is off).
     fn bloom(&self) -> Result<Option<Bloom>> {
-        if self.bloom == 0.0 {
-            return Ok(None);
-        }
-        Ok(Some(Bloom {
+        let bloom = Bloom {
             bright_pass: match self.bloom_pass {
                 BrightPassArg::Seed001 => BrightPass::Seed001,
                 BrightPassArg::Threshold => BrightPass::Threshold,
@@ -243,7 +242,8 @@ impl ToneSettings {
                 .map_err(|e| invalid(format!("bloom_radius: {e}")))?,
             sigma: positive("bloom_sigma", self.bloom_sigma)?,
             strength: non_negative("bloom", self.bloom)?,
-        }))
+        };
+        Ok((self.bloom != 0.0).then_some(bloom))
     }
 }
 

@@ -15,8 +15,20 @@ use utoipa::{IntoParams, ToSchema};
 
 /// Parses a query string, answering 400 with the parameter's name when it is unknown or bad.
 pub fn query<T: DeserializeOwned>(q: Option<String>) -> Result<T, ApiError> {
-    serde_urlencoded::from_str(q.as_deref().unwrap_or(""))
-        .map_err(|e| ApiError::bad(format!("query: {e}")))
+    from_pairs(q.as_deref().unwrap_or("").as_bytes())
+}
+
+/// Deserialises urlencoded pairs; a bad value's error names its parameter.
+pub fn from_pairs<T: DeserializeOwned>(encoded: &[u8]) -> Result<T, ApiError> {
+    let de = serde_urlencoded::Deserializer::new(form_urlencoded::parse(encoded));
+    serde_path_to_error::deserialize(de).map_err(|e| {
+        let path = e.path().to_string();
+        if path == "." || path.is_empty() {
+            ApiError::bad(format!("query: {}", e.inner()))
+        } else {
+            ApiError::bad(format!("{path}: {}", e.inner()))
+        }
+    })
 }
 
 fn run_id(s: &str) -> Result<i64, ApiError> {

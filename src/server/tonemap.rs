@@ -64,8 +64,7 @@ fn parse_params(
         }
     }
     let encoded = serde_urlencoded::to_string(&rest).map_err(|e| ApiError::bad(e.to_string()))?;
-    let settings: ToneSettings = serde_urlencoded::from_str(&encoded)
-        .map_err(|e| ApiError::bad(format!("parameters: {e}")))?;
+    let settings: ToneSettings = super::api::from_pairs(encoded.as_bytes())?;
     Ok((extra, settings))
 }
 

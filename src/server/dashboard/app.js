@@ -1,0 +1,377 @@
+// tonegate dashboard: a small single-page app over /api/v1 (hash routes, no
+// build step, no external files). Every value from the API is put into the
+// page as text, never as HTML.
+"use strict";
+
+const API = "/api/v1";
+const STAGES = ["sphere", "luminance_stats", "tonemap", "bloom_bright", "bloom_downsample", "bloom_blur", "bloom_composite", "grade", "encode"];
+
+// ---- small DOM helpers ----------------------------------------------------
+function h(tag, attrs, ...children) {
+  const e = document.createElement(tag);
+  for (const [k, v] of Object.entries(attrs || {})) {
+    if (v === undefined || v === null || v === false) continue;
+    if (k.startsWith("on")) e.addEventListener(k.slice(2), v);
+    else if (k === "class") e.className = v;
+    else e.setAttribute(k, v === true ? "" : String(v));
+  }
+  for (const c of children.flat()) {
+    if (c === undefined || c === null || c === false) continue;
+    e.appendChild(typeof c === "string" || typeof c === "number" ? document.createTextNode(String(c)) : c);
+  }
+  return e;
+}
+const view = () => document.getElementById("view");
+function show(...nodes) {
+  const v = view();
+  v.replaceChildren(...nodes);
+  v.setAttribute("data-ready", "1");
+}
+function num(v, digits) {
+  if (v === null || v === undefined) return "–";
+  if (v === Infinity) return "∞";
+  if (typeof v !== "number") return String(v);
+  const a = Math.abs(v);
+  if (a !== 0 && (a < 1e-3 || a >= 1e6)) return v.toExponential(2);
+  return v.toFixed(digits === undefined ? 2 : digits);
+}
+function when(iso) {
+  if (!iso) return "–";
+  const d = new Date(iso);
+  return isNaN(d) ? iso : d.toISOString().replace("T", " ").slice(0, 19) + "Z";
+}
+function duration(a, b) {
+  if (!a || !b) return "–";
+  const s = (new Date(b) - new Date(a)) / 1000;
+  return s < 120 ? s.toFixed(1) + " s" : (s / 60).toFixed(1) + " min";
+}
+function badge(status) {
+  return h("span", { class: "badge " + status }, status);
+}
+
+// ---- API access -----------------------------------------------------------
+function token() { return sessionStorage.getItem("tonegate-token") || ""; }
+function authHeaders() {
+  const t = token();
+  return t ? { Authorization: "Bearer " + t } : {};
+}
+async function api(path, init) {
+  const r = await fetch(API + path, { ...(init || {}), headers: { ...authHeaders(), ...((init || {}).headers || {}) } });
+  const text = await r.text();
+  let body = null;
+  // JSON.parse reads 1e999 (an infinite PSNR) as Infinity.
+  try { body = text ? JSON.parse(text) : null; } catch (_) { body = { error: "bad_json", detail: text.slice(0, 200) }; }
+  if (!r.ok) {
+    if (r.status === 401 || r.status === 403) document.getElementById("token-box").hidden = false;
+    const e = new Error((body && body.detail) || r.statusText);
+    e.status = r.status;
+    e.code = body && body.error;
+    throw e;
+  }
+  return body;
+}
+function failure(e) {
+  return h("div", { class: "error", role: "alert" }, `${e.status ? e.status + " " : ""}${e.code ? e.code + ": " : ""}${e.message}`);
+}
+
+// ---- routes ---------------------------------------------------------------
+let timer = null;
+function parseHash() {
+  const [path, q] = (location.hash.replace(/^#/, "") || "/runs").split("?");
+  return { parts: path.split("/").filter(Boolean), params: new URLSearchParams(q || "") };
+}
+async function route() {
+  clearTimeout(timer);
+  const { parts, params } = parseHash();
+  view().removeAttribute("data-ready");
+  for (const a of document.querySelectorAll("nav a[data-nav]")) a.classList.toggle("active", a.dataset.nav === (parts[0] || "runs"));
+  try {
+    if (parts[0] === "runs" && parts[1]) await runPage(+parts[1], params);
+    else if (parts[0] === "trends") await trendsPage(params);
+    else if (parts[0] === "tradeoff") await tradeoffPage(parts[1], params);
+    else if (parts[0] === "tonemap") tonemapPage();
+    else await runsPage(params);
+  } catch (e) {
+    show(failure(e));
+  }
+}
+function setParams(base, params) {
+  const q = new URLSearchParams();
+  for (const [k, v] of Object.entries(params)) if (v) q.set(k, v);
+  const s = q.toString();
+  location.hash = base + (s ? "?" + s : "");
+}
+
+// ---- runs list ------------------------------------------------------------
+async function runsPage(params) {
+  const filters = { status: params.get("status") || "", kind: params.get("kind") || "", adapter: params.get("adapter") || "" };
+  const q = new URLSearchParams({ limit: "200" });
+  for (const [k, v] of Object.entries(filters)) if (v) q.set(k, v);
+  const runs = await api("/runs?" + q);
+  const select = (name, options) =>
+    h("select", { name, onchange: (ev) => setParams("/runs", { ...filters, [name]: ev.target.value }) },
+      options.map((o) => h("option", { value: o, selected: filters[name] === o }, o || `any ${name}`)));
+  const adapter = h("input", { name: "adapter", placeholder: "adapter contains…", value: filters.adapter });
+  adapter.addEventListener("change", () => setParams("/runs", { ...filters, adapter: adapter.value }));
+  const start = h("button", { class: "primary", onclick: startRun }, "Start a run");
+  const rows = runs.map((r) =>
+    h("tr", { class: "run-row", "data-status": r.status },
+      h("td", {}, h("a", { href: `#/runs/${r.id}` }, `#${r.id}`)),
+      h("td", {}, r.kind),
+      h("td", {}, badge(r.status)),
+      h("td", {}, when(r.started_at)),
+      h("td", {}, duration(r.started_at, r.ended_at)),
+      h("td", {}, r.adapter || "–"),
+      h("td", { class: r.scenes_failed ? "bad" : "" }, r.kind === "check" ? `${r.scenes - r.scenes_failed}/${r.scenes}` : `${r.scenes}`),
+      h("td", { class: r.regressions ? "bad" : "" }, String(r.regressions)),
+      h("td", { class: "mono" }, (r.git_commit || "").slice(0, 10)),
+      h("td", {}, r.kind === "tradeoff" ? h("a", { href: `#/tradeoff/${r.id}` }, "scatter") : r.detail ? h("span", { class: "detail", title: r.detail }, r.detail.slice(0, 60)) : "")));
+  show(
+    h("h1", {}, "Runs"),
+    h("div", { class: "toolbar" }, select("status", ["", "passed", "failed", "error", "aborted", "running"]), select("kind", ["", "check", "tradeoff"]), adapter, start, h("span", { id: "start-msg" })),
+    runs.length
+      ? h("table", { class: "runs" },
+          h("thead", {}, h("tr", {}, ["Run", "Kind", "Status", "Started", "Took", "Adapter", "Scenes passed", "Regressions", "Commit", ""].map((t) => h("th", {}, t)))),
+          h("tbody", {}, rows))
+      : h("p", { class: "empty" }, "No runs match. `tonegate check` records one; so does “Start a run”."));
+  if (runs.some((r) => r.status === "running")) timer = setTimeout(route, 3000);
+}
+async function startRun() {
+  const msg = document.getElementById("start-msg");
+  try {
+    const r = await api("/runs", { method: "POST", headers: { "Content-Type": "application/json" }, body: "{}" });
+    location.hash = `/runs/${r.id}`;
+  } catch (e) {
+    msg.replaceChildren(failure(e));
+  }
+}
+
+// ---- one run ----------------------------------------------------------------
+function checkText(spec) {
+  const parts = [];
+  for (const [k, v] of Object.entries(spec)) if (!["set_by", "spp", "adapter"].includes(k)) parts.push(`${k} ${typeof v === "object" ? JSON.stringify(v) : v}`);
+  if (spec.spp) parts.push(`at ${spec.spp} spp`);
+  if (spec.adapter) parts.push(`on ${spec.adapter}`);
+  return parts.join(", ");
+}
+async function runPage(id, params) {
+  const { run, report } = await api(`/runs/${id}`);
+  const head = h("div", { class: "run-head" },
+    h("h1", {}, `Run #${run.id} `, badge(run.status)),
+    h("dl", { class: "facts" },
+      ...[["Kind", run.kind], ["Started", when(run.started_at)], ["Took", duration(run.started_at, run.ended_at)], ["Adapter", run.adapter || "–"],
+        ["Driver", [run.driver, run.driver_info].filter(Boolean).join(" · ") || "–"], ["Suite", run.suite || "–"], ["Commit", run.git_commit || "–"], ["Host", run.host]]
+        .flatMap(([k, v]) => [h("dt", {}, k), h("dd", {}, v)])),
+    run.detail ? h("pre", { class: "error" }, run.detail) : null);
+  if (run.status === "running") timer = setTimeout(route, 2000);
+  if (run.kind === "tradeoff") return show(head, h("p", {}, h("a", { href: `#/tradeoff/${run.id}` }, "Open the error-against-time scatter →")));
+  if (!report) return show(head, h("p", { class: "empty" }, run.status === "running" ? `Running: ${run.scenes} scene(s) recorded so far…` : "This run has no report."));
+  const sceneName = params.get("scene") || (report.scenes.find((s) => s.frames.some((f) => f.artifacts && f.artifacts.length)) || report.scenes[0] || {}).scene;
+  const scene = report.scenes.find((s) => s.scene === sceneName) || report.scenes[0];
+  const sceneRows = report.scenes.map((s) => {
+    const passed = s.checks.every((c) => c.passed !== false) && !s.problems.length;
+    const psnr = s.summaries.psnr, ssim = s.summaries.ssim;
+    return h("tr", { class: s === scene ? "selected" : "" },
+      h("td", {}, h("a", { href: `#/runs/${id}?scene=${encodeURIComponent(s.scene)}` }, s.scene)),
+      h("td", {}, badge(passed ? "passed" : "failed")),
+      h("td", {}, s.test), h("td", {}, String(s.spp)),
+      h("td", {}, psnr ? `${num(psnr.worst)} dB (frame ${psnr.worst_frame})` : "–"),
+      h("td", {}, ssim ? num(ssim.worst, 6) : "–"),
+      h("td", {}, s.fps ? num(s.fps, 1) : "–"),
+      h("td", {}, h("a", { href: `#/trends?scene=${encodeURIComponent(s.scene)}&adapter=${encodeURIComponent(run.adapter || "")}` }, "trend")));
+  });
+  const parts = [head,
+    h("h2", {}, "Scenes"),
+    h("table", { class: "scenes" }, h("thead", {}, h("tr", {}, ["Scene", "Result", "Test", "spp", "Worst PSNR", "Worst SSIM", "FPS", ""].map((t) => h("th", {}, t)))), h("tbody", {}, sceneRows))];
+  if (report.regressions && report.regressions.length) {
+    parts.push(h("h2", {}, "Performance regressions"),
+      h("table", { class: "regressions" }, h("thead", {}, h("tr", {}, ["Scene", "Metric", "Value", "Median of earlier runs", "Bound", "Ratio", "Runs"].map((t) => h("th", {}, t)))),
+        h("tbody", {}, report.regressions.map((g) => h("tr", { class: "bad" }, h("td", {}, g.scene), h("td", {}, g.metric), h("td", {}, num(g.value, 3)), h("td", {}, num(g.median, 3)), h("td", {}, num(g.bound, 3)), h("td", {}, num(g.ratio, 3)), h("td", {}, String(g.runs)))))));
+  }
+  if (scene) parts.push(...scenePanel(id, run, report, scene, params));
+  if (report.stress) {
+    const failed = report.stress.cases.filter((c) => !c.passed);
+    parts.push(h("h2", {}, "Stress suite"), h("p", {}, `${report.stress.cases.length - failed.length}/${report.stress.cases.length} rows passed`, failed.length ? `; failing: ${failed.map((c) => c.name + " " + c.renderer).join(", ")}` : ""));
+  }
+  show(...parts);
+}
+function scenePanel(id, run, report, scene, params) {
+  const out = [h("h2", { id: "scene" }, `Scene ${scene.scene}`), h("p", { class: "muted" }, `plan: ${scene.plan.join(" → ")} · judged frames: ${scene.judged_frames.join(", ")}`)];
+  out.push(h("table", { class: "checks" },
+    h("thead", {}, h("tr", {}, ["Check", "Result", "Detail", "Bound set by"].map((t) => h("th", {}, t)))),
+    h("tbody", {}, scene.checks.map((c) => h("tr", { class: c.passed === false ? "bad" : "" },
+      h("td", {}, checkText(c.spec)), h("td", {}, badge(c.passed === null ? "not applied" : c.passed ? "passed" : "failed")), h("td", {}, c.detail), h("td", { class: "muted" }, c.spec.set_by || ""))))));
+  for (const p of scene.problems) out.push(h("p", { class: "error" }, p));
+  const kept = scene.frames.filter((f) => f.artifacts && f.artifacts.length);
+  const frameNo = params.has("frame") ? +params.get("frame") : kept.length ? kept[0].frame : null;
+  const frameRows = scene.frames.map((f) => {
+    const m = f.metrics;
+    return h("tr", { class: (f.failed_checks && f.failed_checks.length ? "bad " : "") + (f.frame === frameNo ? "selected" : ""), "data-frame": f.frame },
+      h("td", {}, String(f.frame)), h("td", {}, num(m.psnr)), h("td", {}, num(m.ssim, 6)), h("td", {}, num(m.mse, 4)), h("td", {}, num(m.rmse, 4)),
+      h("td", {}, num(m.snr)), h("td", {}, String(m.max_abs_diff)), h("td", {}, num(m.fraction_over_1lsb * 100, 3) + " %"),
+      h("td", {}, (f.failed_checks || []).map((i) => checkText(scene.checks[i].spec)).join("; ")),
+      h("td", {}, f.artifacts && f.artifacts.length ? h("a", { href: `#/runs/${id}?scene=${encodeURIComponent(scene.scene)}&frame=${f.frame}` }, "compare") : ""));
+  });
+  out.push(h("h3", {}, "Per-frame metrics against the golden"),
+    h("table", { class: "frames" }, h("thead", {}, h("tr", {}, ["Frame", "PSNR dB", "SSIM", "MSE", "RMSE", "SNR dB", "Max diff", "> 1 LSB", "Failed checks", ""].map((t) => h("th", {}, t)))), h("tbody", {}, frameRows)));
+  if (scene.timings && scene.timings.length) {
+    out.push(h("h3", {}, `GPU time per stage (${num(scene.fps, 1)} FPS with readback)`),
+      h("table", { class: "timings" }, h("thead", {}, h("tr", {}, ["Stage", "Median ms", "p95 ms"].map((t) => h("th", {}, t)))),
+        h("tbody", {}, scene.timings.map((t) => h("tr", {}, h("td", {}, t.name), h("td", {}, num(t.median_ms, 3)), h("td", {}, num(t.p95_ms, 3)))))));
+  }
+  const f = scene.frames.find((x) => x.frame === frameNo);
+  if (f && f.artifacts && f.artifacts.length) out.push(comparer(id, scene.scene, f));
+  else out.push(h("p", { class: "muted" }, "No images kept for this scene (a run keeps each scene's worst frame and every failing frame)."));
+  return out;
+}
+function comparer(id, scene, f) {
+  const url = (kind) => {
+    const name = f.artifacts.find((a) => a.endsWith(`-${kind}.png`));
+    return name ? `${API}/runs/${id}/artifacts/${encodeURIComponent(name)}` : null;
+  };
+  const img = (kind, extra) => {
+    const src = url(kind);
+    if (!src) return h("div", { class: "missing" }, `no ${kind} image`);
+    const i = h("img", { src, alt: `${kind} of ${scene} frame ${f.frame}`, "data-kind": kind, ...(extra || {}) });
+    i.addEventListener("load", () => i.setAttribute("data-loaded", "1"));
+    return i;
+  };
+  const side = h("div", { class: "side-by-side" },
+    ["golden", "actual", "diff", "ssim"].map((k) => h("figure", {}, img(k), h("figcaption", {}, { golden: "golden (CPU reference)", actual: "actual (this run)", diff: "|difference| heat map", ssim: "SSIM map (dark = low)" }[k]))));
+  const top = img("actual", { class: "top" });
+  const wrap = h("div", { class: "slider-wrap" }, img("golden", { class: "bottom" }), top);
+  const range = h("input", { type: "range", min: 0, max: 100, value: 50, "aria-label": "golden / actual split" });
+  const apply = () => { top.style.clipPath = `inset(0 0 0 ${range.value}%)`; wrap.style.setProperty("--split", range.value + "%"); };
+  range.addEventListener("input", apply);
+  apply();
+  return h("section", { class: "comparer", "data-frame": f.frame },
+    h("h3", {}, `Frame ${f.frame}: PSNR ${num(f.metrics.psnr)} dB, SSIM ${num(f.metrics.ssim, 6)}, max diff ${f.metrics.max_abs_diff}`),
+    side,
+    h("h3", {}, "Slider: golden (left) | actual (right)"),
+    wrap, range);
+}
+
+// ---- trends ---------------------------------------------------------------
+async function trendsPage(params) {
+  const adapter = params.get("adapter") || "";
+  const all = await api("/trends?metric=fps&limit=500");
+  const scenes = [...new Set(all.map((p) => p.scene))].sort();
+  const adapters = [...new Set(all.map((p) => p.adapter).filter(Boolean))].sort();
+  const scene = params.get("scene") || scenes[0] || "";
+  const controls = h("div", { class: "toolbar" },
+    h("select", { name: "scene", onchange: (e) => setParams("/trends", { scene: e.target.value, adapter }) }, scenes.map((s) => h("option", { value: s, selected: s === scene }, s))),
+    h("select", { name: "adapter", onchange: (e) => setParams("/trends", { scene, adapter: e.target.value }) },
+      h("option", { value: "" }, "any adapter"), adapters.map((a) => h("option", { value: a, selected: a === adapter }, a))));
+  if (!scene) return show(h("h1", {}, "Trends"), h("p", { class: "empty" }, "No check runs yet."));
+  const q = (metric) => api(`/trends?metric=${metric}&scene=${encodeURIComponent(scene)}${adapter ? "&adapter=" + encodeURIComponent(adapter) : ""}&limit=500`);
+  const [fps, psnr, ssim, ...stages] = await Promise.all([q("fps"), q("psnr"), q("ssim"), ...STAGES.map(q)]);
+  // One line per adapter: runs on different hardware are not one series.
+  const byAdapter = (points) => {
+    const groups = new Map();
+    for (const p of points) {
+      const k = p.adapter || "?";
+      if (!groups.has(k)) groups.set(k, []);
+      groups.get(k).push({ x: p.run_id, y: p.value, regression: p.regression, label: `run ${p.run_id} (${p.status})` });
+    }
+    return [...groups].map(([name, points]) => ({ name, points }));
+  };
+  const chart = (title, points, yLabel, extra) => h("figure", { class: "chart-box" }, h("figcaption", {}, title), lineChart(byAdapter(points), { title, yLabel, xLabel: "run", legend: true, ...(extra || {}) }));
+  const stageSeries = STAGES.map((s, i) => ({ name: s, points: stages[i].map((p) => ({ x: p.run_id, y: p.value, regression: p.regression, label: `run ${p.run_id} · ${p.adapter}` })) })).filter((s) => s.points.length);
+  const regressions = [...fps, ...stages.flat()].filter((p) => p.regression);
+  show(h("h1", {}, `Trends · ${scene}`), controls,
+    h("p", { class: "muted" }, "Red points are runs flagged as performance regressions against the median of earlier runs on the same adapter and configuration."),
+    h("div", { class: "charts" },
+      chart("FPS (with readback)", fps, "FPS", { zero: true }),
+      chart("Worst-frame PSNR against the golden (dB)", psnr, "dB"),
+      chart("Worst-frame SSIM", ssim, "SSIM"),
+      h("figure", { class: "chart-box" }, h("figcaption", {}, "GPU median ms per stage"), lineChart(stageSeries, { title: "stage ms", yLabel: "ms", xLabel: "run", zero: true, legend: true }))),
+    regressions.length ? h("p", { class: "bad" }, `${regressions.length} regression point(s): runs ${[...new Set(regressions.map((p) => p.run_id))].join(", ")}`) : h("p", { class: "muted" }, "No regressions flagged for this scene."));
+}
+
+// ---- tradeoff ---------------------------------------------------------------
+async function tradeoffPage(idText, params) {
+  let id = idText ? +idText : null;
+  if (!id) {
+    const runs = await api("/runs?kind=tradeoff&limit=1");
+    if (!runs.length) return show(h("h1", {}, "Error against run time"), h("p", { class: "empty" }, "No tradeoff run yet: `tonegate tradeoff` records one."));
+    id = runs[0].id;
+  }
+  const { run, points } = await api(`/tradeoff/${id}`);
+  const scenes = [...new Set(points.map((p) => p.scene))];
+  const scene = params.get("scene") || (scenes.includes("suite") ? "suite" : scenes[0]);
+  const pts = points.filter((p) => p.scene === scene);
+  const front = pts.filter((p) => p.pareto).sort((a, b) => a.ms - b.ms);
+  show(h("h1", {}, `Error against run time · run #${run.id} `, badge(run.status)),
+    h("div", { class: "toolbar" }, h("select", { name: "scene", onchange: (e) => setParams(`/tradeoff/${id}`, { scene: e.target.value }) }, scenes.map((s) => h("option", { value: s, selected: s === scene }, s)))),
+    h("p", { class: "muted" }, `${pts.length} configurations; the Pareto front (large points, step line) is every configuration no other beats on both time and PSNR.${scene === "suite" ? " Suite: time summed over scenes, PSNR of the worst scene." : ""}`),
+    h("figure", { class: "chart-box" }, scatterChart(pts.map((p) => ({ x: p.ms, y: p.psnr, label: p.label, pareto: p.pareto })), { title: "PSNR against ms", xLabel: "ms per frame (log scale)", yLabel: "PSNR dB" })),
+    h("h2", {}, "Pareto front"),
+    h("table", { class: "front" }, h("thead", {}, h("tr", {}, ["Configuration", "ms", "PSNR dB", "SSIM", "Adaptation rel. err"].map((t) => h("th", {}, t)))),
+      h("tbody", {}, front.map((p) => h("tr", {}, h("td", {}, p.label), h("td", {}, num(p.ms)), h("td", {}, num(p.psnr)), h("td", {}, num(p.ssim, 4)), h("td", {}, num(p.log_average_rel_error)))))));
+}
+
+// ---- tone-map an upload -------------------------------------------------------
+function tonemapPage() {
+  const file = h("input", { type: "file", name: "file", accept: ".hdr,.exr,.pfm" });
+  const field = (label, input) => h("label", {}, h("span", {}, label), input);
+  const operator = h("select", { name: "operator" }, ["seed000", "seed001", "reinhard02"].map((o) => h("option", { value: o }, o)));
+  const key = h("input", { name: "key", value: "0.18", size: 6, title: "a number, or auto (seed001)" });
+  const white = h("input", { name: "white", type: "range", min: 0.05, max: 1, step: 0.05, value: 0.8 });
+  const whiteOut = h("output", {}, "0.80");
+  const bloom = h("input", { name: "bloom", type: "range", min: 0, max: 1, step: 0.05, value: 0 });
+  const bloomOut = h("output", {}, "0.00");
+  const gamma = h("input", { name: "gamma", placeholder: "sRGB", size: 6 });
+  const gpu = h("select", { name: "gpu" }, h("option", { value: "true" }, "GPU"), h("option", { value: "false" }, "CPU reference"));
+  const result = h("div", { class: "tonemap-result" }, h("p", { class: "muted" }, "Choose an .hdr or .exr file; the result updates as you change the settings."));
+  let pending = 0;
+  async function run() {
+    if (!file.files.length) return;
+    whiteOut.value = (+white.value).toFixed(2);
+    bloomOut.value = (+bloom.value).toFixed(2);
+    const q = new URLSearchParams({ format: "json", gpu: gpu.value, operator: operator.value });
+    if (key.value.trim()) q.set("key", key.value.trim());
+    // The white control is seed000's fraction of the maximum, or reinhard02's
+    // Lwhite relative to the key-scaled maximum (as a fraction, scaled here).
+    if (operator.value === "seed000") q.set("white_fraction", white.value);
+    if (+bloom.value > 0) q.set("bloom", bloom.value);
+    if (gamma.value.trim()) q.set("gamma", gamma.value.trim());
+    const mine = ++pending;
+    result.setAttribute("aria-busy", "true");
+    try {
+      const r = await api("/tonemap?" + q, { method: "POST", body: file.files[0], headers: { "Content-Type": "application/octet-stream" } });
+      if (mine !== pending) return;
+      const img = h("img", { src: `data:image/png;base64,${r.image.base64}`, alt: "tone-mapped result", class: "result" });
+      img.addEventListener("load", () => img.setAttribute("data-loaded", "1"));
+      result.replaceChildren(img,
+        h("dl", { class: "facts" }, ...[["Size", `${r.width}×${r.height}`], ["Renderer", r.adapter], ["Plan", r.plan.join(" → ")], ["Key", num(r.tone.key, 4)], ["Log-average", num(r.tone.log_average, 4)],
+          ["Luminance", `${num(r.input.min_luminance)} … ${num(r.input.max_luminance)} (${num(r.input.dynamic_range_stops, 1)} stops)`], ["Time", `${num(r.render_ms, 1)} ms (+${num(r.queue_ms, 1)} ms queued)`]]
+          .flatMap(([k, v]) => [h("dt", {}, k), h("dd", {}, v)])));
+    } catch (e) {
+      if (mine === pending) result.replaceChildren(failure(e));
+    } finally {
+      if (mine === pending) result.removeAttribute("aria-busy");
+    }
+  }
+  let debounce = null;
+  const later = () => { clearTimeout(debounce); debounce = setTimeout(run, 250); };
+  for (const i of [file, operator, key, white, bloom, gamma, gpu]) i.addEventListener(i.type === "range" ? "input" : "change", later);
+  show(h("h1", {}, "Tone-map an HDR image"),
+    h("form", { class: "tonemap-form", onsubmit: (e) => { e.preventDefault(); run(); } },
+      field("HDR file", file), field("Operator", operator), field("Key", key), field("White (seed000 fraction)", h("span", {}, white, whiteOut)),
+      field("Bloom", h("span", {}, bloom, bloomOut)), field("Gamma", gamma), field("Renderer", gpu), h("button", { class: "primary", type: "submit" }, "Tone-map")),
+    result);
+}
+
+// ---- start ------------------------------------------------------------------
+function setupToken() {
+  const box = document.getElementById("token-box");
+  const input = box.querySelector("input");
+  input.value = token();
+  box.querySelector("button").addEventListener("click", () => {
+    sessionStorage.setItem("tonegate-token", input.value.trim());
+    box.hidden = true;
+    route();
+  });
+}
+window.addEventListener("hashchange", route);
+window.addEventListener("DOMContentLoaded", () => { setupToken(); route(); });

@@ -1,0 +1,121 @@
+//! A seeded history for the API and dashboard tests: two real check runs on
+//! lavapipe (one passing, one with a 2 % too-bright tone mapper, so it fails
+//! and keeps failing frames' images) and one tradeoff run, on a two-scene
+//! copy of the built-in suite.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+pub fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+pub fn tonegate(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_tonegate"))
+        .args(args)
+        .current_dir(repo())
+        .env_remove("TONEGATE_DB")
+        .output()
+        .expect("tonegate runs")
+}
+
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let e = e.unwrap();
+        let target = to.join(e.file_name());
+        if e.file_type().unwrap().is_dir() {
+            copy_dir(&e.path(), &target);
+        } else {
+            std::fs::copy(e.path(), target).unwrap();
+        }
+    }
+}
+
+pub struct Seeded {
+    pub db: PathBuf,
+    pub suite: PathBuf,
+    /// Run ids: passed check, failed check, tradeoff.
+    pub passed: i64,
+    pub failed: i64,
+    pub tradeoff: i64,
+}
+
+/// The two-scene suite and an empty history (no runs).
+pub fn seed_empty(dir: &Path) -> Seeded {
+    copy_dir(&repo().join("golden"), &dir.join("golden"));
+    let suite = dir.join("golden/mini.toml");
+    std::fs::write(
+        &suite,
+        "scenes = [\"scenes/grid-static.toml\", \"scenes/sky-seed000.toml\"]\n",
+    )
+    .unwrap();
+    Seeded {
+        db: dir.join("history.sqlite"),
+        suite,
+        passed: 0,
+        failed: 0,
+        tradeoff: 0,
+    }
+}
+
+pub fn seed(dir: &Path) -> Seeded {
+    let Seeded { db, suite, .. } = seed_empty(dir);
+    let (s, d) = (suite.to_str().unwrap(), db.to_str().unwrap());
+    let o = tonegate(&["check", "--suite", s, "--db", d]);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let o = tonegate(&["check", "--suite", s, "--db", d, "--fault-gain", "1.02"]);
+    assert_eq!(
+        o.status.code(),
+        Some(1),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let out = dir.join("tradeoff");
+    let o = tonegate(&[
+        "tradeoff",
+        "grid-static",
+        "--suite",
+        s,
+        "--db",
+        d,
+        "--frames",
+        "0",
+        "--reference-spp",
+        "16",
+        "--repeats",
+        "1",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    Seeded {
+        db,
+        suite,
+        passed: 1,
+        failed: 2,
+        tradeoff: 3,
+    }
+}
+
+/// A small HDR image (a gradient sky with a bright sun) as Radiance bytes.
+pub fn hdr_bytes(dir: &Path, width: u32, height: u32) -> Vec<u8> {
+    let img = tonegate::image::HdrImage::from_fn(width, height, |x, y| {
+        let g = 0.05 + 2.0 * x as f32 / width as f32;
+        let sun = if (x as i64 - 10).pow(2) + (y as i64 - 8).pow(2) < 9 {
+            500.0
+        } else {
+            0.0
+        };
+        [g + sun, 0.5 * g + sun, 0.2 + y as f32 / height as f32 + sun]
+    });
+    let path = dir.join(format!("in-{width}x{height}.hdr"));
+    tonegate::io::write_image_hdr(&path, &img).unwrap();
+    std::fs::read(path).unwrap()
+}
