@@ -18,7 +18,7 @@ mod error;
 mod openexr;
 mod pfm;
 mod png;
-mod radiance;
+pub(crate) mod radiance;
 mod validate;
 
 use std::fs::File;

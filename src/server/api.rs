@@ -405,3 +405,40 @@ pub async fn healthz(State(st): State<Arc<AppState>>) -> Result<Response, ApiErr
     })
     .into_response())
 }
+
+/// A built-in environment as a Radiance .hdr (512×256), so the tone-map page
+/// can be tried without a file of one's own.
+#[utoipa::path(get, path = "/api/v1/samples/{name}", tag = "tonemap",
+    params(("name" = String, Path, description = "sky.hdr, interior.hdr, night.hdr or grid.hdr")),
+    responses((status = 200, content_type = "image/vnd.radiance"), (status = 404, body = ErrorBody)))]
+pub async fn sample(
+    State(st): State<Arc<AppState>>,
+    headers: HeaderMap,
+    Path(name): Path<String>,
+) -> Result<Response, ApiError> {
+    st.authorize_read(&headers)?;
+    let env = name
+        .strip_suffix(".hdr")
+        .and_then(crate::env::BuiltinEnv::from_name)
+        .ok_or_else(|| {
+            ApiError::not_found(format!(
+                "no sample {name:?}: sky.hdr, interior.hdr, night.hdr or grid.hdr"
+            ))
+        })?;
+    let bytes = tokio::task::spawn_blocking(move || {
+        let img = env.generate(512, 256);
+        let mut out = Vec::new();
+        crate::io::radiance::encode(&mut out, &img).map(|_| out)
+    })
+    .await
+    .map_err(|e| ApiError::internal(e.to_string()))?
+    .map_err(|e| ApiError::internal(e.to_string()))?;
+    Ok((
+        [
+            (header::CONTENT_TYPE, "image/vnd.radiance"),
+            (header::CACHE_CONTROL, "public, max-age=86400"),
+        ],
+        bytes,
+    )
+        .into_response())
+}

@@ -190,7 +190,7 @@ pub async fn start_run(
     info(title = "tonegate", description = "HDR tone-mapper validation: runs, metrics, trends, tradeoffs, tone-mapping."),
     paths(
         api::list_runs, api::get_run, api::post_run, api::get_artifact, api::trends,
-        api::tradeoff, api::healthz, tonemap::tonemap
+        api::tradeoff, api::healthz, api::sample, tonemap::tonemap
     ),
     components(schemas(error::ErrorBody)),
     modifiers(&BearerAuth)
@@ -240,6 +240,7 @@ pub fn router(st: Arc<AppState>) -> Router {
         .route("/trends", get(api::trends))
         .route("/tradeoff/{run}", get(api::tradeoff))
         .route("/healthz", get(api::healthz))
+        .route("/samples/{name}", get(api::sample))
         .route("/openapi.json", get(openapi))
         .route(
             "/tonemap",

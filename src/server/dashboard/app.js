@@ -89,7 +89,7 @@ async function route() {
     if (parts[0] === "runs" && parts[1]) await runPage(+parts[1], params);
     else if (parts[0] === "trends") await trendsPage(params);
     else if (parts[0] === "tradeoff") await tradeoffPage(parts[1], params);
-    else if (parts[0] === "tonemap") tonemapPage();
+    else if (parts[0] === "tonemap") tonemapPage(params);
     else await runsPage(params);
   } catch (e) {
     show(failure(e));
@@ -169,7 +169,7 @@ async function runPage(id, params) {
   const sceneName = params.get("scene") || (report.scenes.find((s) => s.frames.some((f) => f.artifacts && f.artifacts.length)) || report.scenes[0] || {}).scene;
   const scene = report.scenes.find((s) => s.scene === sceneName) || report.scenes[0];
   const sceneRows = report.scenes.map((s) => {
-    const passed = s.checks.every((c) => c.passed !== false) && !s.problems.length;
+    const passed = s.checks.every((c) => c.passed !== false) && !(s.problems || []).length;
     const psnr = s.summaries.psnr, ssim = s.summaries.ssim;
     return h("tr", { class: s === scene ? "selected" : "" },
       h("td", {}, h("a", { href: `#/runs/${id}?scene=${encodeURIComponent(s.scene)}` }, s.scene)),
@@ -201,7 +201,7 @@ function scenePanel(id, run, report, scene, params) {
     h("thead", {}, h("tr", {}, ["Check", "Result", "Detail", "Bound set by"].map((t) => h("th", {}, t)))),
     h("tbody", {}, scene.checks.map((c) => h("tr", { class: c.passed === false ? "bad" : "" },
       h("td", {}, checkText(c.spec)), h("td", {}, badge(c.passed === null ? "not applied" : c.passed ? "passed" : "failed")), h("td", {}, c.detail), h("td", { class: "muted" }, c.spec.set_by || ""))))));
-  for (const p of scene.problems) out.push(h("p", { class: "error" }, p));
+  for (const p of scene.problems || []) out.push(h("p", { class: "error" }, p));
   const kept = scene.frames.filter((f) => f.artifacts && f.artifacts.length);
   const frameNo = params.has("frame") ? +params.get("frame") : kept.length ? kept[0].frame : null;
   const frameRows = scene.frames.map((f) => {
@@ -311,8 +311,23 @@ async function tradeoffPage(idText, params) {
 }
 
 // ---- tone-map an upload -------------------------------------------------------
-function tonemapPage() {
+function tonemapPage(params) {
   const file = h("input", { type: "file", name: "file", accept: ".hdr,.exr,.pfm" });
+  // The image to tone-map: the chosen file, or a built-in sample fetched from the server.
+  let source = null;
+  file.addEventListener("change", () => { source = file.files[0] || null; });
+  async function useSample(name) {
+    try {
+      const r = await fetch(`${API}/samples/${name}.hdr`, { headers: authHeaders() });
+      if (!r.ok) throw new Error(`sample ${name}: ${r.status}`);
+      source = await r.blob();
+      run();
+    } catch (e) {
+      result.replaceChildren(failure(e));
+    }
+  }
+  const samples = h("span", { class: "samples" }, "or try a built-in image: ",
+    ["sky", "interior", "night", "grid"].map((n) => h("button", { type: "button", "data-sample": n, onclick: () => useSample(n) }, n)));
   const field = (label, input) => h("label", {}, h("span", {}, label), input);
   const operator = h("select", { name: "operator" }, ["seed000", "seed001", "reinhard02"].map((o) => h("option", { value: o }, o)));
   const key = h("input", { name: "key", value: "0.18", size: 6, title: "a number, or auto (seed001)" });
@@ -322,10 +337,10 @@ function tonemapPage() {
   const bloomOut = h("output", {}, "0.00");
   const gamma = h("input", { name: "gamma", placeholder: "sRGB", size: 6 });
   const gpu = h("select", { name: "gpu" }, h("option", { value: "true" }, "GPU"), h("option", { value: "false" }, "CPU reference"));
-  const result = h("div", { class: "tonemap-result" }, h("p", { class: "muted" }, "Choose an .hdr or .exr file; the result updates as you change the settings."));
+  const result = h("div", { class: "tonemap-result" }, h("p", { class: "muted" }, "Choose an .hdr or .exr file (or a built-in sample); the result updates as you change the settings."));
   let pending = 0;
   async function run() {
-    if (!file.files.length) return;
+    if (!source) return;
     whiteOut.value = (+white.value).toFixed(2);
     bloomOut.value = (+bloom.value).toFixed(2);
     const q = new URLSearchParams({ format: "json", gpu: gpu.value, operator: operator.value });
@@ -338,7 +353,7 @@ function tonemapPage() {
     const mine = ++pending;
     result.setAttribute("aria-busy", "true");
     try {
-      const r = await api("/tonemap?" + q, { method: "POST", body: file.files[0], headers: { "Content-Type": "application/octet-stream" } });
+      const r = await api("/tonemap?" + q, { method: "POST", body: source, headers: { "Content-Type": "application/octet-stream" } });
       if (mine !== pending) return;
       const img = h("img", { src: `data:image/png;base64,${r.image.base64}`, alt: "tone-mapped result", class: "result" });
       img.addEventListener("load", () => img.setAttribute("data-loaded", "1"));
@@ -359,7 +374,9 @@ function tonemapPage() {
     h("form", { class: "tonemap-form", onsubmit: (e) => { e.preventDefault(); run(); } },
       field("HDR file", file), field("Operator", operator), field("Key", key), field("White (seed000 fraction)", h("span", {}, white, whiteOut)),
       field("Bloom", h("span", {}, bloom, bloomOut)), field("Gamma", gamma), field("Renderer", gpu), h("button", { class: "primary", type: "submit" }, "Tone-map")),
+    samples,
     result);
+  if (params.get("sample")) useSample(params.get("sample"));
 }
 
 // ---- start ------------------------------------------------------------------

@@ -92,7 +92,7 @@ function lineChart(series, opts) {
       g.appendChild(svgEl("rect", { x, y: 4, width: 10, height: 10, fill: PALETTE[i % PALETTE.length] }));
       const t = svgEl("text", { x: x + 14, y: 13 }, s.name);
       g.appendChild(t);
-      x += 22 + s.name.length * 6.2;
+      x += 24 + s.name.length * 6.8;
     });
     svg.appendChild(g);
   }

@@ -1,0 +1,180 @@
+//! The dashboard in real headless Chromium (Debian's `chromium`, installed by
+//! ci/deps.sh) against `tonegate serve` on a seeded history: each page is
+//! loaded, its rendered DOM checked for the runs, the charts and the image
+//! comparison (images decoded by the browser), and screenshotted into
+//! out/dashboard/ as CI artifacts.
+
+mod common;
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+
+struct Serving {
+    child: Child,
+    base: String,
+}
+
+impl Drop for Serving {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn serve(seeded: &common::Seeded, dir: &Path) -> Serving {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_tonegate"))
+        .args(["serve", "--bind", "127.0.0.1:0", "--db"])
+        .arg(&seeded.db)
+        .arg("--suite")
+        .arg(&seeded.suite)
+        .arg("--token-file")
+        .arg(dir.join("token"))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("tonegate serve starts");
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    // "tonegate serving http://127.0.0.1:PORT/  (...)"
+    let base = line
+        .split_whitespace()
+        .find(|w| w.starts_with("http://"))
+        .unwrap_or_else(|| panic!("no address in {line:?}"))
+        .trim_end_matches('/')
+        .to_owned();
+    Serving { child, base }
+}
+
+fn chromium() -> PathBuf {
+    for c in ["chromium", "chromium-browser", "google-chrome"] {
+        if let Ok(o) = Command::new("sh")
+            .args(["-c", &format!("command -v {c}")])
+            .output()
+        {
+            if o.status.success() {
+                return PathBuf::from(String::from_utf8_lossy(&o.stdout).trim());
+            }
+        }
+    }
+    panic!("headless Chromium is needed for the dashboard tests: apt-get install chromium (ci/deps.sh does)");
+}
+
+/// Loads `url`, lets its fetches finish (virtual time), returns the DOM and
+/// saves a screenshot as out/dashboard/<name>.png.
+fn browse(url: &str, name: &str) -> String {
+    let profile = tempfile::tempdir().unwrap();
+    let common_args = |c: &mut Command| {
+        c.args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--hide-scrollbars",
+        ])
+        .arg(format!("--user-data-dir={}", profile.path().display()))
+        .args([
+            "--run-all-compositor-stages-before-draw",
+            "--virtual-time-budget=8000",
+        ])
+        .arg("--window-size=1400,1600")
+        .stderr(Stdio::null());
+    };
+    let mut c = Command::new(chromium());
+    common_args(&mut c);
+    let out = c
+        .arg("--dump-dom")
+        .arg(url)
+        .output()
+        .expect("chromium runs");
+    assert!(out.status.success(), "chromium failed on {url}");
+    let dom = String::from_utf8_lossy(&out.stdout).into_owned();
+    let shots = common::repo().join("out/dashboard");
+    std::fs::create_dir_all(&shots).unwrap();
+    let shot = shots.join(format!("{name}.png"));
+    let mut c = Command::new(chromium());
+    common_args(&mut c);
+    let status = c
+        .arg(format!("--screenshot={}", shot.display()))
+        .arg(url)
+        .status()
+        .expect("chromium runs");
+    assert!(status.success() && shot.exists(), "no screenshot of {url}");
+    assert!(
+        dom.contains("id=\"view\" aria-live=\"polite\" data-ready=\"1\""),
+        "{url} never finished rendering:\n{dom}"
+    );
+    assert!(
+        !dom.contains("role=\"alert\""),
+        "{url} shows an error:\n{dom}"
+    );
+    dom
+}
+
+fn count(dom: &str, needle: &str) -> usize {
+    dom.matches(needle).count()
+}
+
+#[test]
+fn the_dashboard_shows_runs_charts_and_image_comparisons_in_chromium() {
+    let dir = tempfile::tempdir().unwrap();
+    let seeded = common::seed(dir.path());
+    let s = serve(&seeded, dir.path());
+
+    let dom = browse(&format!("{}/#/runs", s.base), "runs");
+    assert_eq!(count(&dom, "class=\"run-row\""), 3, "{dom}");
+    assert_eq!(count(&dom, "data-status=\"failed\""), 1);
+    assert!(dom.contains("class=\"badge passed\""));
+    assert!(dom.contains(&format!("href=\"#/runs/{}\"", seeded.failed)));
+    let dom = browse(&format!("{}/#/runs?status=failed", s.base), "runs-failed");
+    assert_eq!(count(&dom, "class=\"run-row\""), 1, "the status filter");
+
+    // The failing run: scenes, checks, per-frame table, the comparer with
+    // golden / actual / diff / SSIM images the browser decoded, and a slider.
+    let dom = browse(
+        &format!("{}/#/runs/{}?scene=sky-seed000", s.base, seeded.failed),
+        "run-failed",
+    );
+    assert!(dom.contains("Scene sky-seed000"), "{dom}");
+    assert!(dom.contains("class=\"badge failed\""));
+    assert!(count(&dom, "data-frame=") >= 8, "eight frames in the table");
+    assert!(dom.contains("class=\"comparer\""), "{dom}");
+    for kind in ["golden", "actual", "diff", "ssim"] {
+        let marker = format!("data-kind=\"{kind}\" data-loaded=\"1\"");
+        assert!(dom.contains(&marker), "{kind} image not loaded:\n{dom}");
+    }
+    assert!(dom.contains("type=\"range\""), "the slider");
+    assert!(dom.contains("min_psnr 50"), "the checks table");
+    // A passing run can be looked at too (each scene's worst frame is kept).
+    let dom = browse(
+        &format!("{}/#/runs/{}", s.base, seeded.passed),
+        "run-passed",
+    );
+    assert!(
+        dom.contains("data-kind=\"actual\" data-loaded=\"1\""),
+        "{dom}"
+    );
+
+    // Trends: FPS, PSNR, SSIM and stage time charts with points.
+    let dom = browse(&format!("{}/#/trends?scene=sky-seed000", s.base), "trends");
+    assert!(count(&dom, "<svg class=\"chart\"") >= 4, "{dom}");
+    assert!(count(&dom, "class=\"series\"") >= 4, "{dom}");
+    assert!(count(&dom, "<circle") >= 8, "{dom}");
+    assert!(dom.contains("data-series=\"sphere\""), "a stage series");
+
+    // The error-against-time scatter with its front.
+    let dom = browse(&format!("{}/#/tradeoff", s.base), "tradeoff");
+    assert!(dom.contains("<svg class=\"chart scatter\""), "{dom}");
+    assert!(count(&dom, "class=\"point pareto\"") >= 2, "{dom}");
+    assert!(dom.contains("class=\"front\""));
+
+    // The tone-map page's controls.
+    let dom = browse(&format!("{}/#/tonemap", s.base), "tonemap");
+    for name in ["file", "operator", "key", "white", "bloom", "gamma"] {
+        assert!(
+            dom.contains(&format!("name=\"{name}\"")),
+            "{name} control:\n{dom}"
+        );
+    }
+}
