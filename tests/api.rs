@@ -70,6 +70,32 @@ impl Running {
     }
 }
 
+/// Write-holds the workers' lock on a thread of its own (the workers are
+/// plain threads) until dropped: jobs queue up but none finishes.
+struct Held(Option<std::sync::mpsc::Sender<()>>, Option<std::thread::JoinHandle<()>>);
+
+fn hold_workers(lock: &Arc<RwLock<()>>) -> Held {
+    let (release, released) = std::sync::mpsc::channel::<()>();
+    let (ready, is_ready) = std::sync::mpsc::channel();
+    let lock = lock.clone();
+    let t = std::thread::spawn(move || {
+        let _guard = lock.write().unwrap();
+        ready.send(()).unwrap();
+        let _ = released.recv();
+    });
+    is_ready.recv().unwrap();
+    Held(Some(release), Some(t))
+}
+
+impl Drop for Held {
+    fn drop(&mut self) {
+        drop(self.0.take());
+        if let Some(t) = self.1.take() {
+            t.join().unwrap();
+        }
+    }
+}
+
 /// An error answer: the status, JSON with the code, and the detail.
 async fn expect_error(r: reqwest::Response, status: StatusCode, code: &str) -> String {
     assert_eq!(r.status(), status, "{:?}", r.headers());
@@ -538,7 +564,7 @@ async fn a_full_queue_answers_503_with_retry_after_and_a_slow_request_times_out(
         .await,
     );
     let hdr = common::hdr_bytes(dir.path(), 32, 16);
-    let guard = hold.write().unwrap();
+    let guard = hold_workers(&hold);
     // With the worker held, one job runs and two wait: the rest are refused.
     let mut pending = Vec::new();
     for _ in 0..6 {
@@ -590,7 +616,7 @@ async fn a_full_queue_answers_503_with_retry_after_and_a_slow_request_times_out(
         o.hold_workers = Some(hold.clone());
     })
     .await;
-    let guard = hold.write().unwrap();
+    let guard = hold_workers(&hold);
     let r = s.tonemap("gpu=false", hdr.clone()).await;
     let retry = r.headers().get("retry-after").cloned();
     expect_error(r, StatusCode::SERVICE_UNAVAILABLE, "timeout").await;
