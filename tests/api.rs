@@ -72,7 +72,10 @@ impl Running {
 
 /// Write-holds the workers' lock on a thread of its own (the workers are
 /// plain threads) until dropped: jobs queue up but none finishes.
-struct Held(Option<std::sync::mpsc::Sender<()>>, Option<std::thread::JoinHandle<()>>);
+struct Held(
+    Option<std::sync::mpsc::Sender<()>>,
+    Option<std::thread::JoinHandle<()>>,
+);
 
 fn hold_workers(lock: &Arc<RwLock<()>>) -> Held {
     let (release, released) = std::sync::mpsc::channel::<()>();
@@ -650,30 +653,16 @@ async fn runs_need_the_token_and_go_one_at_a_time() {
         "forbidden",
     )
     .await;
-    expect_error(
-        post(Some(&format!("Bearer {TOKEN}")), "{\"spp\": 0}")
-            .await
-            .unwrap(),
-        StatusCode::BAD_REQUEST,
-        "bad_parameter",
-    )
-    .await;
-    expect_error(
-        post(Some(&format!("Bearer {TOKEN}")), "{\"sp\": 1}")
-            .await
-            .unwrap(),
-        StatusCode::BAD_REQUEST,
-        "bad_parameter",
-    )
-    .await;
-    expect_error(
-        post(Some(&format!("Bearer {TOKEN}")), "{\"renderer\": \"tpu\"}")
-            .await
-            .unwrap(),
-        StatusCode::BAD_REQUEST,
-        "bad_parameter",
-    )
-    .await;
+    let bearer = format!("Bearer {TOKEN}");
+    for bad in [
+        r#"{"spp": 0}"#,
+        r#"{"sp": 1}"#,
+        r#"{"renderer": "tpu"}"#,
+        "{",
+    ] {
+        let r = post(Some(&bearer), bad).await.unwrap();
+        expect_error(r, StatusCode::BAD_REQUEST, "bad_parameter").await;
+    }
     let r = post(Some(&format!("Bearer {TOKEN}")), "").await.unwrap();
     assert_eq!(r.status(), StatusCode::ACCEPTED);
     let started: serde_json::Value = r.json().await.unwrap();

@@ -1,6 +1,8 @@
 //! The CI gate end to end, through the binary: exit codes, JUnit, JSON,
 //! artifacts, the history and what a kill -9 leaves behind.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};
@@ -29,20 +31,6 @@ fn text(o: &Output) -> String {
 
 fn s(p: &Path) -> &str {
     p.to_str().expect("utf-8 temp path")
-}
-
-/// Copies golden/ (suite, scenes, goldens, manifest) into `to`.
-fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for e in std::fs::read_dir(from).unwrap() {
-        let e = e.unwrap();
-        let target = to.join(e.file_name());
-        if e.file_type().unwrap().is_dir() {
-            copy_dir(&e.path(), &target);
-        } else {
-            std::fs::copy(e.path(), target).unwrap();
-        }
-    }
 }
 
 /// Reads a report; +-inf is written as the literal 1e999 (what Python and
@@ -213,7 +201,7 @@ fn a_run_that_cannot_happen_exits_2_and_is_recorded_as_an_error() {
     assert!(std::fs::read_to_string(&junit).unwrap().contains("<error"));
     // A missing golden.
     let copy = dir.path().join("golden");
-    copy_dir(&repo().join("golden"), &copy);
+    common::copy_dir(&repo().join("golden"), &copy);
     std::fs::remove_file(copy.join("night-seed000/003.png")).unwrap();
     let o = tonegate(&[
         "check",
@@ -245,7 +233,7 @@ fn a_run_that_cannot_happen_exits_2_and_is_recorded_as_an_error() {
 fn a_scene_with_no_checks_fails() {
     let dir = tempfile::tempdir().unwrap();
     let copy = dir.path().join("golden");
-    copy_dir(&repo().join("golden"), &copy);
+    common::copy_dir(&repo().join("golden"), &copy);
     let path = copy.join("scenes/grid-static.toml");
     let scene = std::fs::read_to_string(&path).unwrap();
     let head = &scene[..scene.find("[[checks]]").unwrap()];

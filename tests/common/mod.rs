@@ -20,7 +20,8 @@ pub fn tonegate(args: &[&str]) -> std::process::Output {
         .expect("tonegate runs")
 }
 
-fn copy_dir(from: &Path, to: &Path) {
+/// Copies golden/ (suite, scenes, goldens, manifest) into `to`.
+pub fn copy_dir(from: &Path, to: &Path) {
     std::fs::create_dir_all(to).unwrap();
     for e in std::fs::read_dir(from).unwrap() {
         let e = e.unwrap();
