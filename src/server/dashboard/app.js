@@ -237,7 +237,7 @@ function comparer(id, scene, f) {
     return i;
   };
   const side = h("div", { class: "side-by-side" },
-    ["golden", "actual", "diff", "ssim"].map((k) => h("figure", {}, img(k), h("figcaption", {}, { golden: "golden (CPU reference)", actual: "actual (this run)", diff: "|difference| heat map", ssim: "SSIM map (dark = low)" }[k]))));
+    ["golden", "actual", "diff", "ssim"].map((k) => h("figure", {}, img(k), h("figcaption", {}, { golden: "golden (CPU reference)", actual: "actual (this run)", diff: "|difference|: black 0, dark blue 1, blue 4, green 16, yellow 64, red 255 LSB", ssim: "SSIM map (dark = low)" }[k]))));
   const top = img("actual", { class: "top" });
   const wrap = h("div", { class: "slider-wrap" }, img("golden", { class: "bottom" }), top);
   const range = h("input", { type: "range", min: 0, max: 100, value: 50, "aria-label": "golden / actual split" });
