@@ -326,6 +326,18 @@ async fn every_read_endpoint_answers_on_a_seeded_history() {
         );
     }
     assert!(doc["paths"]["/api/v1/runs"].get("post").is_some());
+    // OpenAPI requires a description on every response (openapi-spec-validator
+    // 0.9 refused the document without them).
+    for (path, item) in doc["paths"].as_object().unwrap() {
+        for (method, op) in item.as_object().unwrap() {
+            for (status, resp) in op["responses"].as_object().unwrap() {
+                assert!(
+                    resp["description"].as_str().is_some_and(|d| !d.is_empty()),
+                    "{method} {path} {status} has no description"
+                );
+            }
+        }
+    }
     let metrics = s.get("/metrics").await.text().await.unwrap();
     assert!(
         metrics.contains(

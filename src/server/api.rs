@@ -71,7 +71,7 @@ pub struct RunsQuery {
 
 /// The run list, newest first.
 #[utoipa::path(get, path = "/api/v1/runs", tag = "runs", params(RunsQuery),
-    responses((status = 200, body = Vec<RunRow>), (status = 400, body = ErrorBody)))]
+    responses((status = 200, description = "OK", body = Vec<RunRow>), (status = 400, description = "Unknown or bad parameter", body = ErrorBody)))]
 pub async fn list_runs(
     State(st): State<Arc<AppState>>,
     headers: HeaderMap,
@@ -121,7 +121,7 @@ pub struct RunDetail {
 /// One run: status, per-frame metrics, timings and checks.
 #[utoipa::path(get, path = "/api/v1/runs/{id}", tag = "runs",
     params(("id" = i64, Path, description = "Run id")),
-    responses((status = 200, body = RunDetail), (status = 404, body = ErrorBody)))]
+    responses((status = 200, description = "OK", body = RunDetail), (status = 404, description = "Not found", body = ErrorBody)))]
 pub async fn get_run(
     State(st): State<Arc<AppState>>,
     headers: HeaderMap,
@@ -163,8 +163,8 @@ pub struct RunStarted {
 #[utoipa::path(post, path = "/api/v1/runs", tag = "runs",
     request_body(content = Option<RunRequest>, content_type = "application/json"),
     security(("bearer" = [])),
-    responses((status = 202, body = RunStarted), (status = 400, body = ErrorBody),
-        (status = 401, body = ErrorBody), (status = 403, body = ErrorBody),
+    responses((status = 202, description = "Started", body = RunStarted), (status = 400, description = "Unknown or bad parameter", body = ErrorBody),
+        (status = 401, description = "No bearer token", body = ErrorBody), (status = 403, description = "Wrong bearer token", body = ErrorBody),
         (status = 409, description = "A run is already going", body = ErrorBody)))]
 pub async fn post_run(
     State(st): State<Arc<AppState>>,
@@ -224,7 +224,7 @@ pub fn valid_artifact_name(name: &str) -> bool {
 /// One artifact image of a run (golden, actual, diff or SSIM map).
 #[utoipa::path(get, path = "/api/v1/runs/{id}/artifacts/{name}", tag = "runs",
     params(("id" = i64, Path), ("name" = String, Path, description = "<scene>-<frame>-<adapter>-<kind>.png")),
-    responses((status = 200, content_type = "image/png"), (status = 400, body = ErrorBody), (status = 404, body = ErrorBody)))]
+    responses((status = 200, description = "OK", content_type = "image/png"), (status = 400, description = "Unknown or bad parameter", body = ErrorBody), (status = 404, description = "Not found", body = ErrorBody)))]
 pub async fn get_artifact(
     State(st): State<Arc<AppState>>,
     headers: HeaderMap,
@@ -289,7 +289,7 @@ pub struct TrendsQuery {
 
 /// One metric per scene over check runs, oldest first; regressions marked.
 #[utoipa::path(get, path = "/api/v1/trends", tag = "runs", params(TrendsQuery),
-    responses((status = 200, body = Vec<TrendPoint>), (status = 400, body = ErrorBody)))]
+    responses((status = 200, description = "OK", body = Vec<TrendPoint>), (status = 400, description = "Unknown or bad parameter", body = ErrorBody)))]
 pub async fn trends(
     State(st): State<Arc<AppState>>,
     headers: HeaderMap,
@@ -335,7 +335,7 @@ pub struct TradeoffResponse {
 /// The error-against-run-time points of a tradeoff run, Pareto front marked.
 #[utoipa::path(get, path = "/api/v1/tradeoff/{run}", tag = "runs",
     params(("run" = i64, Path, description = "A tradeoff run's id")),
-    responses((status = 200, body = TradeoffResponse), (status = 404, body = ErrorBody)))]
+    responses((status = 200, description = "OK", body = TradeoffResponse), (status = 404, description = "Not found", body = ErrorBody)))]
 pub async fn tradeoff(
     State(st): State<Arc<AppState>>,
     headers: HeaderMap,
@@ -374,7 +374,7 @@ pub struct Health {
 
 /// Liveness and readiness: the history answers, the queues' depths.
 #[utoipa::path(get, path = "/api/v1/healthz", tag = "service",
-    responses((status = 200, body = Health), (status = 503, body = ErrorBody)))]
+    responses((status = 200, description = "OK", body = Health), (status = 503, description = "Unavailable", body = ErrorBody)))]
 pub async fn healthz(State(st): State<Arc<AppState>>) -> Result<Response, ApiError> {
     let (schema, runs) = read(&st, |h| {
         Ok((
@@ -410,7 +410,7 @@ pub async fn healthz(State(st): State<Arc<AppState>>) -> Result<Response, ApiErr
 /// can be tried without a file of one's own.
 #[utoipa::path(get, path = "/api/v1/samples/{name}", tag = "tonemap",
     params(("name" = String, Path, description = "sky.hdr, interior.hdr, night.hdr or grid.hdr")),
-    responses((status = 200, content_type = "image/vnd.radiance"), (status = 404, body = ErrorBody)))]
+    responses((status = 200, description = "OK", content_type = "image/vnd.radiance"), (status = 404, description = "Not found", body = ErrorBody)))]
 pub async fn sample(
     State(st): State<Arc<AppState>>,
     headers: HeaderMap,
