@@ -4,9 +4,11 @@
 
 use crate::error::{Error, Result};
 use crate::gpu::{GpuConfig, GpuContext};
-use crate::image::HdrImage;
+use crate::image::{HdrImage, LinearImage, Rgb8Image};
 use crate::plan::StagePlan;
-use crate::reference::{FrameOutputs, Pipeline};
+use crate::reference::luminance_stats::LuminanceStats;
+use crate::reference::tonemap::ToneParams;
+use crate::reference::Pipeline;
 use crate::scene::{
     Bloom, BrightPass, ColourPath, Encoding, Factor, Grade, Key, NonNegative, Operator, Positive,
     Radius,
@@ -247,17 +249,39 @@ impl ToneSettings {
     }
 }
 
+/// A tone-mapped flat image: what the `tonemap` command and the API use.
+pub struct Toned {
+    pub plan: StagePlan,
+    pub stats: LuminanceStats,
+    pub tone: ToneParams,
+    /// The linear display-referred image entering `encode`, when asked for
+    /// (an HDR output file); on the GPU it is one more full-size readback.
+    pub display: Option<LinearImage>,
+    /// `encode`'s 8-bit frame.
+    pub frame: Rgb8Image,
+}
+
 /// Tone-maps a flat image with the CPU reference, or on the GPU when a
-/// context is given; the GPU's outputs come back in the reference's
-/// `FrameOutputs` shape (statistics from the GPU).
+/// context is given (statistics then from the GPU). Intermediates are
+/// dropped as soon as they are not needed: a server holds little per job.
 pub fn tone_map(
     img: &HdrImage,
     pipeline: &Pipeline,
     gpu: Option<(&GpuContext, GpuConfig)>,
-) -> Result<(StagePlan, FrameOutputs)> {
+    want_display: bool,
+) -> Result<Toned> {
     match gpu {
-        None => Ok(crate::reference::render_flat(img, pipeline)),
-        Some((ctx, config)) => gpu_flat(img, pipeline, ctx, config),
+        None => {
+            let (plan, out) = crate::reference::render_flat(img, pipeline);
+            Ok(Toned {
+                plan,
+                stats: out.stats,
+                tone: out.tone,
+                display: want_display.then_some(out.display),
+                frame: out.frame,
+            })
+        }
+        Some((ctx, config)) => gpu_flat(img, pipeline, ctx, config, want_display),
     }
 }
 
@@ -266,7 +290,8 @@ fn gpu_flat(
     pipeline: &Pipeline,
     ctx: &GpuContext,
     config: GpuConfig,
-) -> Result<(StagePlan, FrameOutputs)> {
+    want_display: bool,
+) -> Result<Toned> {
     let plan = StagePlan::build(
         crate::plan::Input::Flat,
         pipeline.operator,
@@ -281,11 +306,14 @@ fn gpu_flat(
         config,
     )?;
     let out = r.render(true)?;
-    let display = r.read_output("display")?.unwrap_or_else(|| img.to_linear());
+    let display = if want_display {
+        Some(r.read_output("display")?.unwrap_or_else(|| img.to_linear()))
+    } else {
+        None
+    };
     let s = out.stats;
-    let stats = s.luminance_stats();
     let (weights, _) = crate::reference::tonemap::operator_constants(pipeline.operator);
-    let tone = crate::reference::tonemap::ToneParams {
+    let tone = ToneParams {
         key: s.key as f64,
         log_average: s.adaptation as f64,
         scale: s.scale as f64,
@@ -300,19 +328,13 @@ fn gpu_flat(
     let frame = out
         .frame
         .ok_or_else(|| invalid("GPU frame was not read back"))?;
-    Ok((
+    Ok(Toned {
         plan,
-        FrameOutputs {
-            hdr: img.to_linear(),
-            stats,
-            tone,
-            toned: display.clone(),
-            bloom: None,
-            grade_mean: None,
-            display,
-            frame,
-        },
-    ))
+        stats: s.luminance_stats(),
+        tone,
+        display,
+        frame,
+    })
 }
 
 #[cfg(test)]

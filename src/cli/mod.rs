@@ -256,21 +256,22 @@ fn tonemap(a: TonemapArgs) -> Result<ExitCode> {
     } else {
         None
     };
-    let (plan, out) = crate::toning::tone_map(
-        &img,
-        &resolved.pipeline(),
-        ctx.as_ref().map(|c| (c, a.gpu_options.config())),
-    )?;
     let ext = a
         .output
         .extension()
         .and_then(|e| e.to_str())
         .unwrap_or("")
         .to_ascii_lowercase();
-    if ext == "png" {
-        crate::io::write_png8(&a.output, &out.frame)?;
-    } else {
-        crate::io::write_image_hdr(&a.output, &out.display.to_hdr())?;
+    let out = crate::toning::tone_map(
+        &img,
+        &resolved.pipeline(),
+        ctx.as_ref().map(|c| (c, a.gpu_options.config())),
+        ext != "png",
+    )?;
+    let plan = &out.plan;
+    match &out.display {
+        Some(display) if ext != "png" => crate::io::write_image_hdr(&a.output, &display.to_hdr())?,
+        _ => crate::io::write_png8(&a.output, &out.frame)?,
     }
     if a.json {
         let report = serde_json::json!({

@@ -221,20 +221,21 @@ fn run_job(
             (Some((c, *config)), c.adapter.name.clone())
         }
     };
-    let result = crate::toning::tone_map(&img, &p.resolved.pipeline(), gpu);
+    let result = crate::toning::tone_map(&img, &p.resolved.pipeline(), gpu, false);
+    drop(img);
     if let Err(crate::Error::Gpu(e)) = &result {
         if !matches!(e, crate::gpu::GpuError::TooLarge { .. }) {
             // A lost device is not coming back: the next job opens a new one.
             *ctx = None;
         }
     }
-    let (plan, out) = result.map_err(|e| ApiError::of_crate(&e))?;
+    let out = result.map_err(|e| ApiError::of_crate(&e))?;
     let png = crate::io::encode_png8(&out.frame).map_err(|e| ApiError::internal(e.to_string()))?;
     Ok(ToneOutput {
         png,
         width: out.frame.width,
         height: out.frame.height,
-        plan: plan.names(),
+        plan: out.plan.names(),
         adapter,
         report: serde_json::json!({
             "input": load_report,
