@@ -473,6 +473,15 @@ async fn tonemap_returns_the_reference_image_and_refuses_bad_input() {
         .unwrap();
     assert_eq!(white_sq, 16.0);
 
+    // OpenEXR bodies too (ZIP-compressed f32).
+    let img =
+        tonegate::image::HdrImage::from_fn(40, 20, |x, y| [x as f32 * 0.1, y as f32 * 0.2, 1.0]);
+    let exr = dir.path().join("in.exr");
+    tonegate::io::write_image_hdr(&exr, &img).unwrap();
+    let r = s.tonemap("gpu=false", std::fs::read(&exr).unwrap()).await;
+    assert_eq!(r.status(), StatusCode::OK);
+    assert_eq!(r.headers()["x-tonegate-size"], "40x20");
+
     // Parameters: unknown, bad value, twice.
     let d = expect_error(
         s.tonemap("kee=0.2", hdr.clone()).await,
