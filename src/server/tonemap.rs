@@ -184,7 +184,7 @@ fn too_large_body(len: u64, limit: usize) -> ApiError {
     ApiError::new(
         StatusCode::PAYLOAD_TOO_LARGE,
         "too_large",
-        format!("the body is {len} bytes; the limit is {limit} bytes (serve --max-body)"),
+        format!("the body is {len} bytes; the limit is {limit} bytes (serve --max-body-mib)"),
     )
 }
 
@@ -194,7 +194,7 @@ fn body_error(e: &axum::Error, limit: usize) -> ApiError {
         ApiError::new(
             StatusCode::PAYLOAD_TOO_LARGE,
             "too_large",
-            format!("the body is over the limit of {limit} bytes (serve --max-body)"),
+            format!("the body is over the limit of {limit} bytes (serve --max-body-mib)"),
         )
     } else {
         ApiError::bad(format!("reading the body: {text}"))
