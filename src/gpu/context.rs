@@ -50,7 +50,19 @@ pub struct GpuContext {
     /// Whether Rgba32Float textures can be linearly filtered (hardware filter).
     pub float32_filterable: bool,
     errors: Arc<Mutex<Vec<GpuError>>>,
+    /// Compiled pipelines by (stage, entry, format, override constants): a
+    /// context that renders many images (the server's GPU worker, `check`)
+    /// compiles each variant once. Bounded by [`PIPELINE_CACHE_LIMIT`].
+    pub(crate) pipelines: Mutex<std::collections::HashMap<PipelineKey, wgpu::ComputePipeline>>,
 }
+
+/// Stage, entry point, format and override constants (values as f64 bits).
+pub(crate) type PipelineKey = (String, String, super::HdrFormat, Vec<(String, u64)>);
+
+/// Distinct pipeline variants a context keeps; beyond it the cache starts
+/// over (override constants include image sizes, so a server seeing many
+/// sizes would otherwise grow without end).
+pub(crate) const PIPELINE_CACHE_LIMIT: usize = 256;
 
 fn is_software(info: &wgpu::AdapterInfo) -> bool {
     let n = info.name.to_lowercase();
@@ -139,6 +151,7 @@ impl GpuContext {
                 timestamps,
             },
             errors,
+            pipelines: Mutex::new(Default::default()),
         })
     }
 

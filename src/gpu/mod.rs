@@ -16,7 +16,7 @@ pub use timing::{StageTiming, TimingSummary};
 use serde::Serialize;
 
 /// Format of the HDR intermediates.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum HdrFormat {
     /// Half floats: half the bandwidth; overflows above 65504.

@@ -12,6 +12,22 @@ pub fn pipeline(
     format: HdrFormat,
     constants: &[(&str, f64)],
 ) -> wgpu::ComputePipeline {
+    let key: super::context::PipelineKey = (
+        stage.to_owned(),
+        entry.to_owned(),
+        format,
+        constants
+            .iter()
+            .map(|(k, v)| ((*k).to_owned(), v.to_bits()))
+            .collect(),
+    );
+    let mut cache = ctx
+        .pipelines
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner());
+    if let Some(p) = cache.get(&key) {
+        return p.clone();
+    }
     let label = if entry == "main" {
         format!("tonegate.{stage}")
     } else {
@@ -23,7 +39,8 @@ pub fn pipeline(
             label: Some(&label),
             source: wgpu::ShaderSource::Wgsl(super::shaders::compose(stage, format).into()),
         });
-    ctx.device
+    let p = ctx
+        .device
         .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some(&label),
             layout: None,
@@ -34,7 +51,12 @@ pub fn pipeline(
                 zero_initialize_workgroup_memory: false,
             },
             cache: None,
-        })
+        });
+    if cache.len() >= super::context::PIPELINE_CACHE_LIMIT {
+        cache.clear();
+    }
+    cache.insert(key, p.clone());
+    p
 }
 
 /// An intermediate image: written as storage, read with textureLoad, copied out.
@@ -163,5 +185,36 @@ pub fn dispatch_2d(
         pipeline,
         bind_group,
         groups: (groups(width, GROUP_X), height),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_context_compiles_each_pipeline_variant_once() {
+        let ctx = GpuContext::new(&crate::gpu::AdapterChoice::Default).expect("lavapipe");
+        let a = pipeline(&ctx, "floor", "main", HdrFormat::Rgba32Float, &[]);
+        let b = pipeline(&ctx, "floor", "main", HdrFormat::Rgba32Float, &[]);
+        assert_eq!(a, b, "the second call is served from the cache");
+        let c = pipeline(&ctx, "floor", "main", HdrFormat::Rgba16Float, &[]);
+        assert_ne!(a, c, "another format is another pipeline");
+        let d = pipeline(
+            &ctx,
+            "sphere",
+            "main",
+            HdrFormat::Rgba32Float,
+            &[("SPP", 1.0)],
+        );
+        let e = pipeline(
+            &ctx,
+            "sphere",
+            "main",
+            HdrFormat::Rgba32Float,
+            &[("SPP", 4.0)],
+        );
+        assert_ne!(d, e, "other override constants are another pipeline");
+        assert_eq!(ctx.pipelines.lock().unwrap().len(), 4);
     }
 }
