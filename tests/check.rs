@@ -3,23 +3,12 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 use tonegate::history::History;
 
-fn repo() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn tonegate(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tonegate"))
-        .args(args)
-        .current_dir(repo())
-        .env_remove("TONEGATE_DB")
-        .output()
-        .expect("tonegate runs")
-}
+use common::{repo, tonegate};
 
 fn text(o: &Output) -> String {
     format!(
