@@ -116,13 +116,17 @@ pub async fn tonemap(
         .get(header::CONTENT_TYPE)
         .and_then(|v| v.to_str().ok())
         .is_some_and(|v| v.starts_with("multipart/form-data"));
-    // Refuse early what cannot be accepted anyway: the parameters (when all
-    // in the query), the declared length, and a full queue, before reading
-    // a byte of the body.
-    if !is_multipart {
-        let (_, settings) = parse_params(pairs.clone(), &headers)?;
-        settings.resolve().map_err(|e| ApiError::of_crate(&e))?;
-    }
+    // Refuse early what cannot be accepted anyway: the query's parameters
+    // (all of them for a raw body), the declared length, and a full queue,
+    // before reading a byte of the body.
+    let (extra, settings) = parse_params(pairs.clone(), &headers)?;
+    // A multipart form may add the parameters that make these valid
+    // (`key=auto` in the query, `operator=seed001` in the form).
+    let resolved = if is_multipart {
+        None
+    } else {
+        Some(settings.resolve().map_err(|e| ApiError::of_crate(&e))?)
+    };
     let limit = st.limits.max_body;
     if let Some(len) = headers
         .get(header::CONTENT_LENGTH)
@@ -133,11 +137,7 @@ pub async fn tonemap(
             return Err(too_large_body(len, limit));
         }
     }
-    let gpu_first = pairs
-        .iter()
-        .find(|(k, _)| k == "gpu")
-        .is_none_or(|(_, v)| !matches!(v.as_str(), "false" | "0" | "no"));
-    let queue = if gpu_first { &st.gpu } else { &st.cpu };
+    let queue = if extra.gpu { &st.gpu } else { &st.cpu };
     let permit = queue.reserve()?;
     let timeout = st.limits.timeout;
     let body = tokio::time::timeout(timeout, async {
@@ -156,13 +156,19 @@ pub async fn tonemap(
             "the body is empty: POST the .hdr or .exr file, raw or as a multipart file field",
         ));
     }
-    let (extra, settings) = parse_params(pairs, &headers)?;
-    if extra.gpu != gpu_first {
-        return Err(ApiError::bad(
-            "gpu: give it in the query string, not in the form",
-        ));
-    }
-    let resolved = settings.resolve().map_err(|e| ApiError::of_crate(&e))?;
+    // With a form, the whole set of parameters is parsed again.
+    let (extra, settings, resolved) = if let Some(resolved) = resolved {
+        (extra, settings, resolved)
+    } else {
+        let (all, settings) = parse_params(pairs, &headers)?;
+        if all.gpu != extra.gpu {
+            return Err(ApiError::bad(
+                "gpu: give it in the query string, not in the form",
+            ));
+        }
+        let resolved = settings.resolve().map_err(|e| ApiError::of_crate(&e))?;
+        (all, settings, resolved)
+    };
     let params = JobParams {
         resolved,
         load: crate::io::LoadOptions {
