@@ -496,3 +496,68 @@ fn hardware_filtering_is_an_option_with_its_error_measured() {
         }
     }
 }
+
+/// `bloom_blur` writes several pixels per invocation: frames whose
+/// low-resolution size is no multiple of that run, and radii from 1 to
+/// larger than the frame (every tap clamped), still match the reference
+/// blur of the same input. Tolerance as in the stage-by-stage test: 1e-4
+/// relative (f32 sums of up to 129 taps against f64) plus 1e-6 absolute.
+#[test]
+fn bloom_blur_matches_at_odd_sizes_and_every_radius() {
+    let ctx = context();
+    let scene = suite()
+        .into_iter()
+        .find(|s| s.name == "interior-reinhard02-fixed-bloom004")
+        .unwrap();
+    // A deterministic pseudo-random frame with values from 0 to 20.
+    let mut state = 0x2545_f491u32;
+    let mut next = || {
+        state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        (state >> 8) as f32 / (1u32 << 24) as f32 * 20.0
+    };
+    for (width, height, radius) in [(45u32, 29u32, 1u32), (45, 29, 6), (38, 21, 13), (33, 17, 64)] {
+        let img = tonegate::image::HdrImage {
+            width,
+            height,
+            pixels: (0..width * height).map(|_| [next(), next(), next()]).collect(),
+        };
+        let bloom: tonegate::scene::Bloom = toml::from_str(&format!(
+            "bright_pass = \"threshold\"\nthreshold = 0.3\ndownsample = 2\nradius = {radius}\nsigma = 4.0\nstrength = 0.5"
+        ))
+        .unwrap();
+        let pipeline = Pipeline {
+            bloom: Some(&bloom),
+            ..Pipeline::of_scene(&scene)
+        };
+        let plan = StagePlan::build(
+            tonegate::plan::Input::Flat,
+            pipeline.operator,
+            pipeline.bloom,
+            None,
+        );
+        let r = GpuRenderer::new(&ctx, plan, GpuInput::Flat(&img), &pipeline, GpuConfig::default())
+            .unwrap();
+        r.render(false).unwrap();
+        let toned = r.read_output("tonemap").unwrap().unwrap();
+        let blurred = r.read_output("bloom_blur").unwrap().unwrap();
+        let (weights, _) = tonemap::operator_constants(pipeline.operator);
+        let bright = reference::bloom_bright::bloom_bright(
+            &toned,
+            bloom.bright_pass,
+            bloom.threshold.get(),
+            0.0,
+            weights,
+        );
+        let low = reference::bloom_downsample::bloom_downsample(&bright, 2);
+        assert_eq!((blurred.width, blurred.height), (low.width, low.height));
+        let cpu = reference::bloom_blur::bloom_blur(&low, radius, 4.0);
+        let (out, worst) = fraction_outside(&blurred, &cpu, 1e-4, 1e-6);
+        assert!(
+            out == 0.0,
+            "{width}x{height} radius {radius}: {:.4} % off (worst {worst:.1}x)",
+            out * 100.0
+        );
+        // The frame has content at the edges the runs end on.
+        assert!(cpu.pixels.iter().any(|p| p[0] > 0.01), "nothing bright");
+    }
+}

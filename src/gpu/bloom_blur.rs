@@ -1,8 +1,11 @@
 //! `bloom_blur` pass: horizontal then vertical, weights from the reference.
 
-use super::stages::{bind_group, dispatch_2d, pipeline, storage_buffer, Bind, Dispatch};
+use super::stages::{bind_group, groups, pipeline, uniform_buffer, Bind, Dispatch, GROUP_X};
 use super::{GpuContext, HdrFormat};
 use crate::reference::bloom_blur::gaussian_weights;
+
+/// Pixels each invocation writes; `RUN` in bloom_blur.wgsl.
+const RUN: u32 = 4;
 
 pub fn bloom_blur(
     ctx: &GpuContext,
@@ -13,13 +16,12 @@ pub fn bloom_blur(
     tmp: &wgpu::Texture,
     blur_out: &wgpu::Texture,
 ) -> Vec<Dispatch> {
-    let w: Vec<f32> = gaussian_weights(radius, sigma)
-        .iter()
-        .map(|&v| v as f32)
-        .collect();
-    let weights = storage_buffer(ctx, "tonegate.bloom_blur.weights", (w.len() * 4) as u64);
-    ctx.queue
-        .write_buffer(&weights, 0, bytemuck::cast_slice(&w));
+    // `array<vec4<f32>, 33>` in bloom_blur.wgsl: room for radius 64.
+    let mut w = [0f32; 4 * 33];
+    for (slot, v) in w.iter_mut().zip(gaussian_weights(radius, sigma)) {
+        *slot = v as f32;
+    }
+    let weights = uniform_buffer(ctx, "tonegate.bloom_blur.weights", bytemuck::cast_slice(&w));
     let pass = |horizontal: bool, from: &wgpu::Texture, to: &wgpu::Texture| {
         let constants = [
             ("HORIZONTAL", horizontal as u32 as f64),
@@ -36,7 +38,18 @@ pub fn bloom_blur(
                 (2, Bind::Texture(to)),
             ],
         );
-        dispatch_2d(p, bg, to.width(), to.height())
+        // One invocation per RUN pixels along the pass (bloom_blur.wgsl).
+        let (w, h) = (to.width(), to.height());
+        let (x, y) = if horizontal {
+            (w.div_ceil(RUN), h)
+        } else {
+            (w, h.div_ceil(RUN))
+        };
+        Dispatch {
+            pipeline: p,
+            bind_group: bg,
+            groups: (groups(x, GROUP_X), y),
+        }
     };
     vec![pass(true, src, tmp), pass(false, tmp, blur_out)]
 }
