@@ -9,7 +9,8 @@ override LUM_R: f32 = 0.2126;
 override LUM_G: f32 = 0.7152;
 override LUM_B: f32 = 0.0722;
 
-@group(0) @binding(0) var<storage, read_write> stats: Stats;
+// Read as a uniform: see tonemap.wgsl.
+@group(0) @binding(0) var<uniform> stats: Stats;
 @group(0) @binding(1) var src: texture_2d<f32>;
 @group(0) @binding(2) var bright_out: texture_storage_2d<HDR_FORMAT, write>;
 

@@ -10,7 +10,8 @@ struct GradeMean {
     mean: f32,
 }
 
-@group(0) @binding(0) var<storage, read_write> grade_mean: GradeMean;
+// Written by grade_stats, read here as a uniform (see tonemap.wgsl).
+@group(0) @binding(0) var<uniform> grade_mean: GradeMean;
 @group(0) @binding(1) var src: texture_2d<f32>;
 @group(0) @binding(2) var graded_out: texture_storage_2d<HDR_FORMAT, write>;
 

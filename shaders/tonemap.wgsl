@@ -36,9 +36,13 @@ struct ToneConfig {
 }
 
 @group(0) @binding(0) var<uniform> config: ToneConfig;
+// `resolve` writes the statistics buffer; `main` reads the same buffer as a
+// uniform (binding 4), which llvmpipe loads once per SIMD batch instead of
+// lane by lane.
 @group(0) @binding(1) var<storage, read_write> stats: Stats;
 @group(0) @binding(2) var hdr: texture_2d<f32>;
 @group(0) @binding(3) var toned_out: texture_storage_2d<HDR_FORMAT, write>;
+@group(0) @binding(4) var<uniform> resolved: Stats;
 
 // a = 0.18·2^(2(B − A)/(A + B)); A + B = Lmax − Lmin, 0 for a uniform frame.
 fn automatic_key(lmin: f32, lavg: f32, lmax: f32) -> f32 {
@@ -114,6 +118,6 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let c = textureLoad(hdr, id.xy, 0).rgb;
-    let out = tonemap_pixel(c, stats.scale, stats.white) * FAULT_GAIN;
+    let out = tonemap_pixel(c, resolved.scale, resolved.white) * FAULT_GAIN;
     textureStore(toned_out, vec2<i32>(id.xy), vec4<f32>(out, 1.0));
 }

@@ -1,7 +1,7 @@
 //! Executes a stage plan on the GPU: only the plan's stages are created,
 //! dispatched and timed.
 
-use super::stages::{hdr_texture, storage_buffer, Dispatch};
+use super::stages::{hdr_texture, shared_buffer, storage_buffer, Dispatch};
 use super::timing::{durations, StageTiming};
 use super::{GpuContext, GpuError, HdrFormat};
 use crate::conventions::{Camera, Mat3};
@@ -240,7 +240,7 @@ impl<'a> GpuRenderer<'a> {
         ctx.check_size(width, height)?;
         let (weights, delta) = operator_constants(pipeline.operator);
         let hdr = hdr_texture(ctx, "tonegate.hdr", width, height, format);
-        let stats = storage_buffer(
+        let stats = shared_buffer(
             ctx,
             "tonegate.stats",
             std::mem::size_of::<GpuStats>() as u64,
@@ -465,7 +465,7 @@ impl<'a> GpuRenderer<'a> {
                     let base = display
                         .clone()
                         .ok_or_else(|| GpuError::Validation("grade before tonemap".into()))?;
-                    let mean = storage_buffer(ctx, "tonegate.grade_mean", 4);
+                    let mean = shared_buffer(ctx, "tonegate.grade_mean", 4);
                     let d = super::grade_stats::grade_stats(ctx, format, &base, &mean);
                     grade_mean = Some(mean);
                     d
@@ -480,7 +480,7 @@ impl<'a> GpuRenderer<'a> {
                     // Without contrast the mean is unused: a zero buffer stands in.
                     let mean = grade_mean
                         .clone()
-                        .unwrap_or_else(|| storage_buffer(ctx, "tonegate.grade_mean", 4));
+                        .unwrap_or_else(|| shared_buffer(ctx, "tonegate.grade_mean", 4));
                     let out = hdr_texture(ctx, "tonegate.graded", width, height, format);
                     let d = super::grade::grade(ctx, format, g, &mean, &base, &out);
                     outputs.push((name, out.clone()));

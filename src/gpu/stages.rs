@@ -97,6 +97,24 @@ pub fn storage_buffer(ctx: &GpuContext, label: &str, size: u64) -> wgpu::Buffer 
     })
 }
 
+/// A small buffer one stage writes as storage and later stages read as a
+/// uniform: llvmpipe loads a uniform-buffer value once for all SIMD lanes,
+/// while a storage load inside a per-pixel kernel goes lane by lane (it
+/// cannot prove the first lane active), which cost tonemap ~1 ms per
+/// 1080p frame for two scalars.
+pub fn shared_buffer(ctx: &GpuContext, label: &str, size: u64) -> wgpu::Buffer {
+    ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        // Uniform bindings are read in 16-byte rows.
+        size: size.max(16).div_ceil(16) * 16,
+        usage: wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::UNIFORM
+            | wgpu::BufferUsages::COPY_SRC
+            | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
 pub fn uniform_buffer(ctx: &GpuContext, label: &str, bytes: &[u8]) -> wgpu::Buffer {
     let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some(label),

@@ -118,9 +118,9 @@ pub fn tonemap(
         "tonegate.tonemap",
         &[
             (0, Bind::Buffer(&config)),
-            (1, Bind::Buffer(stats)),
             (2, Bind::Texture(hdr)),
             (3, Bind::Texture(toned_out)),
+            (4, Bind::Buffer(stats)),
         ],
     );
     vec![resolve, dispatch_2d(main, bg, hdr.width(), hdr.height())]
