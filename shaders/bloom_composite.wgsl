@@ -1,5 +1,6 @@
 // bloom_composite: C = C_tone + k·upsample(C_bloom), bilinear with texel
 // centres aligned, clamped at the edges (reference/bloom_composite.rs).
+//#include shared/upsample.wgsl
 
 override STRENGTH: f32 = 0.5;
 
@@ -7,33 +8,12 @@ override STRENGTH: f32 = 0.5;
 @group(0) @binding(1) var bloom: texture_2d<f32>;
 @group(0) @binding(2) var composite_out: texture_storage_2d<HDR_FORMAT, write>;
 
-fn upsample_at(x: u32, y: u32, full: vec2<u32>) -> vec3<f32> {
-    let low = vec2<i32>(textureDimensions(bloom));
-    let fx = (f32(x) + 0.5) * f32(low.x) / f32(full.x) - 0.5;
-    let fy = (f32(y) + 0.5) * f32(low.y) / f32(full.y) - 0.5;
-    let x0f = floor(fx);
-    let y0f = floor(fy);
-    let tx = fx - x0f;
-    let ty = fy - y0f;
-    let xa = clamp(i32(x0f), 0, low.x - 1);
-    let xb = clamp(i32(x0f) + 1, 0, low.x - 1);
-    let ya = clamp(i32(y0f), 0, low.y - 1);
-    let yb = clamp(i32(y0f) + 1, 0, low.y - 1);
-    let p00 = textureLoad(bloom, vec2<i32>(xa, ya), 0).rgb;
-    let p10 = textureLoad(bloom, vec2<i32>(xb, ya), 0).rgb;
-    let p01 = textureLoad(bloom, vec2<i32>(xa, yb), 0).rgb;
-    let p11 = textureLoad(bloom, vec2<i32>(xb, yb), 0).rgb;
-    let top = p00 * (1.0 - tx) + p10 * tx;
-    let bottom = p01 * (1.0 - tx) + p11 * tx;
-    return top * (1.0 - ty) + bottom * ty;
-}
-
 @compute @workgroup_size(64, 1)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let dims = textureDimensions(toned);
     if (id.x >= dims.x || id.y >= dims.y) {
         return;
     }
-    let c = textureLoad(toned, id.xy, 0).rgb + STRENGTH * upsample_at(id.x, id.y, dims);
+    let c = textureLoad(toned, id.xy, 0).rgb + STRENGTH * upsample_at(bloom, id.x, id.y, dims);
     textureStore(composite_out, vec2<i32>(id.xy), vec4<f32>(c, 1.0));
 }

@@ -2,38 +2,12 @@
 // (reference/tonemap.rs): Ld = L/(1+L)·(1 + L/white²), L = scale·Y.
 //#include shared/colour.wgsl
 //#include shared/stats.wgsl
+//#include shared/tone.wgsl
 
 // 0 = seed 000, 1 = seed 001, 2 = Reinhard 2002 (see `gpu::OperatorCode`).
 override OPERATOR: u32 = 0u;
-// 0 = ratio (scale RGB by Ld/Y), 1 = CIE xyY round trip.
-override COLOUR: u32 = 0u;
 // Seed 001's automatic key from min, average and max.
 override AUTO_KEY: bool = false;
-// Fault injection only (`check --fault-gain`): 1 in every real run.
-override FAULT_GAIN: f32 = 1.0;
-
-// Operator constants written once by the host (mirrors `gpu::ToneConfig`).
-struct ToneConfig {
-    weights: vec4<f32>,
-    // RGB→XYZ rows and their inverse (xyY path).
-    to_xyz0: vec4<f32>,
-    to_xyz1: vec4<f32>,
-    to_xyz2: vec4<f32>,
-    to_rgb0: vec4<f32>,
-    to_rgb1: vec4<f32>,
-    to_rgb2: vec4<f32>,
-    key: f32,
-    white_fraction: f32,
-    // Absolute Lwhite (Reinhard 2002); 0 = the maximum scaled luminance.
-    white: f32,
-    // Fixed adaptation luminance; 0 = measured.
-    fixed_log_average: f32,
-    // Fixed Lmax (seed 000); 0 = measured.
-    fixed_max: f32,
-    _pad0: f32,
-    _pad1: f32,
-    _pad2: f32,
-}
 
 @group(0) @binding(0) var<uniform> config: ToneConfig;
 // `resolve` writes the statistics buffer; `main` reads the same buffer as a
@@ -91,26 +65,6 @@ fn resolve() {
     stats.white = white;
 }
 
-fn tonemap_pixel(c: vec3<f32>, scale: f32, white: f32) -> vec3<f32> {
-    if (COLOUR == 0u) {
-        let y = luminance_with(c, config.weights.xyz);
-        if (!(y > 0.0)) {
-            return vec3<f32>(0.0);
-        }
-        return c * (reinhard_curve(scale * y, white) / y);
-    }
-    let xyz = vec3<f32>(dot(config.to_xyz0.xyz, c), dot(config.to_xyz1.xyz, c), dot(config.to_xyz2.xyz, c));
-    let sum = xyz.x + xyz.y + xyz.z;
-    if (!(xyz.y > 0.0) || !(sum > 0.0)) {
-        return vec3<f32>(0.0);
-    }
-    let x = xyz.x / sum;
-    let y = xyz.y / sum;
-    let ld = reinhard_curve(scale * xyz.y, white);
-    let out = vec3<f32>(x * ld / y, ld, (1.0 - x - y) * ld / y);
-    return vec3<f32>(dot(config.to_rgb0.xyz, out), dot(config.to_rgb1.xyz, out), dot(config.to_rgb2.xyz, out));
-}
-
 @compute @workgroup_size(64, 1)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let dims = textureDimensions(hdr);
@@ -118,6 +72,6 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let c = textureLoad(hdr, id.xy, 0).rgb;
-    let out = tonemap_pixel(c, resolved.scale, resolved.white) * FAULT_GAIN;
+    let out = toned(c, resolved.scale, resolved.white);
     textureStore(toned_out, vec2<i32>(id.xy), vec4<f32>(out, 1.0));
 }

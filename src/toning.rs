@@ -298,6 +298,11 @@ fn gpu_flat(
         pipeline.bloom,
         pipeline.grade,
     );
+    // The display image is a staged output: fused kernels never store it.
+    let mut config = config;
+    if want_display {
+        config.execution = crate::gpu::Execution::Staged;
+    }
     let r = crate::gpu::GpuRenderer::new(
         ctx,
         plan.clone(),

@@ -70,6 +70,9 @@ pub struct GpuArgs {
     /// Environment filtering in `sphere`: manual (the reference's bilinear) or hardware (the sampler).
     #[arg(long, default_value = "manual")]
     pub env_filter: crate::gpu::EnvFilter,
+    /// Kernels: staged (one per stage, each timed and readable) or fused (tonemap+composite+encode and bright+downsample merged; fewer full-frame passes).
+    #[arg(long, default_value = "staged")]
+    pub execution: crate::gpu::Execution,
 }
 
 impl GpuArgs {
@@ -78,6 +81,7 @@ impl GpuArgs {
             hdr_format: self.hdr_format,
             reduction: self.reduction,
             env_filter: self.env_filter,
+            execution: self.execution,
             fault_gain: None,
         }
     }

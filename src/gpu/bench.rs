@@ -283,28 +283,38 @@ impl std::fmt::Display for BenchReport {
         )?;
         writeln!(
             f,
-            "size {}, {} frames after {} warm-up, intermediates {:?}, reduction {:?}, host threads {}{}",
+            "size {}, {} frames after {} warm-up, intermediates {:?}, reduction {:?}, env filter {:?}, execution {:?}, host threads {}{}",
             self.size,
             self.frames,
             self.warmup,
             self.config.hdr_format,
             self.config.reduction,
+            self.config.env_filter,
+            self.config.execution,
             self.host_threads,
             self.lp_num_threads.as_ref().map(|t| format!(", LP_NUM_THREADS={t}")).unwrap_or_default()
         )?;
+        // Fused kernels have long names ("tonemap+bloom_composite+encode").
+        let w = self
+            .stages
+            .iter()
+            .map(|s| s.name.len())
+            .max()
+            .unwrap_or(0)
+            .max(18);
         writeln!(
             f,
-            "{:<18} {:>10} {:>10} {:>8}",
+            "{:<w$} {:>10} {:>10} {:>8}",
             "stage", "median ms", "p95 ms", "x floor"
         )?;
         for s in &self.stages {
             writeln!(
                 f,
-                "{:<18} {:>10.3} {:>10.3} {:>8.2}",
+                "{:<w$} {:>10.3} {:>10.3} {:>8.2}",
                 s.name, s.median_ms, s.p95_ms, s.floor_multiple
             )?;
         }
-        writeln!(f, "{:<18} {:>10.3}", "floor", self.floor_ms)?;
+        writeln!(f, "{:<w$} {:>10.3}", "floor", self.floor_ms)?;
         writeln!(
             f,
             "GPU frame ms p50/p95/p99: {:.2} / {:.2} / {:.2}",

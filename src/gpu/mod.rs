@@ -10,7 +10,9 @@ pub mod stages;
 pub mod timing;
 
 pub use context::{AdapterChoice, AdapterReport, GpuContext};
-pub use renderer::{GpuConfig, GpuFrame, GpuInput, GpuRenderer, GpuStats, ReductionMethod};
+pub use renderer::{
+    Execution, GpuConfig, GpuFrame, GpuInput, GpuRenderer, GpuStats, ReductionMethod,
+};
 pub use timing::{StageTiming, TimingSummary};
 
 use serde::Serialize;
@@ -133,6 +135,7 @@ mod bloom_composite;
 mod bloom_downsample;
 mod encode;
 mod floor;
+mod fused;
 mod grade;
 mod grade_stats;
 mod luminance_stats;

@@ -34,12 +34,40 @@ impl std::str::FromStr for ReductionMethod {
     }
 }
 
+/// How the plan's stages map onto kernels.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Execution {
+    /// One kernel per stage: every stage timed and readable on its own.
+    #[default]
+    Staged,
+    /// The display-referred stages merged (shaders/fused.wgsl): tonemap,
+    /// bloom_composite and encode in one kernel; bloom_bright and
+    /// bloom_downsample in another. Same per-pixel functions in the same
+    /// order, fewer full-frame stores and loads. Timed per kernel; the
+    /// merged stages' outputs cannot be read back. Plans with a grade run
+    /// staged (the grade needs the whole frame's mean first); `notes` says so.
+    Fused,
+}
+
+impl std::str::FromStr for Execution {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "staged" => Ok(Execution::Staged),
+            "fused" => Ok(Execution::Fused),
+            _ => Err(format!("unknown execution {s:?}: use staged or fused")),
+        }
+    }
+}
+
 /// The knobs of the GPU path that trade accuracy for speed.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct GpuConfig {
     pub hdr_format: HdrFormat,
     pub reduction: ReductionMethod,
     pub env_filter: super::EnvFilter,
+    pub execution: Execution,
     /// Fault injection: multiply the tone-mapped colour by this gain, a
     /// deliberately wrong tone mapper that proves the gate catches one
     /// (`check --fault-gain 1.02`). None in every real run.
@@ -334,8 +362,25 @@ impl<'a> GpuRenderer<'a> {
         let mut low: Option<wgpu::Texture> = None;
         let mut blurred: Option<wgpu::Texture> = None;
         let mut grade_mean: Option<wgpu::Buffer> = None;
+        // Fused execution: what the merged kernels still need.
+        if config.execution == Execution::Fused
+            && plan
+                .stages
+                .iter()
+                .any(|s| matches!(s, Stage::Grade | Stage::GradeStats))
+        {
+            notes.push(
+                "executed staged: fused execution covers plans without a grade (the grade needs the whole frame's mean first)".into(),
+            );
+            config.execution = Execution::Staged;
+        }
+        let fused = config.execution == Execution::Fused;
+        let mut tone: Option<super::tonemap::ToneParams> = None;
+        // The curve's resolve step, until a fused kernel runs it first.
+        let mut pending_resolve = false;
+        let mut bright_source: Option<BloomSource> = None;
         for stage in &plan.stages {
-            let name = stage.name();
+            let mut name = stage.name();
             let dispatches = match stage {
                 Stage::Sphere { spp } => {
                     let (Some(env), Some(u)) = (&env_source, &uniforms) else {
@@ -365,17 +410,81 @@ impl<'a> GpuRenderer<'a> {
                     &hdr,
                     &stats,
                 ),
-                Stage::Tonemap { .. } => {
-                    let out = hdr_texture(ctx, "tonegate.toned", width, height, format);
-                    let d = super::tonemap::tonemap(
+                Stage::Tonemap { .. } if fused => {
+                    tone = Some(super::tonemap::ToneParams::new(
                         ctx,
-                        format,
                         pipeline.operator,
                         config.fault_gain,
+                    ));
+                    pending_resolve = true;
+                    Vec::new()
+                }
+                Stage::BloomBright { source } if fused => {
+                    bright_source = Some(*source);
+                    Vec::new()
+                }
+                Stage::BloomDownsample { factor } if fused => {
+                    let b = pipeline
+                        .bloom
+                        .ok_or_else(|| GpuError::Validation("bloom stage without bloom".into()))?;
+                    let (Some(source), Some(t)) = (bright_source, &tone) else {
+                        return Err(GpuError::Validation(
+                            "downsample before bright pass or tonemap".into(),
+                        ));
+                    };
+                    let (lw, lh) = downsampled_size(width, height, *factor);
+                    let out = hdr_texture(ctx, "tonegate.bloom_low", lw, lh, format);
+                    let from_toned = source == BloomSource::Toned;
+                    let mut d = Vec::new();
+                    if from_toned {
+                        name = "tonemap+bloom_bright+bloom_downsample";
+                        d.push(super::tonemap::resolve(ctx, format, t, &stats));
+                        pending_resolve = false;
+                    } else {
+                        name = "bloom_bright+bloom_downsample";
+                    }
+                    d.push(super::fused::bright_low(
+                        ctx, format, t, b, from_toned, weights, &stats, &hdr, &out,
+                    ));
+                    low = Some(out);
+                    d
+                }
+                Stage::BloomComposite if fused => Vec::new(),
+                Stage::Encode if fused => {
+                    let Some(t) = &tone else {
+                        return Err(GpuError::Validation("encode before tonemap".into()));
+                    };
+                    let bloom = match (pipeline.bloom, &blurred) {
+                        (Some(b), Some(bl)) => Some((bl, b.strength.get())),
+                        _ => None,
+                    };
+                    name = if bloom.is_some() {
+                        "tonemap+bloom_composite+encode"
+                    } else {
+                        "tonemap+encode"
+                    };
+                    let mut d = Vec::new();
+                    if pending_resolve {
+                        d.push(super::tonemap::resolve(ctx, format, t, &stats));
+                        pending_resolve = false;
+                    }
+                    d.push(super::fused::tail(
+                        ctx,
+                        format,
+                        t,
+                        bloom,
+                        pipeline.encoding,
                         &stats,
                         &hdr,
-                        &out,
-                    );
+                        &frame_buf,
+                    ));
+                    d
+                }
+                Stage::Tonemap { .. } => {
+                    let out = hdr_texture(ctx, "tonegate.toned", width, height, format);
+                    let params =
+                        super::tonemap::ToneParams::new(ctx, pipeline.operator, config.fault_gain);
+                    let d = super::tonemap::tonemap(ctx, format, &params, &stats, &hdr, &out);
                     outputs.push((name, out.clone()));
                     toned = Some(out.clone());
                     display = Some(out);
@@ -501,7 +610,9 @@ impl<'a> GpuRenderer<'a> {
                     )]
                 }
             };
-            passes.push((name, dispatches));
+            if !dispatches.is_empty() {
+                passes.push((name, dispatches));
+            }
         }
         let queries = ctx.adapter.timestamps.then(|| {
             let n = 2 * passes.len() as u32;

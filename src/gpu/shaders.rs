@@ -24,6 +24,22 @@ const SOURCES: &[(&str, &str)] = &[
         "shared/stats.wgsl",
         include_str!("../../shaders/shared/stats.wgsl"),
     ),
+    (
+        "shared/tone.wgsl",
+        include_str!("../../shaders/shared/tone.wgsl"),
+    ),
+    (
+        "shared/bright.wgsl",
+        include_str!("../../shaders/shared/bright.wgsl"),
+    ),
+    (
+        "shared/upsample.wgsl",
+        include_str!("../../shaders/shared/upsample.wgsl"),
+    ),
+    (
+        "shared/encode.wgsl",
+        include_str!("../../shaders/shared/encode.wgsl"),
+    ),
     ("sphere.wgsl", include_str!("../../shaders/sphere.wgsl")),
     (
         "luminance_stats.wgsl",
@@ -53,6 +69,7 @@ const SOURCES: &[(&str, &str)] = &[
     ("grade.wgsl", include_str!("../../shaders/grade.wgsl")),
     ("encode.wgsl", include_str!("../../shaders/encode.wgsl")),
     ("floor.wgsl", include_str!("../../shaders/floor.wgsl")),
+    ("fused.wgsl", include_str!("../../shaders/fused.wgsl")),
 ];
 
 /// The stage shaders (not the shared files).

@@ -76,52 +76,85 @@ pub fn operator_code(op: &Operator) -> u32 {
     }
 }
 
+/// The operator's override constants and its `ToneConfig` uniform, shared by
+/// the `tonemap` stage and the fused kernels.
+pub struct ToneParams {
+    pub config: wgpu::Buffer,
+    pub operator: f64,
+    pub colour: f64,
+    pub auto_key: f64,
+    pub fault_gain: f64,
+}
+
+impl ToneParams {
+    pub fn new(ctx: &GpuContext, op: &Operator, fault_gain: Option<f32>) -> ToneParams {
+        ToneParams {
+            config: uniform_buffer(
+                ctx,
+                "tonegate.tonemap.config",
+                bytemuck::cast_slice(&tone_config(op)),
+            ),
+            operator: operator_code(op) as f64,
+            colour: (op.colour() == ColourPath::Xyy) as u32 as f64,
+            auto_key: matches!(op, Operator::Seed001 { key: Key::Auto, .. }) as u32 as f64,
+            fault_gain: fault_gain.unwrap_or(1.0) as f64,
+        }
+    }
+
+    fn constants(&self) -> [(&'static str, f64); 4] {
+        [
+            ("OPERATOR", self.operator),
+            ("COLOUR", self.colour),
+            ("AUTO_KEY", self.auto_key),
+            ("FAULT_GAIN", self.fault_gain),
+        ]
+    }
+}
+
+/// The one-invocation step that turns the statistics into the curve's
+/// parameters (scale, white) in `stats`.
+pub fn resolve(
+    ctx: &GpuContext,
+    format: HdrFormat,
+    params: &ToneParams,
+    stats: &wgpu::Buffer,
+) -> Dispatch {
+    let p = pipeline(ctx, "tonemap", "resolve", format, &params.constants());
+    let bg = bind_group(
+        ctx,
+        &p,
+        "tonegate.tonemap.resolve",
+        &[(0, Bind::Buffer(&params.config)), (1, Bind::Buffer(stats))],
+    );
+    Dispatch {
+        pipeline: p,
+        bind_group: bg,
+        groups: (1, 1),
+    }
+}
+
 pub fn tonemap(
     ctx: &GpuContext,
     format: HdrFormat,
-    op: &Operator,
-    fault_gain: Option<f32>,
+    params: &ToneParams,
     stats: &wgpu::Buffer,
     hdr: &wgpu::Texture,
     toned_out: &wgpu::Texture,
 ) -> Vec<Dispatch> {
-    let constants = [
-        ("OPERATOR", operator_code(op) as f64),
-        ("COLOUR", (op.colour() == ColourPath::Xyy) as u32 as f64),
-        (
-            "AUTO_KEY",
-            matches!(op, Operator::Seed001 { key: Key::Auto, .. }) as u32 as f64,
-        ),
-        ("FAULT_GAIN", fault_gain.unwrap_or(1.0) as f64),
-    ];
-    let config = uniform_buffer(
-        ctx,
-        "tonegate.tonemap.config",
-        bytemuck::cast_slice(&tone_config(op)),
-    );
-    let resolve = pipeline(ctx, "tonemap", "resolve", format, &constants);
-    let bg = bind_group(
-        ctx,
-        &resolve,
-        "tonegate.tonemap.resolve",
-        &[(0, Bind::Buffer(&config)), (1, Bind::Buffer(stats))],
-    );
-    let resolve = Dispatch {
-        pipeline: resolve,
-        bind_group: bg,
-        groups: (1, 1),
-    };
-    let main = pipeline(ctx, "tonemap", "main", format, &constants);
+    let main = pipeline(ctx, "tonemap", "main", format, &params.constants());
     let bg = bind_group(
         ctx,
         &main,
         "tonegate.tonemap",
         &[
-            (0, Bind::Buffer(&config)),
+            (0, Bind::Buffer(&params.config)),
             (2, Bind::Texture(hdr)),
             (3, Bind::Texture(toned_out)),
             (4, Bind::Buffer(stats)),
         ],
     );
-    vec![resolve, dispatch_2d(main, bg, hdr.width(), hdr.height())]
+    vec![
+        resolve(ctx, format, params, stats),
+        dispatch_2d(main, bg, hdr.width(), hdr.height()),
+    ]
 }

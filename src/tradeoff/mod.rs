@@ -217,6 +217,9 @@ pub fn measure_scene(
                 hdr_format: knobs.hdr_format,
                 reduction: knobs.reduction,
                 env_filter: knobs.env_filter,
+                // Fusing changes the time, never the image at f32: the
+                // front is drawn over the staged path's per-stage choices.
+                execution: crate::gpu::Execution::Staged,
                 fault_gain: None,
             },
         )

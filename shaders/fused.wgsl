@@ -1,0 +1,71 @@
+// fused: the kernels of `--execution fused`. Each calls the same per-pixel
+// functions as the stages it stands for, in the same order, so it computes
+// the same values; what it saves is the full-frame stores and loads between
+// those stages (on llvmpipe, storing one 1080p rgba32float frame costs about
+// as much as the floor pass, ~4.8 ms). What it gives up: the stages inside a
+// kernel are timed together and their outputs cannot be read back.
+//#include shared/colour.wgsl
+//#include shared/stats.wgsl
+//#include shared/tone.wgsl
+//#include shared/bright.wgsl
+//#include shared/upsample.wgsl
+//#include shared/encode.wgsl
+
+override FACTOR: u32 = 2u;
+// The bright pass reads the tone-mapped frame (seed 004), not the HDR one.
+override BRIGHT_FROM_TONED: bool = false;
+// The tail adds the bloom (bloom_composite); without it, binding 3 is a
+// placeholder nobody reads.
+override BLOOM: bool = false;
+override STRENGTH: f32 = 0.5;
+
+@group(0) @binding(0) var<uniform> config: ToneConfig;
+// The statistics and resolved curve (luminance_stats, tonemap's resolve).
+@group(0) @binding(1) var<uniform> resolved: Stats;
+@group(0) @binding(2) var hdr: texture_2d<f32>;
+@group(0) @binding(3) var bloom: texture_2d<f32>;
+@group(0) @binding(4) var<storage, read_write> frame_out: array<u32>;
+@group(0) @binding(5) var low_out: texture_storage_2d<HDR_FORMAT, write>;
+
+// [tonemap →] bloom_bright → bloom_downsample: one invocation per
+// low-resolution pixel, averaging the bright pass of its FACTOR² block
+// (blocks cut by the right or bottom edge average the pixels they have).
+@compute @workgroup_size(64, 1)
+fn bright_low(@builtin(global_invocation_id) id: vec3<u32>) {
+    let out_dims = textureDimensions(low_out);
+    if (id.x >= out_dims.x || id.y >= out_dims.y) {
+        return;
+    }
+    let dims = textureDimensions(hdr);
+    let x0 = id.x * FACTOR;
+    let y0 = id.y * FACTOR;
+    let x1 = min(x0 + FACTOR, dims.x);
+    let y1 = min(y0 + FACTOR, dims.y);
+    var acc = vec3<f32>(0.0);
+    for (var y = y0; y < y1; y = y + 1u) {
+        for (var x = x0; x < x1; x = x + 1u) {
+            var c = textureLoad(hdr, vec2<u32>(x, y), 0).rgb;
+            if (BRIGHT_FROM_TONED) {
+                c = toned(c, resolved.scale, resolved.white);
+            }
+            acc = acc + bright_pixel(c, resolved.max_y);
+        }
+    }
+    let n = f32((x1 - x0) * (y1 - y0));
+    textureStore(low_out, vec2<i32>(id.xy), vec4<f32>(acc / n, 1.0));
+}
+
+// tonemap → [bloom_composite →] encode: one invocation per pixel, straight
+// from the HDR frame to the packed 8-bit frame.
+@compute @workgroup_size(64, 1)
+fn tail(@builtin(global_invocation_id) id: vec3<u32>) {
+    let dims = textureDimensions(hdr);
+    if (id.x >= dims.x || id.y >= dims.y) {
+        return;
+    }
+    var c = toned(textureLoad(hdr, id.xy, 0).rgb, resolved.scale, resolved.white);
+    if (BLOOM) {
+        c = c + STRENGTH * upsample_at(bloom, id.x, id.y, dims);
+    }
+    frame_out[id.y * dims.x + id.x] = pack_rgba8(c);
+}
