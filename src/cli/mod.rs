@@ -382,6 +382,10 @@ fn render(a: RenderArgs) -> Result<ExitCode> {
     let mut frames = Vec::new();
     let renderer_name;
     let mut adapter = None;
+    // The GPU configuration in effect (after any f16 promotion or staged
+    // fallback) and why it differs from the one asked for.
+    let mut gpu_config = None;
+    let mut notes: Vec<String> = Vec::new();
     if a.cpu {
         renderer_name = "cpu-reference".to_owned();
         for n in 0..scene.frames {
@@ -410,6 +414,8 @@ fn render(a: RenderArgs) -> Result<ExitCode> {
             a.gpu.config(),
         )
         .map_err(gpu_error)?;
+        gpu_config = Some(r.config);
+        notes.clone_from(&r.notes);
         for n in 0..scene.frames {
             r.set_rotation(&crate::conventions::rotation_matrix(
                 scene.rotation.axis,
@@ -431,7 +437,7 @@ fn render(a: RenderArgs) -> Result<ExitCode> {
     bar.finish_and_clear();
     let report = serde_json::json!({
         "scene": scene.name, "renderer": renderer_name, "adapter": adapter, "spp": spp,
-        "plan": plan.names(), "frames": frames,
+        "plan": plan.names(), "gpu_config": gpu_config, "notes": notes, "frames": frames,
     });
     write_json(&a.out.join("frames.json"), &report)?;
     println!(
