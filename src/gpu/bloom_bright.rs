@@ -4,6 +4,20 @@ use super::stages::{bind_group, dispatch_2d, pipeline, Bind, Dispatch};
 use super::{GpuContext, HdrFormat};
 use crate::scene::{Bloom, BrightPass};
 
+/// The bright pass's override constants (shaders/shared/bright.wgsl).
+pub fn bright_constants(bloom: &Bloom, weights: [f64; 3]) -> [(&'static str, f64); 5] {
+    [
+        (
+            "PASS",
+            (bloom.bright_pass == BrightPass::Threshold) as u32 as f64,
+        ),
+        ("THRESHOLD", bloom.threshold.get()),
+        ("LUM_R", weights[0]),
+        ("LUM_G", weights[1]),
+        ("LUM_B", weights[2]),
+    ]
+}
+
 pub fn bloom_bright(
     ctx: &GpuContext,
     format: HdrFormat,
@@ -13,17 +27,13 @@ pub fn bloom_bright(
     src: &wgpu::Texture,
     bright_out: &wgpu::Texture,
 ) -> Dispatch {
-    let constants = [
-        (
-            "PASS",
-            (bloom.bright_pass == BrightPass::Threshold) as u32 as f64,
-        ),
-        ("THRESHOLD", bloom.threshold.get()),
-        ("LUM_R", weights[0]),
-        ("LUM_G", weights[1]),
-        ("LUM_B", weights[2]),
-    ];
-    let p = pipeline(ctx, "bloom_bright", "main", format, &constants);
+    let p = pipeline(
+        ctx,
+        "bloom_bright",
+        "main",
+        format,
+        &bright_constants(bloom, weights),
+    );
     let binds = [
         (0, Bind::Buffer(stats)),
         (1, Bind::Texture(src)),

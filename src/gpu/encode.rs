@@ -4,6 +4,14 @@ use super::stages::{bind_group, dispatch_2d, pipeline, Bind, Dispatch};
 use super::{GpuContext, HdrFormat};
 use crate::scene::Encoding;
 
+/// The encoding's override constants (shaders/shared/encode.wgsl).
+pub fn encode_constants(encoding: Encoding) -> [(&'static str, f64); 2] {
+    match encoding {
+        Encoding::Srgb => [("ENCODING", 0.0), ("GAMMA", 2.2)],
+        Encoding::Gamma(g) => [("ENCODING", 1.0), ("GAMMA", g.get())],
+    }
+}
+
 pub fn encode(
     ctx: &GpuContext,
     format: HdrFormat,
@@ -11,11 +19,7 @@ pub fn encode(
     src: &wgpu::Texture,
     frame_out: &wgpu::Buffer,
 ) -> Dispatch {
-    let constants = match encoding {
-        Encoding::Srgb => [("ENCODING", 0.0), ("GAMMA", 2.2)],
-        Encoding::Gamma(g) => [("ENCODING", 1.0), ("GAMMA", g.get())],
-    };
-    let p = pipeline(ctx, "encode", "main", format, &constants);
+    let p = pipeline(ctx, "encode", "main", format, &encode_constants(encoding));
     let bg = bind_group(
         ctx,
         &p,

@@ -2,10 +2,12 @@
 //! display-referred stages merged into as few full-frame passes as their
 //! data dependences allow.
 
+use super::bloom_bright::bright_constants;
+use super::encode::encode_constants;
 use super::stages::{bind_group, dispatch_2d, hdr_texture, pipeline, Bind, Dispatch};
 use super::tonemap::ToneParams;
 use super::{GpuContext, HdrFormat};
-use crate::scene::{Bloom, BrightPass};
+use crate::scene::Bloom;
 
 /// [tonemap →] bloom_bright → bloom_downsample, into `low_out`.
 #[allow(clippy::too_many_arguments)]
@@ -20,20 +22,13 @@ pub fn bright_low(
     hdr: &wgpu::Texture,
     low_out: &wgpu::Texture,
 ) -> Dispatch {
-    let constants = [
+    let mut constants = vec![
         ("COLOUR", tone.colour),
         ("FAULT_GAIN", tone.fault_gain),
-        (
-            "PASS",
-            (bloom.bright_pass == BrightPass::Threshold) as u32 as f64,
-        ),
-        ("THRESHOLD", bloom.threshold.get()),
-        ("LUM_R", lum[0]),
-        ("LUM_G", lum[1]),
-        ("LUM_B", lum[2]),
         ("FACTOR", bloom.downsample.get() as f64),
         ("BRIGHT_FROM_TONED", from_toned as u32 as f64),
     ];
+    constants.extend(bright_constants(bloom, lum));
     let p = pipeline(ctx, "fused", "bright_low", format, &constants);
     let bg = bind_group(
         ctx,
@@ -62,18 +57,13 @@ pub fn tail(
     hdr: &wgpu::Texture,
     frame_out: &wgpu::Buffer,
 ) -> Dispatch {
-    let (encoding, gamma) = match encoding {
-        crate::scene::Encoding::Srgb => (0.0, 2.2),
-        crate::scene::Encoding::Gamma(g) => (1.0, g.get()),
-    };
-    let constants = [
+    let mut constants = vec![
         ("COLOUR", tone.colour),
         ("FAULT_GAIN", tone.fault_gain),
         ("BLOOM", bloom.is_some() as u32 as f64),
         ("STRENGTH", bloom.map(|(_, k)| k).unwrap_or(0.0)),
-        ("ENCODING", encoding),
-        ("GAMMA", gamma),
     ];
+    constants.extend(encode_constants(encoding));
     let p = pipeline(ctx, "fused", "tail", format, &constants);
     // Without bloom the kernel never reads binding 3; it still needs a texture.
     let placeholder;
