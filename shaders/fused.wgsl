@@ -10,8 +10,8 @@
 //#include shared/bright.wgsl
 //#include shared/upsample.wgsl
 //#include shared/encode.wgsl
+//#include shared/downsample.wgsl
 
-override FACTOR: u32 = 2u;
 // The bright pass reads the tone-mapped frame (seed 004), not the HDR one.
 override BRIGHT_FROM_TONED: bool = false;
 // The tail adds the bloom (bloom_composite); without it, binding 3 is a
@@ -36,14 +36,10 @@ fn bright_low(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x >= out_dims.x || id.y >= out_dims.y) {
         return;
     }
-    let dims = textureDimensions(hdr);
-    let x0 = id.x * FACTOR;
-    let y0 = id.y * FACTOR;
-    let x1 = min(x0 + FACTOR, dims.x);
-    let y1 = min(y0 + FACTOR, dims.y);
+    let b = downsample_block(id.xy, textureDimensions(hdr));
     var acc = vec3<f32>(0.0);
-    for (var y = y0; y < y1; y = y + 1u) {
-        for (var x = x0; x < x1; x = x + 1u) {
+    for (var y = b.y; y < b.w; y = y + 1u) {
+        for (var x = b.x; x < b.z; x = x + 1u) {
             var c = textureLoad(hdr, vec2<u32>(x, y), 0).rgb;
             if (BRIGHT_FROM_TONED) {
                 c = toned(c, resolved.scale, resolved.white);
@@ -51,8 +47,7 @@ fn bright_low(@builtin(global_invocation_id) id: vec3<u32>) {
             acc = acc + bright_pixel(c, resolved.max_y);
         }
     }
-    let n = f32((x1 - x0) * (y1 - y0));
-    textureStore(low_out, vec2<i32>(id.xy), vec4<f32>(acc / n, 1.0));
+    textureStore(low_out, vec2<i32>(id.xy), vec4<f32>(acc / block_size(b), 1.0));
 }
 
 // tonemap → [bloom_composite →] encode: one invocation per pixel, straight

@@ -40,6 +40,10 @@ const SOURCES: &[(&str, &str)] = &[
         "shared/encode.wgsl",
         include_str!("../../shaders/shared/encode.wgsl"),
     ),
+    (
+        "shared/downsample.wgsl",
+        include_str!("../../shaders/shared/downsample.wgsl"),
+    ),
     ("sphere.wgsl", include_str!("../../shaders/sphere.wgsl")),
     (
         "luminance_stats.wgsl",
