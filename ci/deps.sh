@@ -4,12 +4,14 @@
 #   mesa-vulkan-drivers - lavapipe, the software Vulkan driver the GPU pipeline runs on
 #   pfstools, pfstmo   - the peer tone mapper the reinhard02 preset is locked to
 #   python3-venv       - the scikit-image venv that regenerates tests/skimage/vectors.json
+#   chromium           - the real browser the dashboard tests (tests/dashboard.rs) drive
 set -euo pipefail
 
 need=()
 ls /usr/share/vulkan/icd.d/lvp_icd*.json >/dev/null 2>&1 || need+=(mesa-vulkan-drivers)
 command -v pfstmo_reinhard02 >/dev/null 2>&1 || need+=(pfstools pfstmo)
 python3 -c 'import ensurepip, venv' >/dev/null 2>&1 || need+=(python3-venv)
+command -v chromium >/dev/null 2>&1 || command -v chromium-browser >/dev/null 2>&1 || need+=(chromium)
 if [ "${#need[@]}" -gt 0 ]; then
   sudo=""
   [ "$(id -u)" -eq 0 ] || sudo="sudo"

@@ -111,6 +111,10 @@ pub fn halton(mut index: u32, base: u32) -> f64 {
     r
 }
 
+/// Largest supersampling a render may ask for (SPEC §5: the accumulation
+/// reference uses up to 128 jittered samples).
+pub const MAX_SPP: u32 = 128;
+
 /// Sub-pixel offset of sample `k` (0-based) out of `spp`, in [−0.5, 0.5):
 /// none for a single sample (the plain GPU path), otherwise Halton(2,3) from
 /// index 1 (index 0 would put every first sample on the pixel corner).

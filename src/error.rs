@@ -1,4 +1,6 @@
-//! The crate's top-level error: each module keeps its own enum, this one joins them.
+//! The crate's top-level error: each module keeps its own enum, this one joins
+//! them, so a command can fail with any of them and the binary still knows
+//! which (it picks the exit code from the variant).
 
 use std::path::PathBuf;
 
@@ -19,6 +21,39 @@ pub enum Error {
     /// No usable adapter, or the GPU failed.
     #[error(transparent)]
     Gpu(#[from] crate::gpu::GpuError),
+    /// A renderer met a plan it cannot execute (a tonegate bug).
+    #[error(transparent)]
+    Plan(#[from] crate::plan::PlanError),
+    /// A scene or suite file is unreadable or invalid.
+    #[error(transparent)]
+    Scene(#[from] crate::scene::SceneError),
+    /// A scene could not be rendered (its environment, the GPU, the reference).
+    #[error(transparent)]
+    Render(#[from] crate::render::RenderError),
+    /// The goldens could not be read or written.
+    #[error(transparent)]
+    Golden(#[from] crate::golden::GoldenError),
+    /// The history database could not be opened, read or written.
+    #[error(transparent)]
+    History(#[from] crate::history::HistoryError),
+    /// A trade-off sweep could not measure a configuration.
+    #[error(transparent)]
+    Tradeoff(#[from] crate::tradeoff::TradeoffError),
+    /// A report could not be written as JSON.
+    #[error("writing {what} as JSON: {source}")]
+    Json {
+        what: &'static str,
+        source: serde_json::Error,
+    },
+    /// The JUnit report could not be written.
+    #[error("writing JUnit XML: {0}")]
+    Junit(#[from] quick_junit::SerializeError),
+    /// The server could not start, or stopped serving.
+    #[error("{what}: {source}")]
+    Service {
+        what: &'static str,
+        source: std::io::Error,
+    },
     /// A command-line argument or parameter that cannot be used.
     #[error("{0}")]
     Invalid(String),

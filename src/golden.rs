@@ -3,7 +3,9 @@
 //! writes them, and a missing or stale golden is an error everywhere else.
 
 use crate::image::Rgb8Image;
-use crate::reference::{render_frame, REFERENCE_VERSION};
+use crate::progress::Progress;
+use crate::reference::REFERENCE_VERSION;
+use crate::render::{scene_environment, RenderError, SceneRenderer};
 use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
@@ -23,9 +25,12 @@ pub enum GoldenError {
     /// Writing a golden or the manifest failed.
     #[error("{path}: cannot write: {detail}")]
     Write { path: PathBuf, detail: String },
-    /// The scene's environment could not be loaded.
+    /// The scene's environment file could not be read for its hash.
     #[error("scene {scene}: {detail}")]
     Environment { scene: String, detail: String },
+    /// The reference could not render a scene.
+    #[error(transparent)]
+    Render(#[from] RenderError),
     /// A golden frame could not be read.
     #[error("{path}: cannot read golden frame: {detail}")]
     Frame { path: PathBuf, detail: String },
@@ -198,53 +203,16 @@ pub fn check_manifest(root: &Path, scenes: &[Scene]) -> Result<Vec<Problem>, Gol
     Ok(problems)
 }
 
-/// The environment map of a scene: generated, or loaded with the default policy.
-pub fn scene_environment(scene: &Scene) -> Result<crate::image::HdrImage, GoldenError> {
-    match (&scene.environment.builtin, &scene.environment.path) {
-        (Some(env), _) => {
-            let size = scene.environment.size.unwrap_or(crate::scene::Size {
-                width: 1024,
-                height: 512,
-            });
-            Ok(env.generate(size.width, size.height))
-        }
-        (None, Some(path)) => crate::io::load_hdr(path, &crate::io::LoadOptions::default())
-            .map(|(img, _)| img)
-            .map_err(|e| GoldenError::Environment {
-                scene: scene.name.clone(),
-                detail: e.to_string(),
-            }),
-        (None, None) => Err(GoldenError::Environment {
-            scene: scene.name.clone(),
-            detail: "no environment".into(),
-        }),
-    }
-}
-
-/// A progress bar over `total` frames, hidden when not on a terminal.
-pub fn progress_bar(total: u64, what: &str) -> indicatif::ProgressBar {
-    let bar = indicatif::ProgressBar::new(total);
-    if let Ok(style) = indicatif::ProgressStyle::with_template(
-        "{prefix:>8} [{bar:30}] {pos}/{len} frames {msg} ({elapsed})",
-    ) {
-        bar.set_style(style.progress_chars("=> "));
-    }
-    bar.set_prefix(what.to_owned());
-    bar
-}
-
 /// Renders `scenes` with the reference and writes their goldens and manifest
 /// entries (other scenes' entries are kept). The only writer of goldens.
-pub fn bless(root: &Path, scenes: &[Scene], show_progress: bool) -> Result<(), GoldenError> {
+pub fn bless(root: &Path, scenes: &[Scene], progress: &dyn Progress) -> Result<(), GoldenError> {
     let mut manifest = load_manifest(root).unwrap_or_default();
     let total: u64 = scenes.iter().map(|s| s.frames as u64).sum();
-    let bar = progress_bar(total, "bless");
-    if !show_progress {
-        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
-    }
+    progress.start("bless", total, "frames");
     for scene in scenes {
-        bar.set_message(scene.name.clone());
+        progress.working_on(&scene.name);
         let env = scene_environment(scene)?;
+        let reference = SceneRenderer::cpu(scene, &env, scene.reference_spp);
         let dir = root.join(&scene.name);
         std::fs::create_dir_all(&dir).map_err(|e| GoldenError::Write {
             path: dir.clone(),
@@ -252,9 +220,9 @@ pub fn bless(root: &Path, scenes: &[Scene], show_progress: bool) -> Result<(), G
         })?;
         let mut files = BTreeMap::new();
         for n in 0..scene.frames {
-            let out = render_frame(scene, &env, n, scene.reference_spp);
+            let frame = reference.frame(n)?.image;
             let path = frame_path(root, &scene.name, n);
-            crate::io::write_png8(&path, &out.frame).map_err(|e| GoldenError::Write {
+            crate::io::write_png8(&path, &frame).map_err(|e| GoldenError::Write {
                 path: path.clone(),
                 detail: e.to_string(),
             })?;
@@ -263,7 +231,7 @@ pub fn bless(root: &Path, scenes: &[Scene], show_progress: bool) -> Result<(), G
                 detail: "written file cannot be read back".into(),
             })?;
             files.insert(frame_file(n), sha);
-            bar.inc(1);
+            progress.advance(1);
         }
         // Frames of a longer earlier sequence would be left behind: remove them.
         if let Ok(entries) = std::fs::read_dir(&dir) {
@@ -291,7 +259,7 @@ pub fn bless(root: &Path, scenes: &[Scene], show_progress: bool) -> Result<(), G
             },
         );
     }
-    bar.finish_and_clear();
+    progress.finish();
     write_manifest(root, &manifest)
 }
 
@@ -313,30 +281,28 @@ fn write_manifest(root: &Path, manifest: &Manifest) -> Result<(), GoldenError> {
 pub fn verify(
     root: &Path,
     scenes: &[Scene],
-    show_progress: bool,
+    progress: &dyn Progress,
 ) -> Result<Vec<Problem>, GoldenError> {
     let mut problems = check_manifest(root, scenes)?;
     let total: u64 = scenes.iter().map(|s| s.frames as u64).sum();
-    let bar = progress_bar(total, "verify");
-    if !show_progress {
-        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
-    }
+    progress.start("verify", total, "frames");
     for scene in scenes {
-        bar.set_message(scene.name.clone());
+        progress.working_on(&scene.name);
         let env = scene_environment(scene)?;
+        let reference = SceneRenderer::cpu(scene, &env, scene.reference_spp);
         for n in 0..scene.frames {
-            bar.inc(1);
+            progress.advance(1);
             let Ok(golden) = read_frame(root, &scene.name, n) else {
                 continue; // already reported as missing
             };
-            let out = render_frame(scene, &env, n, scene.reference_spp);
-            let pixels = if (golden.width, golden.height) != (out.frame.width, out.frame.height) {
-                out.frame.pixel_count()
+            let frame = reference.frame(n)?.image;
+            let pixels = if (golden.width, golden.height) != (frame.width, frame.height) {
+                frame.pixel_count()
             } else {
                 golden
                     .pixels
                     .iter()
-                    .zip(&out.frame.pixels)
+                    .zip(&frame.pixels)
                     .filter(|(a, b)| a != b)
                     .count()
             };
@@ -349,7 +315,7 @@ pub fn verify(
             }
         }
     }
-    bar.finish_and_clear();
+    progress.finish();
     Ok(problems)
 }
 

@@ -91,10 +91,36 @@ pub enum Input {
     Flat,
 }
 
-/// The ordered stages of one frame.
+/// The ordered stages of one frame. Only [`StagePlan::build`] makes one, so
+/// every plan is in an order both renderers can execute.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct StagePlan {
-    pub stages: Vec<Stage>,
+    stages: Vec<Stage>,
+}
+
+/// A plan a renderer cannot execute. `build` never makes one; a renderer
+/// that meets one reports it instead of panicking (a tonegate bug).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum PlanError {
+    /// A stage's input was not made by an earlier stage.
+    #[error("stage {stage} runs before {needs}, which makes its input (a tonegate bug)")]
+    OutOfOrder {
+        stage: &'static str,
+        needs: &'static str,
+    },
+    /// The plan has a stage whose parameters the pipeline lacks.
+    #[error("stage {stage} is in the plan but the pipeline has no {what} (a tonegate bug)")]
+    NoParameters {
+        stage: &'static str,
+        what: &'static str,
+    },
+}
+
+impl PlanError {
+    /// Shorthand for [`PlanError::OutOfOrder`].
+    pub fn order(stage: &'static str, needs: &'static str) -> PlanError {
+        PlanError::OutOfOrder { stage, needs }
+    }
 }
 
 /// What the operator needs measured; fixed parameters need nothing.
@@ -181,6 +207,11 @@ impl StagePlan {
             scene.bloom.as_ref(),
             scene.grade.as_ref(),
         )
+    }
+
+    /// The stages, in execution order.
+    pub fn stages(&self) -> &[Stage] {
+        &self.stages
     }
 
     pub fn contains(&self, name: &str) -> bool {

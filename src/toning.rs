@@ -10,88 +10,69 @@ use crate::reference::luminance_stats::LuminanceStats;
 use crate::reference::tonemap::ToneParams;
 use crate::reference::Pipeline;
 use crate::scene::{
-    Bloom, BrightPass, ColourPath, Encoding, Factor, Grade, Key, NonNegative, Operator, Positive,
-    Radius,
+    Bloom, BrightPass, ColourPath, Encoding, Factor, Grade, Key, NonNegative, Operator,
+    OperatorKind, Positive, Radius,
 };
-use clap::{Args, ValueEnum};
 use serde::{Deserialize, Serialize};
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum OperatorKind {
-    Seed000,
-    Seed001,
-    Reinhard02,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum Preset {
     /// pfstmo_reinhard02 in global mode: pfstools' luminance, δ = 1e-5, Lwhite = max scaled.
     Reinhard02,
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum ColourArg {
-    Ratio,
-    Xyy,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum BrightPassArg {
-    Seed001,
-    Threshold,
-}
-
 /// The operator, bloom, grade and encoding of a flat tone-map. As flags
-/// (`--white-fraction`) and as API parameters (`white_fraction`); unknown API
-/// parameters are refused. `Default` is what the flags default to (a test
-/// holds the two together).
-#[derive(Args, Clone, Debug, PartialEq, Serialize, Deserialize)]
+/// (`--white-fraction`, with the `cli` feature the binary builds with) and as
+/// API parameters (`white_fraction`); unknown API parameters are refused.
+/// `Default` is what the flags default to (a test holds the two together).
+/// The enums are the scene schema's own, so a flag takes the words a scene
+/// file takes.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
 #[serde(default, deny_unknown_fields)]
 pub struct ToneSettings {
     /// A preset that fixes the operator (overrides --operator and --colour).
-    #[arg(long, value_enum)]
+    #[cfg_attr(feature = "cli", arg(long, value_enum))]
     pub preset: Option<Preset>,
-    #[arg(long, value_enum, default_value = "seed000")]
+    #[cfg_attr(feature = "cli", arg(long, value_enum, default_value = "seed000"))]
     pub operator: OperatorKind,
     /// Key a (a number, or "auto" for seed001's automatic key).
-    #[arg(long)]
+    #[cfg_attr(feature = "cli", arg(long))]
     pub key: Option<String>,
     /// Seed000: fraction of the scene maximum that maps to white, (0, 1].
-    #[arg(long)]
+    #[cfg_attr(feature = "cli", arg(long))]
     pub white_fraction: Option<f64>,
     /// Reinhard02: absolute Lwhite (default: the maximum scaled luminance).
-    #[arg(long)]
+    #[cfg_attr(feature = "cli", arg(long))]
     pub white: Option<f64>,
     /// Fixed adaptation luminance instead of the measured log-average.
-    #[arg(long)]
+    #[cfg_attr(feature = "cli", arg(long))]
     pub log_average: Option<f64>,
-    #[arg(long, value_enum, default_value = "ratio")]
-    pub colour: ColourArg,
+    #[cfg_attr(feature = "cli", arg(long, value_enum, default_value = "ratio"))]
+    pub colour: ColourPath,
     /// Bloom strength k (0 = no bloom).
-    #[arg(long, default_value_t = 0.0)]
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = 0.0))]
     pub bloom: f64,
-    #[arg(long, value_enum, default_value = "seed001")]
-    pub bloom_pass: BrightPassArg,
-    #[arg(long, default_value_t = 1.0)]
+    #[cfg_attr(feature = "cli", arg(long, value_enum, default_value = "seed001"))]
+    pub bloom_pass: BrightPass,
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = 1.0))]
     pub bloom_threshold: f64,
-    #[arg(long, default_value_t = 2)]
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = 2))]
     pub bloom_downsample: u32,
-    #[arg(long, default_value_t = 6)]
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = 6))]
     pub bloom_radius: u32,
-    #[arg(long, default_value_t = 3.0)]
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = 3.0))]
     pub bloom_sigma: f64,
-    #[arg(long, default_value_t = 1.0)]
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = 1.0))]
     pub brightness: f64,
-    #[arg(long, default_value_t = 1.0)]
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = 1.0))]
     pub contrast: f64,
-    #[arg(long, default_value_t = 1.0)]
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = 1.0))]
     pub saturation: f64,
     /// Encode with a 1/γ power instead of the sRGB OETF.
-    #[arg(long)]
+    #[cfg_attr(feature = "cli", arg(long))]
     pub gamma: Option<f64>,
 }
 
@@ -104,9 +85,9 @@ impl Default for ToneSettings {
             white_fraction: None,
             white: None,
             log_average: None,
-            colour: ColourArg::Ratio,
+            colour: ColourPath::Ratio,
             bloom: 0.0,
-            bloom_pass: BrightPassArg::Seed001,
+            bloom_pass: BrightPass::Seed001,
             bloom_threshold: 1.0,
             bloom_downsample: 2,
             bloom_radius: 6,
@@ -171,10 +152,7 @@ impl ToneSettings {
     }
 
     fn operator(&self) -> Result<Operator> {
-        let colour = match self.colour {
-            ColourArg::Ratio => ColourPath::Ratio,
-            ColourArg::Xyy => ColourPath::Xyy,
-        };
+        let colour = self.colour;
         let key = match self.key.as_deref() {
             None => None,
             Some("auto") => Some(Key::Auto),
@@ -233,10 +211,7 @@ impl ToneSettings {
     /// (a bad radius is a mistake even while bloom is off).
     fn bloom(&self) -> Result<Option<Bloom>> {
         let bloom = Bloom {
-            bright_pass: match self.bloom_pass {
-                BrightPassArg::Seed001 => BrightPass::Seed001,
-                BrightPassArg::Threshold => BrightPass::Threshold,
-            },
+            bright_pass: self.bloom_pass,
             threshold: non_negative("bloom_threshold", self.bloom_threshold)?,
             downsample: Factor::try_from(self.bloom_downsample)
                 .map_err(|e| invalid(format!("bloom_downsample: {e}")))?,
@@ -272,7 +247,7 @@ pub fn tone_map(
 ) -> Result<Toned> {
     match gpu {
         None => {
-            let (plan, out) = crate::reference::render_flat(img, pipeline);
+            let (plan, out) = crate::reference::render_flat(img, pipeline)?;
             Ok(Toned {
                 plan,
                 stats: out.stats,
@@ -345,16 +320,16 @@ fn gpu_flat(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use clap::Parser;
 
-    #[derive(Parser)]
-    struct Flags {
-        #[command(flatten)]
-        settings: ToneSettings,
-    }
-
+    #[cfg(feature = "cli")]
     #[test]
     fn defaults_of_flags_and_api_are_the_same() {
+        use clap::Parser;
+        #[derive(Parser)]
+        struct Flags {
+            #[command(flatten)]
+            settings: ToneSettings,
+        }
         let flags = Flags::try_parse_from(["x"]).unwrap();
         assert_eq!(flags.settings, ToneSettings::default());
         let api: ToneSettings = serde_json::from_str("{}").unwrap();

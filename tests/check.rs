@@ -165,7 +165,7 @@ fn a_tone_mapper_two_percent_too_bright_fails_with_artifacts_and_junit_failures(
         .to_string();
     assert!(xml.contains(&actual_path), "{actual_path} not in {xml}");
     let h = History::open_read_only(&db).unwrap();
-    assert_eq!(h.runs(1).unwrap()[0].status, "failed");
+    assert_eq!(h.runs(1).unwrap()[0].status.as_str(), "failed");
 }
 
 #[test]
@@ -213,7 +213,7 @@ fn a_run_that_cannot_happen_exits_2_and_is_recorded_as_an_error() {
     assert_eq!(runs.len(), 3);
     assert!(
         runs.iter()
-            .all(|r| r.status == "error" && r.detail.is_some()),
+            .all(|r| r.status.as_str() == "error" && r.detail.is_some()),
         "{runs:?}"
     );
 }
@@ -279,7 +279,7 @@ fn kill_9_during_a_check_leaves_a_consistent_database_with_the_run_aborted() {
         if let Ok(h) = History::open_read_only(&db) {
             let runs = h.runs(1).unwrap_or_default();
             if let Some(r) = runs.first().filter(|r| r.id == 2 && r.scenes >= 1) {
-                assert_eq!(r.status, "running");
+                assert_eq!(r.status.as_str(), "running");
                 break r.id;
             }
         }

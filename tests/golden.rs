@@ -3,7 +3,9 @@
 
 use std::path::{Path, PathBuf};
 use tonegate::golden::{self, Problem};
-use tonegate::scene::{load_suite, Scene};
+use tonegate::progress::Silent;
+use tonegate::scene::Scene;
+use tonegate::suite::load_suite;
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("golden")
@@ -26,7 +28,7 @@ fn every_suite_scene_has_fresh_goldens() {
 
 #[test]
 fn goldens_re_render_bit_identically() {
-    let problems = golden::verify(&root(), &suite(), false).expect("verify runs");
+    let problems = golden::verify(&root(), &suite(), &Silent).expect("verify runs");
     let text: Vec<String> = problems.iter().map(|p| p.to_string()).collect();
     assert!(problems.is_empty(), "{}", text.join("\n"));
 }
@@ -83,16 +85,19 @@ min_psnr = 20.0
     let path = dir.path().join("tiny.toml");
     std::fs::write(&path, text).unwrap();
     let scene = Scene::load(&path).unwrap();
-    golden::bless(dir.path(), std::slice::from_ref(&scene), false).unwrap();
+    golden::bless(dir.path(), std::slice::from_ref(&scene), &Silent).unwrap();
     (dir, vec![scene])
 }
 
 #[test]
 fn a_missing_golden_fails_verification() {
     let (dir, scenes) = scratch();
-    assert_eq!(golden::verify(dir.path(), &scenes, false).unwrap(), vec![]);
+    assert_eq!(
+        golden::verify(dir.path(), &scenes, &Silent).unwrap(),
+        vec![]
+    );
     std::fs::remove_file(golden::frame_path(dir.path(), "tiny", 1)).unwrap();
-    let problems = golden::verify(dir.path(), &scenes, false).unwrap();
+    let problems = golden::verify(dir.path(), &scenes, &Silent).unwrap();
     assert!(
         problems.contains(&Problem::MissingFile {
             scene: "tiny".into(),
@@ -125,7 +130,7 @@ fn a_tampered_golden_is_caught_by_hash_and_by_pixels() {
     let mut img = tonegate::io::read_png8(&path).unwrap();
     img.pixels[5][1] ^= 1;
     tonegate::io::write_png8(&path, &img).unwrap();
-    let problems = golden::verify(dir.path(), &scenes, false).unwrap();
+    let problems = golden::verify(dir.path(), &scenes, &Silent).unwrap();
     assert!(
         problems
             .iter()
@@ -160,7 +165,7 @@ fn an_unblessed_scene_is_reported_not_invented() {
 fn reference_does_not_depend_on_the_thread_count() {
     let scenes = suite();
     let scene = scenes.iter().find(|s| s.bloom.is_some()).unwrap();
-    let env = golden::scene_environment(scene).unwrap();
+    let env = tonegate::render::scene_environment(scene).unwrap();
     let one = rayon::ThreadPoolBuilder::new()
         .num_threads(1)
         .build()
@@ -169,8 +174,8 @@ fn reference_does_not_depend_on_the_thread_count() {
         .num_threads(3)
         .build()
         .unwrap();
-    let a = one.install(|| tonegate::reference::render_frame(scene, &env, 3, 4));
-    let b = three.install(|| tonegate::reference::render_frame(scene, &env, 3, 4));
+    let a = one.install(|| tonegate::reference::render_frame(scene, &env, 3, 4).unwrap());
+    let b = three.install(|| tonegate::reference::render_frame(scene, &env, 3, 4).unwrap());
     assert_eq!(a.frame, b.frame);
     assert_eq!(a.display, b.display);
     assert_eq!(a.stats, b.stats);

@@ -4,7 +4,7 @@
 //! input.
 
 use tonegate::conventions::{equirect_uv, rotation_matrix, sphere_direction};
-use tonegate::golden::{read_frame, scene_environment};
+use tonegate::golden::read_frame;
 use tonegate::gpu::{
     AdapterChoice, Execution, GpuConfig, GpuContext, GpuInput, GpuRenderer, HdrFormat,
     ReductionMethod,
@@ -13,7 +13,9 @@ use tonegate::image::LinearImage;
 use tonegate::metrics::{compare, fraction_over};
 use tonegate::plan::{Stage, StagePlan};
 use tonegate::reference::{self, luminance_stats, scene_camera, tonemap, Pipeline};
-use tonegate::scene::{load_suite, Scene};
+use tonegate::render::scene_environment;
+use tonegate::scene::Scene;
+use tonegate::suite::load_suite;
 
 fn context() -> GpuContext {
     GpuContext::new(&AdapterChoice::Default)
@@ -104,7 +106,7 @@ fn final_frames_match_the_cpu_render_of_the_same_scene() {
             r.set_rotation(&rotation_matrix(scene.rotation.axis, scene.angle(n)));
             let gpu = r.render(true).unwrap();
             let frame = gpu.frame.unwrap();
-            let cpu = reference::render_frame(&scene, &env, n, 1);
+            let cpu = reference::render_frame(&scene, &env, n, 1).unwrap();
             let m = compare(frame.raster(), cpu.frame.raster()).unwrap();
             let over = fraction_over(frame.raster(), cpu.frame.raster(), 1).unwrap();
             assert!(
@@ -156,7 +158,7 @@ fn each_stage_matches_its_reference_on_the_same_input() {
         // ~2 ULP; bilinear changes by at most (range × shift), which at a
         // 10⁴:1 window edge is far more than 1e-4 of the value.
         let hdr = r.read_output("sphere").unwrap().unwrap();
-        let cpu_hdr = reference::render_frame(&scene, &env, n, 1).hdr;
+        let cpu_hdr = reference::render_frame(&scene, &env, n, 1).unwrap().hdr;
         let rotation = rotation_matrix(scene.rotation.axis, scene.angle(n));
         let camera = scene_camera(&scene);
         let mut worst = 0.0f64;
@@ -181,7 +183,7 @@ fn each_stage_matches_its_reference_on_the_same_input() {
         let (weights, delta) = tonemap::operator_constants(pipeline.operator);
         let mut cpu_stats = Default::default();
         if let Some(Stage::LuminanceStats(needs)) =
-            plan.stages.iter().find(|s| s.name() == "luminance_stats")
+            plan.stages().iter().find(|s| s.name() == "luminance_stats")
         {
             cpu_stats = luminance_stats::luminance_stats(&hdr, *needs, weights, delta);
             let s = &gpu.stats;
@@ -314,7 +316,7 @@ fn both_reductions_agree_with_f64_on_odd_and_prime_sizes() {
     ] {
         let img = tonegate::env::BuiltinEnv::Night.generate(w, h);
         let plan = StagePlan::build(tonegate::plan::Input::Flat, &op, None, None);
-        let Some(Stage::LuminanceStats(needs)) = plan.stages.first().cloned() else {
+        let Some(Stage::LuminanceStats(needs)) = plan.stages().first().cloned() else {
             panic!("seed001 needs statistics");
         };
         let (weights, delta) = tonemap::operator_constants(&op);
@@ -383,7 +385,7 @@ fn a_wrong_gpu_render_fails_the_comparison() {
         .find(|s| s.name == "sky-seed000")
         .unwrap();
     let env = scene_environment(&scene).unwrap();
-    let cpu = reference::render_frame(&scene, &env, 3, 1);
+    let cpu = reference::render_frame(&scene, &env, 3, 1).unwrap();
     if let tonegate::scene::Operator::Seed000 { key, .. } = &mut scene.operator {
         *key = tonegate::scene::Positive::try_from(key.get() * 1.02).unwrap();
     }
@@ -414,7 +416,7 @@ fn half_float_intermediates_render_within_a_few_lsb_where_in_range() {
     assert_eq!(r.config.hdr_format, HdrFormat::Rgba16Float, "{:?}", r.notes);
     r.set_rotation(&rotation_matrix(scene.rotation.axis, scene.angle(2)));
     let frame = r.render(true).unwrap().frame.unwrap();
-    let cpu = reference::render_frame(&scene, &env, 2, 1);
+    let cpu = reference::render_frame(&scene, &env, 2, 1).unwrap();
     let over = fraction_over(frame.raster(), cpu.frame.raster(), 2).unwrap();
     assert!(
         over <= 0.01,
@@ -470,7 +472,7 @@ fn hardware_filtering_is_an_option_with_its_error_measured() {
         let n = 3.min(scene.frames - 1);
         r.set_rotation(&rotation_matrix(scene.rotation.axis, scene.angle(n)));
         let frame = r.render(true).unwrap().frame.unwrap();
-        let cpu = reference::render_frame(&scene, &env, n, 1);
+        let cpu = reference::render_frame(&scene, &env, n, 1).unwrap();
         let m = compare(frame.raster(), cpu.frame.raster()).unwrap();
         println!(
             "{:<36} hardware filter vs CPU 1 spp: PSNR {:.2} dB, max {}",
@@ -655,7 +657,7 @@ fn fused_execution_renders_the_staged_frames() {
                 .zip(&b.pixels)
                 .map(|(p, q)| (0..3).filter(|&c| p[c] != q[c]).count())
                 .sum::<usize>();
-            let cpu = reference::render_frame(&scene, &env, n, 1);
+            let cpu = reference::render_frame(&scene, &env, n, 1).unwrap();
             let m = compare(b.raster(), cpu.frame.raster()).unwrap();
             let over = fraction_over(b.raster(), cpu.frame.raster(), 1).unwrap();
             assert!(

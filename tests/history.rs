@@ -2,12 +2,11 @@
 //! against the previous runs on the same adapter and configuration.
 
 use std::collections::BTreeMap;
-use tonegate::gpu::timing::TimingSummary;
-use tonegate::history::{
-    find_regressions, History, RunAdapter, RunKind, RunMeta, RunStatus, SCHEMA_VERSION,
-};
-use tonegate::scene::Performance;
-use tonegate::suite::{SceneResult, TestKind};
+use tonegate::check::{SceneResult, TestKind};
+use tonegate::gate::{find_regressions, scene_record};
+use tonegate::history::{History, RunAdapter, RunKind, RunMeta, RunStatus, SCHEMA_VERSION};
+use tonegate::perf::TimingSummary;
+use tonegate::suite::Performance;
 
 fn scene(name: &str, sphere_ms: f64, fps: f64) -> SceneResult {
     SceneResult {
@@ -52,7 +51,7 @@ fn adapter(name: &str, config: &str) -> RunAdapter {
 fn record(h: &mut History, a: &RunAdapter, r: &SceneResult) -> i64 {
     let id = h.start_run(RunKind::Check, &RunMeta::default()).unwrap();
     h.set_adapter(id, a).unwrap();
-    h.record_scene(id, r).unwrap();
+    h.record_scene(id, &scene_record(r).unwrap()).unwrap();
     h.finish_run(id, RunStatus::Passed, None, None).unwrap();
     id
 }
@@ -133,7 +132,7 @@ fn a_slowdown_is_flagged_against_the_same_adapter_and_config_only() {
     let trend = h
         .trend(
             "sphere",
-            &tonegate::history::query::TrendFilter {
+            &tonegate::history::TrendFilter {
                 scene: Some("sky"),
                 adapter: Some("llvmpipe"),
                 limit: 50,

@@ -88,6 +88,6 @@ fn the_sweep_measures_every_configuration_and_marks_a_consistent_front() {
     // Stored in the history with its points.
     let h = tonegate::history::History::open_read_only(&db).unwrap();
     let runs = h.runs(5).unwrap();
-    assert_eq!(runs[0].kind, "tradeoff");
-    assert_eq!(runs[0].status, "passed");
+    assert_eq!(runs[0].kind.as_str(), "tradeoff");
+    assert_eq!(runs[0].status.as_str(), "passed");
 }

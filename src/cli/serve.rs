@@ -2,12 +2,12 @@
 
 use super::gate::DbArgs;
 use super::GpuArgs;
-use crate::error::{Error, Result};
-use crate::server::{Limits, ServeOptions, Server};
 use clap::Args;
 use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
+use tonegate::error::{Error, Result};
+use tonegate::server::{Limits, ServeOptions, Server};
 
 #[derive(Args)]
 pub struct ServeArgs {
@@ -63,7 +63,7 @@ pub fn serve(a: ServeArgs) -> Result<ExitCode> {
             .unwrap_or(std::path::Path::new("."))
             .join("token")
     });
-    let token = crate::server::load_or_make_token(&token_file)?;
+    let token = tonegate::server::load_or_make_token(&token_file)?;
     let opts = ServeOptions {
         bind: a.bind,
         db: a.db.db.clone(),
@@ -87,24 +87,28 @@ pub fn serve(a: ServeArgs) -> Result<ExitCode> {
     let rt = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()
-        .map_err(|e| Error::Invalid(format!("starting the async runtime: {e}")))?;
+        .map_err(|source| Error::Service {
+            what: "starting the async runtime",
+            source,
+        })?;
     rt.block_on(async move {
         let server = Server::bind(opts).await?;
-        let addr = server
-            .local_addr()
-            .map_err(|e| Error::Invalid(e.to_string()))?;
+        let addr = server.local_addr().map_err(|source| Error::Service {
+            what: "reading the bound address",
+            source,
+        })?;
         println!(
             "tonegate serving http://{addr}/  (history {}, token in {})",
             a.db.db.display(),
             token_file.display()
         );
         if a.run_suite {
-            let renderer = crate::check::Renderer::Gpu {
+            let renderer = tonegate::gate::Renderer::Gpu {
                 adapter: a.gpu.adapter.clone(),
                 config: a.gpu.config(),
                 spp: None,
             };
-            match crate::server::start_run(server.state(), renderer).await {
+            match tonegate::server::start_run(server.state(), renderer).await {
                 Ok(id) => println!(
                     "running the suite {} as run {id}: http://{addr}/#/runs/{id}",
                     a.suite.display()
@@ -116,7 +120,10 @@ pub fn serve(a: ServeArgs) -> Result<ExitCode> {
         server
             .run(shutdown_signal())
             .await
-            .map_err(|e| Error::Invalid(format!("serving: {e}")))
+            .map_err(|source| Error::Service {
+                what: "serving",
+                source,
+            })
     })?;
     Ok(ExitCode::SUCCESS)
 }

@@ -2,11 +2,11 @@
 //! floor pass every stage is expressed as a multiple of (a ratio survives the
 //! machine's noise and its one-core/two-core switching better than ms do).
 
-use super::renderer::TIMING_SLOTS;
-use super::timing::{quantile, summarise, StageTiming};
+use super::timing::TIMING_SLOTS;
 use super::{AdapterReport, GpuConfig, GpuContext, GpuError, GpuInput, GpuRenderer, HdrFormat};
 use crate::conventions::{rotation_matrix, Camera};
 use crate::env::BuiltinEnv;
+use crate::perf::{quantile, summarise, StageTiming};
 use crate::plan::StagePlan;
 use crate::reference::Pipeline;
 use crate::scene::{

@@ -1,13 +1,90 @@
 //! The kernels of `--execution fused` (shaders/fused.wgsl): the plan's
 //! display-referred stages merged into as few full-frame passes as their
-//! data dependences allow.
+//! data dependences allow, and how they are wired in place of those stages.
 
 use super::bloom_bright::bright_constants;
 use super::encode::encode_constants;
 use super::stages::{bind_group, dispatch_2d, hdr_texture, pipeline, Bind, Dispatch};
 use super::tonemap::ToneParams;
-use super::{GpuContext, HdrFormat};
+use super::wiring::{Pass, Wiring};
+use super::{GpuContext, GpuError, HdrFormat};
+use crate::plan::{BloomSource, PlanError, Stage};
+use crate::reference::bloom_downsample::downsampled_size;
 use crate::scene::Bloom;
+
+/// Wires `stage` for fused execution: the merged stages become (part of) one
+/// kernel; None for the stages that run as in staged execution (`sphere`,
+/// `luminance_stats`, `bloom_blur`).
+pub fn wire(w: &mut Wiring, stage: &Stage) -> Result<Option<Pass>, GpuError> {
+    let name = stage.name();
+    let (ctx, format) = (w.ctx, w.format);
+    Ok(Some(match stage {
+        Stage::Tonemap { .. } => {
+            w.tone = Some(ToneParams::new(ctx, w.pipeline.operator, w.fault_gain));
+            // The curve's resolve step, until a fused kernel runs it first.
+            w.pending_resolve = true;
+            Pass::merged(name)
+        }
+        Stage::BloomBright { source } => {
+            w.bright_source = Some(*source);
+            Pass::merged(name)
+        }
+        Stage::BloomDownsample { factor } => {
+            let b = w.bloom(name)?;
+            let (Some(source), Some(t)) = (w.bright_source, &w.tone) else {
+                return Err(PlanError::order(name, "bloom_bright").into());
+            };
+            let (lw, lh) = downsampled_size(w.width, w.height, *factor);
+            let out = hdr_texture(ctx, "tonegate.bloom_downsample", lw, lh, format);
+            let from_toned = source == BloomSource::Toned;
+            let mut dispatches = Vec::new();
+            let name = if from_toned {
+                dispatches.push(super::tonemap::resolve(ctx, format, t, &w.stats));
+                w.pending_resolve = false;
+                "tonemap+bloom_bright+bloom_downsample"
+            } else {
+                "bloom_bright+bloom_downsample"
+            };
+            dispatches.push(bright_low(
+                ctx, format, t, b, from_toned, w.weights, &w.stats, &w.hdr, &out,
+            ));
+            w.low = Some(out);
+            Pass { name, dispatches }
+        }
+        Stage::BloomComposite => Pass::merged(name),
+        Stage::Encode => {
+            let Some(t) = &w.tone else {
+                return Err(PlanError::order(name, "tonemap").into());
+            };
+            let bloom = match (w.pipeline.bloom, &w.blurred) {
+                (Some(b), Some(bl)) => Some((bl, b.strength.get())),
+                _ => None,
+            };
+            let name = if bloom.is_some() {
+                "tonemap+bloom_composite+encode"
+            } else {
+                "tonemap+encode"
+            };
+            let mut dispatches = Vec::new();
+            if w.pending_resolve {
+                dispatches.push(super::tonemap::resolve(ctx, format, t, &w.stats));
+                w.pending_resolve = false;
+            }
+            dispatches.push(tail(
+                ctx,
+                format,
+                t,
+                bloom,
+                w.pipeline.encoding,
+                &w.stats,
+                &w.hdr,
+                &w.frame,
+            ));
+            Pass { name, dispatches }
+        }
+        _ => return Ok(None),
+    }))
+}
 
 /// [tonemap →] bloom_bright → bloom_downsample, into `low_out`.
 #[allow(clippy::too_many_arguments)]

@@ -3,88 +3,17 @@
 //! reference functions and the pipeline labels (`tonegate.<stage>`).
 
 pub mod bench;
+pub mod config;
 pub mod context;
 pub mod renderer;
 pub mod shaders;
 pub mod stages;
 pub mod timing;
+mod wiring;
 
+pub use config::{EnvFilter, Execution, GpuConfig, HdrFormat, ReductionMethod, F16_MAX};
 pub use context::{AdapterChoice, AdapterReport, GpuContext};
-pub use renderer::{
-    Execution, GpuConfig, GpuFrame, GpuInput, GpuRenderer, GpuStats, ReductionMethod,
-};
-pub use timing::{StageTiming, TimingSummary};
-
-use serde::Serialize;
-
-/// Format of the HDR intermediates.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, serde::Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum HdrFormat {
-    /// Half floats: half the bandwidth; overflows above 65504.
-    Rgba16Float,
-    /// Full floats: the default, exact enough to match the f64 reference.
-    #[default]
-    Rgba32Float,
-}
-
-impl HdrFormat {
-    pub fn wgsl_name(self) -> &'static str {
-        match self {
-            HdrFormat::Rgba16Float => "rgba16float",
-            HdrFormat::Rgba32Float => "rgba32float",
-        }
-    }
-
-    pub fn texture_format(self) -> wgpu::TextureFormat {
-        match self {
-            HdrFormat::Rgba16Float => wgpu::TextureFormat::Rgba16Float,
-            HdrFormat::Rgba32Float => wgpu::TextureFormat::Rgba32Float,
-        }
-    }
-
-    pub fn bytes_per_pixel(self) -> u32 {
-        match self {
-            HdrFormat::Rgba16Float => 8,
-            HdrFormat::Rgba32Float => 16,
-        }
-    }
-}
-
-impl std::str::FromStr for HdrFormat {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "rgba16float" | "f16" => Ok(HdrFormat::Rgba16Float),
-            "rgba32float" | "f32" => Ok(HdrFormat::Rgba32Float),
-            _ => Err(format!(
-                "unknown HDR format {s:?}: use rgba16float (f16) or rgba32float (f32)"
-            )),
-        }
-    }
-}
-
-/// How `sphere` filters the environment.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, serde::Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum EnvFilter {
-    /// Bilinear in the shader from four loads: the reference's arithmetic.
-    #[default]
-    Manual,
-    /// The texture unit's linear filter (needs float32-filterable textures).
-    Hardware,
-}
-
-impl std::str::FromStr for EnvFilter {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "manual" => Ok(EnvFilter::Manual),
-            "hardware" => Ok(EnvFilter::Hardware),
-            _ => Err(format!("unknown filter {s:?}: use manual or hardware")),
-        }
-    }
-}
+pub use renderer::{GpuFrame, GpuInput, GpuRenderer, GpuStats};
 
 #[derive(Debug, thiserror::Error)]
 pub enum GpuError {
@@ -121,6 +50,9 @@ pub enum GpuError {
     /// The device was lost (driver crash or reset).
     #[error("GPU device lost: {0}")]
     DeviceLost(String),
+    /// A plan the renderer cannot execute: a bug in tonegate, reported rather than panicking.
+    #[error(transparent)]
+    Plan(#[from] crate::plan::PlanError),
     /// A wgpu validation error: a bug in tonegate, reported rather than panicking.
     #[error("GPU validation error (a tonegate bug, please report): {0}")]
     Validation(String),

@@ -86,6 +86,58 @@ pub fn hdr_texture(
     })
 }
 
+/// A buffer the host maps to read what the GPU copied into it.
+pub fn read_buffer(ctx: &GpuContext, label: &str, size: u64) -> wgpu::Buffer {
+    ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+/// Uploads `img` (RGB f32) into an RGBA texture of `format`.
+pub fn upload(
+    ctx: &GpuContext,
+    texture: &wgpu::Texture,
+    img: &crate::image::HdrImage,
+    format: HdrFormat,
+) {
+    let bytes: Vec<u8> = match format {
+        HdrFormat::Rgba32Float => {
+            let v: Vec<f32> = img
+                .pixels
+                .iter()
+                .flat_map(|p| [p[0], p[1], p[2], 1.0])
+                .collect();
+            bytemuck::cast_slice(&v).to_vec()
+        }
+        HdrFormat::Rgba16Float => {
+            let v: Vec<u16> = img
+                .pixels
+                .iter()
+                .flat_map(|p| [p[0], p[1], p[2], 1.0].map(|c| half::f16::from_f32(c).to_bits()))
+                .collect();
+            bytemuck::cast_slice(&v).to_vec()
+        }
+    };
+    ctx.queue.write_texture(
+        wgpu::TexelCopyTextureInfo {
+            texture,
+            mip_level: 0,
+            origin: wgpu::Origin3d::ZERO,
+            aspect: wgpu::TextureAspect::All,
+        },
+        &bytes,
+        wgpu::TexelCopyBufferLayout {
+            offset: 0,
+            bytes_per_row: Some(img.width * format.bytes_per_pixel()),
+            rows_per_image: Some(img.height),
+        },
+        texture.size(),
+    );
+}
+
 pub fn storage_buffer(ctx: &GpuContext, label: &str, size: u64) -> wgpu::Buffer {
     ctx.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some(label),

@@ -1,55 +1,106 @@
-//! Per-stage GPU time from timestamp queries, and the statistics of a run.
+//! Per-stage GPU time from timestamp queries: one (begin, end) pair per
+//! pass, in one of `TIMING_SLOTS` slots so frames in flight keep theirs.
 
-use serde::Serialize;
+use super::{GpuContext, GpuError};
+use crate::perf::StageTiming;
 
-/// One stage's time in one frame.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct StageTiming {
-    pub stage: String,
-    pub ms: f64,
+/// Frames in flight whose timestamps can be kept before they are read.
+pub const TIMING_SLOTS: u32 = 32;
+
+/// Timestamp queries: one (begin, end) pair per pass per slot.
+pub struct Queries {
+    set: wgpu::QuerySet,
+    resolve: wgpu::Buffer,
+    read: wgpu::Buffer,
+    /// Byte stride of one slot in the resolve buffer (256-aligned).
+    stride: u64,
+    passes: u32,
 }
 
-/// Median and 95th percentile of one stage over a run.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct TimingSummary {
-    pub name: String,
-    pub median_ms: f64,
-    pub p95_ms: f64,
-}
-
-/// The q-quantile (0..=1) of `values` by linear interpolation between order
-/// statistics (numpy's default); NaN for an empty slice.
-pub fn quantile(values: &[f64], q: f64) -> f64 {
-    if values.is_empty() {
-        return f64::NAN;
-    }
-    let mut v: Vec<f64> = values.to_vec();
-    v.sort_by(f64::total_cmp);
-    let pos = q.clamp(0.0, 1.0) * (v.len() - 1) as f64;
-    let lo = pos.floor() as usize;
-    let hi = pos.ceil() as usize;
-    v[lo] + (v[hi] - v[lo]) * (pos - lo as f64)
-}
-
-/// Median and p95 of each stage across frames, in plan order.
-pub fn summarise(frames: &[Vec<StageTiming>]) -> Vec<TimingSummary> {
-    let Some(first) = frames.first() else {
-        return Vec::new();
-    };
-    first
-        .iter()
-        .map(|s| {
-            let values: Vec<f64> = frames
-                .iter()
-                .filter_map(|f| f.iter().find(|t| t.stage == s.stage).map(|t| t.ms))
-                .collect();
-            TimingSummary {
-                name: s.stage.clone(),
-                median_ms: quantile(&values, 0.5),
-                p95_ms: quantile(&values, 0.95),
-            }
+impl Queries {
+    /// Queries for `passes` passes, or None when the adapter cannot time.
+    pub fn new(ctx: &GpuContext, passes: usize) -> Option<Queries> {
+        if !ctx.adapter.timestamps {
+            return None;
+        }
+        let n = 2 * passes as u32;
+        let stride = (n as u64 * 8).div_ceil(256) * 256;
+        Some(Queries {
+            set: ctx.device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("tonegate.timestamps"),
+                ty: wgpu::QueryType::Timestamp,
+                count: n * TIMING_SLOTS,
+            }),
+            resolve: ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("tonegate.timestamps.resolve"),
+                size: stride * TIMING_SLOTS as u64,
+                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }),
+            read: super::stages::read_buffer(
+                ctx,
+                "tonegate.timestamps.read",
+                stride * TIMING_SLOTS as u64,
+            ),
+            stride,
+            passes: passes as u32,
         })
-        .collect()
+    }
+
+    /// The timestamp writes of pass `pass` in `slot`.
+    pub fn writes(&self, slot: u32, pass: usize) -> wgpu::ComputePassTimestampWrites<'_> {
+        let base = slot % TIMING_SLOTS * 2 * self.passes;
+        wgpu::ComputePassTimestampWrites {
+            query_set: &self.set,
+            beginning_of_pass_write_index: Some(base + 2 * pass as u32),
+            end_of_pass_write_index: Some(base + 2 * pass as u32 + 1),
+        }
+    }
+
+    /// Resolves `slot`'s timestamps into the resolve buffer.
+    pub fn resolve(&self, encoder: &mut wgpu::CommandEncoder, slot: u32) {
+        let n = 2 * self.passes;
+        let s = slot % TIMING_SLOTS;
+        encoder.resolve_query_set(
+            &self.set,
+            s * n..(s + 1) * n,
+            &self.resolve,
+            s as u64 * self.stride,
+        );
+    }
+
+    /// Copies every slot's resolved timestamps where `read` can map them.
+    pub fn copy(&self, encoder: &mut wgpu::CommandEncoder) {
+        encoder.copy_buffer_to_buffer(
+            &self.resolve,
+            0,
+            &self.read,
+            0,
+            self.stride * TIMING_SLOTS as u64,
+        );
+    }
+
+    /// The stage times of the first `slots` slots, passes named by `names`
+    /// (after `copy` ran).
+    pub fn read(
+        &self,
+        ctx: &GpuContext,
+        names: &[&str],
+        slots: u32,
+    ) -> Result<Vec<Vec<StageTiming>>, GpuError> {
+        let bytes = ctx.read_buffer(&self.read)?;
+        let n = 2 * names.len();
+        Ok((0..slots.min(TIMING_SLOTS) as usize)
+            .map(|s| {
+                let at = s * self.stride as usize;
+                let ticks: Vec<u64> = bytes[at..at + n * 8]
+                    .chunks_exact(8)
+                    .map(|c| u64::from_le_bytes(c.try_into().unwrap_or([0; 8])))
+                    .collect();
+                durations(names, &ticks, ctx.timestamp_period)
+            })
+            .collect())
+    }
 }
 
 /// Stage durations from resolved (begin, end) tick pairs.
@@ -70,16 +121,7 @@ pub fn durations(names: &[&str], ticks: &[u64], period_ns: f32) -> Vec<StageTimi
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn quantiles_interpolate_like_numpy() {
-        let v = [4.0, 1.0, 3.0, 2.0];
-        assert_eq!(quantile(&v, 0.5), 2.5);
-        assert_eq!(quantile(&v, 0.0), 1.0);
-        assert_eq!(quantile(&v, 1.0), 4.0);
-        assert!((quantile(&v, 0.95) - 3.85).abs() < 1e-12);
-        assert!(quantile(&[], 0.5).is_nan());
-    }
+    use crate::perf::summarise;
 
     #[test]
     fn durations_scale_ticks_by_the_period() {

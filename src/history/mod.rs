@@ -9,14 +9,16 @@
 //! marks it `aborted` when the process that owned it is gone.
 
 pub mod query;
-pub mod regress;
+mod record;
+mod schema;
 
 pub use query::{RunRow, TradeoffRow, TrendFilter, TrendPoint};
-pub use regress::{find_regressions, Regression};
+pub use record::{CheckRecord, FrameRecord, Regression, SceneRecord, TradeoffRecord};
 
-use crate::suite::SceneResult;
 use rusqlite::{params, Connection, OptionalExtension};
-use serde::Serialize;
+use schema::MIGRATIONS;
+pub use schema::SCHEMA_VERSION;
+use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
@@ -46,124 +48,16 @@ pub enum HistoryError {
     Invalid(String),
 }
 
-/// The schema, one migration per version. Never edit a released migration:
-/// add a new one. `PRAGMA user_version` holds how many have been applied.
-const MIGRATIONS: &[&str] = &[
-    // 1: runs, scene results, per-frame metrics, stage timings, checks,
-    //    regressions and trade-off points.
-    r#"
-    CREATE TABLE runs (
-        id               INTEGER PRIMARY KEY,
-        kind             TEXT NOT NULL CHECK (kind IN ('check', 'tradeoff')),
-        status           TEXT NOT NULL CHECK (status IN ('running', 'passed', 'failed', 'error', 'aborted')),
-        started_at       TEXT NOT NULL,
-        ended_at         TEXT,
-        tonegate_version TEXT NOT NULL,
-        git_commit       TEXT,
-        suite            TEXT,
-        suite_hash       TEXT,
-        adapter          TEXT,
-        backend          TEXT,
-        driver           TEXT,
-        driver_info      TEXT,
-        config           TEXT,
-        host             TEXT NOT NULL,
-        pid              INTEGER NOT NULL,
-        pid_start        TEXT,
-        detail           TEXT,
-        report           TEXT
-    );
-    CREATE INDEX runs_by_adapter ON runs (kind, adapter, id);
-    CREATE TABLE scene_results (
-        run_id  INTEGER NOT NULL REFERENCES runs (id) ON DELETE CASCADE,
-        scene   TEXT NOT NULL,
-        test    TEXT NOT NULL,
-        passed  INTEGER NOT NULL,
-        fps     REAL,
-        frames  INTEGER NOT NULL,
-        result  TEXT NOT NULL,
-        PRIMARY KEY (run_id, scene)
-    );
-    CREATE TABLE frame_metrics (
-        run_id       INTEGER NOT NULL REFERENCES runs (id) ON DELETE CASCADE,
-        scene        TEXT NOT NULL,
-        frame        INTEGER NOT NULL,
-        mse          REAL,
-        rmse         REAL,
-        psnr         REAL,
-        snr          REAL,
-        ssim         REAL,
-        max_abs_diff INTEGER,
-        fraction_over_1lsb REAL,
-        PRIMARY KEY (run_id, scene, frame)
-    );
-    CREATE TABLE stage_timings (
-        run_id    INTEGER NOT NULL REFERENCES runs (id) ON DELETE CASCADE,
-        scene     TEXT NOT NULL,
-        stage     TEXT NOT NULL,
-        median_ms REAL NOT NULL,
-        p95_ms    REAL NOT NULL,
-        PRIMARY KEY (run_id, scene, stage)
-    );
-    CREATE TABLE check_results (
-        run_id  INTEGER NOT NULL REFERENCES runs (id) ON DELETE CASCADE,
-        scene   TEXT NOT NULL,
-        idx     INTEGER NOT NULL,
-        label   TEXT NOT NULL,
-        passed  INTEGER,
-        detail  TEXT NOT NULL,
-        adapter TEXT,
-        set_by  TEXT,
-        PRIMARY KEY (run_id, scene, idx)
-    );
-    CREATE TABLE regressions (
-        run_id  INTEGER NOT NULL REFERENCES runs (id) ON DELETE CASCADE,
-        scene   TEXT NOT NULL,
-        metric  TEXT NOT NULL,
-        value   REAL NOT NULL,
-        median  REAL NOT NULL,
-        mad     REAL NOT NULL,
-        bound   REAL NOT NULL,
-        runs    INTEGER NOT NULL,
-        PRIMARY KEY (run_id, scene, metric)
-    );
-    CREATE TABLE tradeoff_points (
-        run_id  INTEGER NOT NULL REFERENCES runs (id) ON DELETE CASCADE,
-        scene   TEXT NOT NULL,
-        label   TEXT NOT NULL,
-        config  TEXT NOT NULL,
-        ms      REAL NOT NULL,
-        psnr    REAL,
-        ssim    REAL,
-        log_average_rel_error REAL,
-        pareto  INTEGER NOT NULL,
-        PRIMARY KEY (run_id, scene, label)
-    );
-    "#,
-];
-
-/// The schema version this build writes.
-pub const SCHEMA_VERSION: i64 = MIGRATIONS.len() as i64;
-
 /// What a run is.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, utoipa::ToSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum RunKind {
     Check,
     Tradeoff,
 }
 
-impl RunKind {
-    fn as_str(self) -> &'static str {
-        match self {
-            RunKind::Check => "check",
-            RunKind::Tradeoff => "tradeoff",
-        }
-    }
-}
-
 /// How a run ended.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, utoipa::ToSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum RunStatus {
     Running,
@@ -175,17 +69,54 @@ pub enum RunStatus {
     Aborted,
 }
 
-impl RunStatus {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            RunStatus::Running => "running",
-            RunStatus::Passed => "passed",
-            RunStatus::Failed => "failed",
-            RunStatus::Error => "error",
-            RunStatus::Aborted => "aborted",
+/// The words a run kind or status is stored and shown as: the same as its
+/// serde name, so the database, the JSON and the console agree.
+macro_rules! stored_as_words {
+    ($t:ident { $($v:ident => $s:literal),+ $(,)? }) => {
+        impl $t {
+            pub const ALL: &'static [$t] = &[$($t::$v),+];
+
+            pub fn as_str(self) -> &'static str {
+                match self {
+                    $($t::$v => $s),+
+                }
+            }
         }
-    }
+
+        impl std::fmt::Display for $t {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.pad(self.as_str())
+            }
+        }
+
+        impl rusqlite::types::FromSql for $t {
+            fn column_result(v: rusqlite::types::ValueRef<'_>) -> rusqlite::types::FromSqlResult<Self> {
+                let text = v.as_str()?;
+                $t::ALL
+                    .iter()
+                    .copied()
+                    .find(|k| k.as_str() == text)
+                    .ok_or_else(|| {
+                        rusqlite::types::FromSqlError::Other(
+                            format!(concat!("unknown ", stringify!($t), " {:?}"), text).into(),
+                        )
+                    })
+            }
+        }
+    };
 }
+
+stored_as_words!(RunKind {
+    Check => "check",
+    Tradeoff => "tradeoff",
+});
+stored_as_words!(RunStatus {
+    Running => "running",
+    Passed => "passed",
+    Failed => "failed",
+    Error => "error",
+    Aborted => "aborted",
+});
 
 /// What is known about a run when it starts.
 #[derive(Clone, Debug, Default, Serialize)]
@@ -229,7 +160,7 @@ pub fn host_name() -> String {
 
 /// The start time of process `pid` in clock ticks since boot (field 22 of
 /// /proc/PID/stat): with the pid it names one process even after pid reuse.
-fn process_start(pid: u32) -> Option<String> {
+pub(super) fn process_start(pid: u32) -> Option<String> {
     let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
     // The command name (field 2) is in parentheses and may contain spaces.
     let after = &stat[stat.rfind(')')? + 2..];
@@ -263,7 +194,7 @@ pub fn git_commit(dir: &Path) -> Option<String> {
 
 /// Maps a rusqlite error to one that names the file; owned, so it can be used
 /// while a transaction borrows the connection.
-fn sqlite_error(path: PathBuf) -> impl Fn(rusqlite::Error) -> HistoryError {
+pub(super) fn sqlite_error(path: PathBuf) -> impl Fn(rusqlite::Error) -> HistoryError {
     move |source| HistoryError::Sqlite {
         path: path.clone(),
         source,
@@ -413,210 +344,6 @@ impl History {
             }
         }
         Ok(n)
-    }
-
-    /// Inserts a `running` run owned by this process; returns its id.
-    pub fn start_run(&self, kind: RunKind, meta: &RunMeta) -> Result<i64, HistoryError> {
-        let pid = std::process::id();
-        self.conn
-            .execute(
-                "INSERT INTO runs (kind, status, started_at, tonegate_version, git_commit, suite,
-                                   suite_hash, host, pid, pid_start)
-                 VALUES (?1, 'running', ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)",
-                params![
-                    kind.as_str(),
-                    now(),
-                    env!("CARGO_PKG_VERSION"),
-                    meta.git_commit,
-                    meta.suite,
-                    meta.suite_hash,
-                    host_name(),
-                    pid as i64,
-                    process_start(pid),
-                ],
-            )
-            .map_err(|e| self.err(e))?;
-        Ok(self.conn.last_insert_rowid())
-    }
-
-    /// Records the suite's hash once the suite has been read.
-    pub fn set_suite_hash(&self, run: i64, hash: &str) -> Result<(), HistoryError> {
-        self.conn
-            .execute(
-                "UPDATE runs SET suite_hash = ?2 WHERE id = ?1",
-                params![run, hash],
-            )
-            .map_err(|e| self.err(e))?;
-        Ok(())
-    }
-
-    /// Records the adapter (or CPU reference) once it is known.
-    pub fn set_adapter(&self, run: i64, a: &RunAdapter) -> Result<(), HistoryError> {
-        self.conn
-            .execute(
-                "UPDATE runs SET adapter = ?2, backend = ?3, driver = ?4, driver_info = ?5, config = ?6
-                 WHERE id = ?1",
-                params![run, a.name, a.backend, a.driver, a.driver_info, a.config],
-            )
-            .map_err(|e| self.err(e))?;
-        Ok(())
-    }
-
-    /// Records one scene's result, frames, timings and checks in one transaction.
-    pub fn record_scene(&mut self, run: i64, r: &SceneResult) -> Result<(), HistoryError> {
-        let err = sqlite_error(self.path.clone());
-        let json = serde_json::to_string(r).map_err(|e| HistoryError::Invalid(e.to_string()))?;
-        let tx = self.conn.transaction().map_err(&err)?;
-        tx.execute(
-            "INSERT INTO scene_results (run_id, scene, test, passed, fps, frames, result)
-             VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)",
-            params![
-                run,
-                r.scene,
-                serde_json::to_value(r.test)
-                    .ok()
-                    .and_then(|v| v.as_str().map(str::to_owned)),
-                r.passed(),
-                r.fps,
-                r.frames.len() as i64,
-                json
-            ],
-        )
-        .map_err(&err)?;
-        {
-            let mut frame = tx
-                .prepare(
-                    "INSERT INTO frame_metrics (run_id, scene, frame, mse, rmse, psnr, snr, ssim,
-                                                max_abs_diff, fraction_over_1lsb)
-                     VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10)",
-                )
-                .map_err(&err)?;
-            for f in &r.frames {
-                let m = &f.metrics;
-                frame
-                    .execute(params![
-                        run,
-                        r.scene,
-                        f.frame,
-                        m.mse,
-                        m.rmse,
-                        m.psnr,
-                        m.snr,
-                        m.ssim,
-                        m.max_abs_diff,
-                        m.fraction_over_1lsb
-                    ])
-                    .map_err(&err)?;
-            }
-            let mut stage = tx
-                .prepare(
-                    "INSERT INTO stage_timings (run_id, scene, stage, median_ms, p95_ms)
-                     VALUES (?1, ?2, ?3, ?4, ?5)",
-                )
-                .map_err(&err)?;
-            for t in &r.timings {
-                stage
-                    .execute(params![run, r.scene, t.name, t.median_ms, t.p95_ms])
-                    .map_err(&err)?;
-            }
-            let mut check = tx
-                .prepare(
-                    "INSERT INTO check_results (run_id, scene, idx, label, passed, detail, adapter, set_by)
-                     VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)",
-                )
-                .map_err(&err)?;
-            for (i, c) in r.checks.iter().enumerate() {
-                check
-                    .execute(params![
-                        run,
-                        r.scene,
-                        i as i64,
-                        crate::suite::check_label(&c.spec),
-                        c.passed,
-                        c.detail,
-                        c.spec.adapter,
-                        c.spec.set_by
-                    ])
-                    .map_err(&err)?;
-            }
-        }
-        tx.commit().map_err(&err)
-    }
-
-    /// Records the regressions flagged for a run.
-    pub fn record_regressions(
-        &mut self,
-        run: i64,
-        found: &[Regression],
-    ) -> Result<(), HistoryError> {
-        let err = sqlite_error(self.path.clone());
-        let tx = self.conn.transaction().map_err(&err)?;
-        for g in found {
-            tx.execute(
-                "INSERT INTO regressions (run_id, scene, metric, value, median, mad, bound, runs)
-                 VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)",
-                params![
-                    run,
-                    g.scene,
-                    g.metric,
-                    g.value,
-                    g.median,
-                    g.mad,
-                    g.bound,
-                    g.runs as i64
-                ],
-            )
-            .map_err(&err)?;
-        }
-        tx.commit().map_err(&err)
-    }
-
-    /// Records a trade-off sweep's points (every scene's, in one transaction).
-    pub fn record_tradeoff(
-        &mut self,
-        run: i64,
-        points: &[crate::tradeoff::Point],
-    ) -> Result<(), HistoryError> {
-        let err = sqlite_error(self.path.clone());
-        let tx = self.conn.transaction().map_err(&err)?;
-        for p in points {
-            let knobs = serde_json::to_string(&p.knobs).unwrap_or_default();
-            tx.execute(
-                "INSERT INTO tradeoff_points (run_id, scene, label, config, ms, psnr, ssim,
-                                              log_average_rel_error, pareto)
-                 VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)",
-                params![
-                    run,
-                    p.scene,
-                    p.label,
-                    knobs,
-                    p.ms,
-                    p.psnr,
-                    p.ssim,
-                    p.log_average_rel_error,
-                    p.pareto
-                ],
-            )
-            .map_err(&err)?;
-        }
-        tx.commit().map_err(&err)
-    }
-
-    /// Ends a run: its status, an optional message and the full JSON report.
-    pub fn finish_run(
-        &self,
-        run: i64,
-        status: RunStatus,
-        detail: Option<&str>,
-        report: Option<&str>,
-    ) -> Result<(), HistoryError> {
-        self.conn
-            .execute(
-                "UPDATE runs SET status = ?2, ended_at = ?3, detail = ?4, report = ?5 WHERE id = ?1",
-                params![run, status.as_str(), now(), detail, report],
-            )
-            .map_err(|e| self.err(e))?;
-        Ok(())
     }
 
     /// The status of run `id`, if it exists.

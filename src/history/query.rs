@@ -1,6 +1,6 @@
 //! Reading the history: run lists and per-scene metric trends.
 
-use super::{History, HistoryError};
+use super::{History, HistoryError, RunKind, RunStatus};
 use rusqlite::{params, OptionalExtension};
 use serde::Serialize;
 
@@ -8,8 +8,8 @@ use serde::Serialize;
 #[derive(Clone, Debug, Serialize, utoipa::ToSchema)]
 pub struct RunRow {
     pub id: i64,
-    pub kind: String,
-    pub status: String,
+    pub kind: RunKind,
+    pub status: RunStatus,
     pub started_at: String,
     pub ended_at: Option<String>,
     pub tonegate_version: String,
@@ -48,7 +48,7 @@ pub struct TradeoffRow {
 pub struct TrendPoint {
     pub run_id: i64,
     pub started_at: String,
-    pub status: String,
+    pub status: RunStatus,
     pub adapter: Option<String>,
     pub scene: String,
     #[serde(with = "crate::metrics::json::extended_f64")]
@@ -117,7 +117,7 @@ impl History {
     }
 
     /// How many runs there are of each status.
-    pub fn status_counts(&self) -> Result<Vec<(String, i64)>, HistoryError> {
+    pub fn status_counts(&self) -> Result<Vec<(RunStatus, i64)>, HistoryError> {
         let mut stmt = self
             .conn()
             .prepare("SELECT status, COUNT(*) FROM runs GROUP BY status ORDER BY status")

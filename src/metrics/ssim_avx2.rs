@@ -13,8 +13,7 @@
 
 #![cfg(target_arch = "x86_64")]
 
-use super::ssim::RADIUS;
-use super::ssim_kernel::{ssim_formula, VerticalRows, TAPS};
+use super::ssim_kernel::{reflect_padding, ssim_formula, VerticalRows, C1, C2, RADIUS, TAPS};
 use std::arch::x86_64::*;
 
 /// Eight u8 samples at `p` as two vectors of four f64.
@@ -196,8 +195,8 @@ pub(crate) unsafe fn horizontal_ssim(
     }
     let wv: [__m256d; RADIUS + 1] = std::array::from_fn(|k| _mm256_set1_pd(w[k]));
     let two = _mm256_set1_pd(2.0);
-    let c1 = _mm256_set1_pd(super::ssim::C1);
-    let c2 = _mm256_set1_pd(super::ssim::C2);
+    let c1 = _mm256_set1_pd(C1);
+    let c2 = _mm256_set1_pd(C2);
     let mut i = 0;
     while i + 4 <= n {
         // SAFETY: i + 4 <= n, so every window ends by n + 2·RADIUS·channels,
@@ -243,4 +242,24 @@ pub(crate) unsafe fn horizontal_ssim(
             filter(&v.xy),
         );
     }
+}
+
+/// Both passes for one row with the AVX2 + FMA kernel.
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA (checked with `is_x86_feature_detected!`).
+#[target_feature(enable = "avx2,fma")]
+pub(crate) unsafe fn row(
+    w: &[f64; RADIUS + 1],
+    a: &[&[u8]; TAPS],
+    b: &[&[u8]; TAPS],
+    scratch: &mut VerticalRows,
+    channels: usize,
+    s: &mut [f64],
+) {
+    // SAFETY: this function's own contract: AVX2 and FMA are available.
+    unsafe { vertical(w, a, b, scratch, RADIUS * channels) };
+    reflect_padding(scratch, channels);
+    // SAFETY: as above.
+    unsafe { horizontal_ssim(w, scratch, channels, s) };
 }

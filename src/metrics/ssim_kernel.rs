@@ -16,7 +16,15 @@
 //! vectorises for whatever the target baseline is. `ssim_avx2` is the same
 //! computation in intrinsics, chosen at run time where the CPU allows.
 
-use super::ssim::{C1, C2, RADIUS};
+/// Gaussian window radius: scipy's int(truncate·σ + 0.5) with truncate = 3.5
+/// and σ = 1.5 (scikit-image picks truncate = 3.5 to get Wang's 11 taps).
+pub(crate) const RADIUS: usize = 5;
+const SIGMA: f64 = 1.5;
+const DATA_RANGE: f64 = 255.0;
+/// (K1·L)², evaluated as Python evaluates `(K1 * R) ** 2`.
+pub(crate) const C1: f64 = (0.01 * DATA_RANGE) * (0.01 * DATA_RANGE);
+/// (K2·L)².
+pub(crate) const C2: f64 = (0.03 * DATA_RANGE) * (0.03 * DATA_RANGE);
 
 /// The five vertically filtered moments of one row, each padded by `RADIUS`
 /// reflected pixels on both sides so the horizontal pass needs no border case.
@@ -231,27 +239,52 @@ pub(crate) fn row_portable(
     s: &mut [f64],
 ) {
     vertical(w, a, b, scratch, RADIUS * channels);
-    super::ssim::reflect_padding(scratch, channels);
+    reflect_padding(scratch, channels);
     horizontal_ssim(w, scratch, channels, s);
 }
 
-/// Both passes for one row with the AVX2 + FMA kernel.
-///
-/// # Safety
-/// The CPU must support AVX2 and FMA (checked with `is_x86_feature_detected!`).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-pub(crate) unsafe fn row_avx2_fma(
-    w: &[f64; RADIUS + 1],
-    a: &[&[u8]; TAPS],
-    b: &[&[u8]; TAPS],
-    scratch: &mut VerticalRows,
-    channels: usize,
-    s: &mut [f64],
-) {
-    // SAFETY: this function's own contract: AVX2 and FMA are available.
-    unsafe { super::ssim_avx2::vertical(w, a, b, scratch, RADIUS * channels) };
-    super::ssim::reflect_padding(scratch, channels);
-    // SAFETY: as above.
-    unsafe { super::ssim_avx2::horizontal_ssim(w, scratch, channels, s) };
+/// The normalised kernel's centre and one-sided weights, as scipy's
+/// `_gaussian_kernel1d`: exp(−0.5/σ² · x²) over x = −5..=5, divided by the sum.
+pub(crate) fn kernel_weights() -> [f64; RADIUS + 1] {
+    let sigma2 = SIGMA * SIGMA;
+    let phi = |x: i32| libm::exp(-0.5 / sigma2 * f64::from(x * x));
+    let sum: f64 = (-(RADIUS as i32)..=RADIUS as i32).map(phi).sum();
+    std::array::from_fn(|k| phi(k as i32) / sum)
+}
+
+/// scipy's 'reflect' border: index `i` of a line of `n` samples extended by
+/// mirroring about the edges (d c b a | a b c d | d c b a), repeated as often
+/// as needed, so it is defined for lines shorter than the kernel radius too.
+pub(crate) fn reflect_index(i: isize, n: usize) -> usize {
+    let period = 2 * n as isize;
+    let m = i.rem_euclid(period) as usize;
+    if m < n {
+        m
+    } else {
+        2 * n - 1 - m
+    }
+}
+
+/// Fills the `RADIUS` pixels of padding on each side of the five vertical rows
+/// by reflecting their interior.
+pub(crate) fn reflect_padding(rows: &mut VerticalRows, channels: usize) {
+    let width = rows.x.len() / channels - 2 * RADIUS;
+    for row in [
+        &mut rows.x,
+        &mut rows.y,
+        &mut rows.xx,
+        &mut rows.yy,
+        &mut rows.xy,
+    ] {
+        for p in 0..RADIUS {
+            let left_src = RADIUS + reflect_index(p as isize - RADIUS as isize, width);
+            let right_dst = RADIUS + width + p;
+            let right_src = RADIUS + reflect_index((width + p) as isize, width);
+            row.copy_within(left_src * channels..(left_src + 1) * channels, p * channels);
+            row.copy_within(
+                right_src * channels..(right_src + 1) * channels,
+                right_dst * channels,
+            );
+        }
+    }
 }

@@ -15,7 +15,7 @@ pub mod tonemap;
 
 use crate::conventions::{rotation_matrix, Camera};
 use crate::image::{HdrImage, LinearImage, Rgb8Image};
-use crate::plan::{BloomSource, Stage, StagePlan};
+use crate::plan::{BloomSource, PlanError, Stage, StagePlan};
 use crate::scene::{Bloom, Encoding, Grade, Operator, Scene};
 use luminance_stats::LuminanceStats;
 use serde::Serialize;
@@ -72,19 +72,32 @@ pub struct FrameSummary {
     pub tone: ToneParams,
 }
 
-/// Executes the stages of `plan` after `sphere` on `hdr`.
-pub fn run_plan(plan: &StagePlan, hdr: LinearImage, p: &Pipeline) -> FrameOutputs {
+/// Executes the stages of `plan` after `sphere` on `hdr`. A stage whose
+/// input or parameters are missing is a [`PlanError`], as on the GPU.
+pub fn run_plan(
+    plan: &StagePlan,
+    hdr: LinearImage,
+    p: &Pipeline,
+) -> Result<FrameOutputs, PlanError> {
     let (weights, delta) = tonemap::operator_constants(p.operator);
+    let bloom_of = |stage| {
+        p.bloom.ok_or(PlanError::NoParameters {
+            stage,
+            what: "bloom",
+        })
+    };
     let mut stats = LuminanceStats::default();
     let mut tone = None;
-    let mut toned = None;
+    let mut toned: Option<LinearImage> = None;
     let mut bright = None;
     let mut low = None;
     let mut bloom = None;
     let mut display: Option<LinearImage> = None;
     let mut grade_mean = None;
     let mut frame = None;
-    for stage in &plan.stages {
+    for stage in plan.stages() {
+        let name = stage.name();
+        let tonemap_first = || PlanError::order(name, "tonemap");
         match stage {
             Stage::Sphere { .. } => {}
             Stage::LuminanceStats(needs) => {
@@ -98,10 +111,10 @@ pub fn run_plan(plan: &StagePlan, hdr: LinearImage, p: &Pipeline) -> FrameOutput
                 toned = Some(out);
             }
             Stage::BloomBright { source } => {
-                let b = p.bloom.expect("plan has bloom stages only with bloom");
+                let b = bloom_of(name)?;
                 let src = match source {
                     BloomSource::Hdr => &hdr,
-                    BloomSource::Toned => toned.as_ref().expect("tonemap runs before bloom"),
+                    BloomSource::Toned => toned.as_ref().ok_or_else(tonemap_first)?,
                 };
                 let lmax = stats.max.unwrap_or(0.0);
                 bright = Some(bloom_bright::bloom_bright(
@@ -113,18 +126,22 @@ pub fn run_plan(plan: &StagePlan, hdr: LinearImage, p: &Pipeline) -> FrameOutput
                 ));
             }
             Stage::BloomDownsample { factor } => {
-                let src = bright.take().expect("bright pass runs first");
+                let src = bright
+                    .take()
+                    .ok_or(PlanError::order(name, "bloom_bright"))?;
                 low = Some(bloom_downsample::bloom_downsample(&src, *factor));
             }
             Stage::BloomBlur { radius } => {
-                let b = p.bloom.expect("plan has bloom stages only with bloom");
-                let src = low.take().expect("downsample runs first");
+                let b = bloom_of(name)?;
+                let src = low
+                    .take()
+                    .ok_or(PlanError::order(name, "bloom_downsample"))?;
                 bloom = Some(bloom_blur::bloom_blur(&src, *radius, b.sigma.get()));
             }
             Stage::BloomComposite => {
-                let b = p.bloom.expect("plan has bloom stages only with bloom");
-                let base = display.as_ref().expect("tonemap runs first");
-                let blurred = bloom.as_ref().expect("blur runs first");
+                let b = bloom_of(name)?;
+                let base = display.as_ref().ok_or_else(tonemap_first)?;
+                let blurred = bloom.as_ref().ok_or(PlanError::order(name, "bloom_blur"))?;
                 display = Some(bloom_composite::bloom_composite(
                     base,
                     blurred,
@@ -133,34 +150,39 @@ pub fn run_plan(plan: &StagePlan, hdr: LinearImage, p: &Pipeline) -> FrameOutput
             }
             Stage::GradeStats => {
                 grade_mean = Some(grade_stats::grade_stats(
-                    display.as_ref().expect("tonemap runs first"),
+                    display.as_ref().ok_or_else(tonemap_first)?,
                 ));
             }
             Stage::Grade => {
-                let g = p.grade.expect("plan has grade only with a grade");
-                let base = display.as_ref().expect("tonemap runs first");
+                let g = p.grade.ok_or(PlanError::NoParameters {
+                    stage: name,
+                    what: "grade",
+                })?;
+                let base = display.as_ref().ok_or_else(tonemap_first)?;
                 // Without contrast the mean is not used, and not measured.
                 display = Some(grade::grade(base, g, grade_mean.unwrap_or(0.0)));
             }
             Stage::Encode => {
                 frame = Some(encode::encode(
-                    display.as_ref().expect("tonemap runs first"),
+                    display.as_ref().ok_or_else(tonemap_first)?,
                     p.encoding,
                 ));
             }
         }
     }
-    let toned = toned.expect("every plan tone-maps");
-    FrameOutputs {
-        tone: tone.expect("every plan tone-maps"),
+    let (Some(toned), Some(tone)) = (toned, tone) else {
+        return Err(PlanError::order("encode", "tonemap"));
+    };
+    Ok(FrameOutputs {
+        tone,
         display: display.unwrap_or_else(|| toned.clone()),
-        frame: frame.expect("every plan encodes"),
+        frame: frame.ok_or(PlanError::order("the frame", "encode"))?,
         hdr,
         stats,
         toned,
         bloom,
         grade_mean,
-    }
+    })
 }
 
 /// The camera of a scene.
@@ -173,7 +195,12 @@ pub fn scene_camera(scene: &Scene) -> Camera {
 }
 
 /// Renders frame `n` of `scene` over `env` at `spp` samples per pixel.
-pub fn render_frame(scene: &Scene, env: &HdrImage, n: u32, spp: u32) -> FrameOutputs {
+pub fn render_frame(
+    scene: &Scene,
+    env: &HdrImage,
+    n: u32,
+    spp: u32,
+) -> Result<FrameOutputs, PlanError> {
     let plan = StagePlan::for_scene(scene, spp);
     let rotation = rotation_matrix(scene.rotation.axis, scene.angle(n));
     let hdr = sphere::sphere(env, &scene_camera(scene), &rotation, spp);
@@ -181,8 +208,8 @@ pub fn render_frame(scene: &Scene, env: &HdrImage, n: u32, spp: u32) -> FrameOut
 }
 
 /// Tone-maps a flat HDR image (no sphere stage).
-pub fn render_flat(img: &HdrImage, p: &Pipeline) -> (StagePlan, FrameOutputs) {
+pub fn render_flat(img: &HdrImage, p: &Pipeline) -> Result<(StagePlan, FrameOutputs), PlanError> {
     let plan = StagePlan::build(crate::plan::Input::Flat, p.operator, p.bloom, p.grade);
-    let out = run_plan(&plan, img.to_linear(), p);
-    (plan, out)
+    let out = run_plan(&plan, img.to_linear(), p)?;
+    Ok((plan, out))
 }

@@ -3,7 +3,10 @@
 
 use super::error::{ApiError, ErrorBody};
 use super::{AppState, RunSlot};
-use crate::history::{History, HistoryError, RunRow, TradeoffRow, TrendFilter, TrendPoint};
+use crate::gate::StoredArtifacts;
+use crate::history::{
+    History, HistoryError, RunKind, RunRow, RunStatus, TradeoffRow, TrendFilter, TrendPoint,
+};
 use axum::body::Bytes;
 use axum::extract::{Path, RawQuery, State};
 use axum::http::{header, HeaderMap, HeaderValue, StatusCode};
@@ -60,9 +63,9 @@ pub async fn read<T: Send + 'static>(
 #[into_params(parameter_in = Query)]
 pub struct RunsQuery {
     /// passed, failed, error, aborted or running.
-    status: Option<String>,
+    status: Option<RunStatus>,
     /// check or tradeoff.
-    kind: Option<String>,
+    kind: Option<RunKind>,
     /// A substring of the adapter name.
     adapter: Option<String>,
     /// Newest runs returned (default 100, at most 1000).
@@ -85,18 +88,11 @@ pub async fn list_runs(
             "limit: must be 1 to 1000, got {limit}"
         )));
     }
-    if let Some(s) = &q.status {
-        if !["running", "passed", "failed", "error", "aborted"].contains(&s.as_str()) {
-            return Err(ApiError::bad(format!(
-                "status: expected running, passed, failed, error or aborted, got {s:?}"
-            )));
-        }
-    }
     let rows = read(&st, |h| h.runs(100_000)).await?;
     let rows: Vec<RunRow> = rows
         .into_iter()
-        .filter(|r| q.status.as_ref().is_none_or(|s| &r.status == s))
-        .filter(|r| q.kind.as_ref().is_none_or(|k| &r.kind == k))
+        .filter(|r| q.status.is_none_or(|s| r.status == s))
+        .filter(|r| q.kind.is_none_or(|k| r.kind == k))
         .filter(|r| {
             q.adapter
                 .as_ref()
@@ -154,7 +150,7 @@ pub struct RunRequest {
 #[derive(Serialize, ToSchema)]
 pub struct RunStarted {
     pub id: i64,
-    pub status: String,
+    pub status: RunStatus,
     /// Where to follow it.
     pub url: String,
 }
@@ -183,12 +179,12 @@ pub async fn post_run(
         Some(n) => return Err(ApiError::bad(format!("spp: must be 1 to 256, got {n}"))),
     };
     let renderer = match req.renderer.as_deref() {
-        None | Some("gpu") => crate::check::Renderer::Gpu {
+        None | Some("gpu") => crate::gate::Renderer::Gpu {
             adapter: st.adapter.clone(),
             config: st.gpu_config,
             spp,
         },
-        Some("cpu") => crate::check::Renderer::Cpu { spp },
+        Some("cpu") => crate::gate::Renderer::Cpu { spp },
         Some(other) => {
             return Err(ApiError::bad(format!(
                 "renderer: expected gpu or cpu, got {other:?}"
@@ -198,7 +194,7 @@ pub async fn post_run(
     let id = super::start_run(st.clone(), renderer).await?;
     let body = RunStarted {
         id,
-        status: "running".into(),
+        status: RunStatus::Running,
         url: format!("/api/v1/runs/{id}"),
     };
     let mut r = (StatusCode::ACCEPTED, axum::Json(body)).into_response();
@@ -239,19 +235,17 @@ pub async fn get_artifact(
     }
     let report = read(&st, move |h| h.report(id)).await?;
     // Only files the run's report lists are served, from the folder it names.
-    let (dir, listed) = match report
+    let stored = report
         .as_deref()
-        .map(serde_json::from_str::<ReportArtifacts>)
-    {
-        Some(Ok(r)) => (r.artifacts_dir, r.artifacts),
-        _ => (None, Vec::new()),
-    };
+        .and_then(StoredArtifacts::of_report)
+        .unwrap_or_default();
+    let (dir, listed) = (stored.artifacts_dir, stored.artifacts);
     if !listed.iter().any(|a| a == &name) {
         return Err(ApiError::not_found(format!(
             "run {id} has no artifact {name:?}"
         )));
     }
-    let dir = dir.unwrap_or_else(|| crate::check::artifacts_dir_of(&st.db, id));
+    let dir = dir.unwrap_or_else(|| crate::gate::artifacts_dir_of(&st.db, id));
     let path = dir.join(&name);
     let bytes = tokio::fs::read(&path)
         .await
@@ -264,13 +258,6 @@ pub async fn get_artifact(
         bytes,
     )
         .into_response())
-}
-
-#[derive(Deserialize)]
-struct ReportArtifacts {
-    artifacts_dir: Option<std::path::PathBuf>,
-    #[serde(default)]
-    artifacts: Vec<String>,
 }
 
 #[derive(Deserialize, IntoParams)]
@@ -345,7 +332,7 @@ pub async fn tradeoff(
     let id = run_id(&run)?;
     let (row, points) = read(&st, move |h| Ok((h.run(id)?, h.tradeoff_points(id)?))).await?;
     let row = row.ok_or_else(|| ApiError::not_found(format!("there is no run {id}")))?;
-    if row.kind != "tradeoff" {
+    if row.kind != RunKind::Tradeoff {
         return Err(ApiError::not_found(format!(
             "run {id} is a {} run, not a tradeoff run",
             row.kind

@@ -126,7 +126,7 @@ impl AppState {
 /// with its id once the history has it, 409 when one is already going.
 pub async fn start_run(
     st: Arc<AppState>,
-    renderer: crate::check::Renderer,
+    renderer: crate::gate::Renderer,
 ) -> Result<i64, ApiError> {
     {
         let mut slot = st.slot.lock().unwrap_or_else(|p| p.into_inner());
@@ -149,20 +149,19 @@ pub async fn start_run(
         }
     }
     let (tx, rx) = std::sync::mpsc::channel();
-    let opts = crate::check::CheckOptions {
+    let opts = crate::gate::CheckOptions {
         suite: st.suite.clone(),
         renderer,
         artifacts: None,
         db: Some(st.db.clone()),
-        progress: false,
         started: Some(tx),
     };
     let state = st.clone();
     std::thread::Builder::new()
         .name("suite-run".into())
         .spawn(move || {
-            let outcome = crate::check::run(&opts);
-            if let crate::check::CheckOutcome::Error(e, id) = &outcome {
+            let outcome = crate::gate::run(&opts, &crate::progress::Silent);
+            if let crate::gate::CheckOutcome::Error(e, id) = &outcome {
                 tracing::warn!("run {id:?} could not happen: {e}");
             }
             *state.slot.lock().unwrap_or_else(|p| p.into_inner()) = RunSlot::Idle;

@@ -3,6 +3,7 @@
 //! scrape time (the latest finished check run's per-scene numbers).
 
 use super::AppState;
+use crate::history::{RunKind, RunStatus};
 use axum::extract::{MatchedPath, Request, State};
 use axum::http::header;
 use axum::middleware::Next;
@@ -193,13 +194,11 @@ fn history_metrics(h: &crate::history::History) -> Result<String, crate::history
     let mut out = String::new();
     head(&mut out, "runs", "gauge", "Runs in the history, by status.");
     for (status, n) in h.status_counts()? {
-        let _ = writeln!(out, "tonegate_runs{{status=\"{}\"}} {n}", esc(&status));
+        let _ = writeln!(out, "tonegate_runs{{status=\"{status}\"}} {n}");
     }
-    let Some(last) = h
-        .runs(200)?
-        .into_iter()
-        .find(|r| r.kind == "check" && (r.status == "passed" || r.status == "failed"))
-    else {
+    let Some(last) = h.runs(200)?.into_iter().find(|r| {
+        r.kind == RunKind::Check && matches!(r.status, RunStatus::Passed | RunStatus::Failed)
+    }) else {
         return Ok(out);
     };
     let adapter = esc(last.adapter.as_deref().unwrap_or(""));
@@ -219,7 +218,7 @@ fn history_metrics(h: &crate::history::History) -> Result<String, crate::history
     let _ = writeln!(
         out,
         "tonegate_last_run_passed{{adapter=\"{adapter}\"}} {}",
-        u8::from(last.status == "passed")
+        u8::from(last.status == RunStatus::Passed)
     );
     for (metric, name, help) in [
         (

@@ -229,27 +229,33 @@ pub fn run(cases: &[Case], ctx: Option<&GpuContext>) -> StressReport {
                 }
                 Ok((img, note)) => {
                     let t = Instant::now();
-                    let (_, out) = render_flat(img, &pipeline);
+                    let rendered = render_flat(img, &pipeline);
                     cpu.ms = t.elapsed().as_secs_f64() * 1e3;
-                    let (weights, delta) = operator_constants(pipeline.operator);
-                    let independent = independent_stats(&out.hdr, weights, delta);
-                    let err = stats_error(&out.stats, &independent);
-                    cpu.finite = all_finite(&out.hdr)
-                        && all_finite(&out.toned)
-                        && all_finite(&out.display)
-                        && out.bloom.as_ref().is_none_or(all_finite)
-                        && out.tone.scale.is_finite()
-                        && out.tone.key.is_finite();
-                    cpu.max_rel_error = Some(err);
-                    cpu.observed = format!(
-                        "key {:.4}, adaptation {:.4e}{}{}",
-                        out.tone.key,
-                        out.tone.log_average,
-                        if note.is_empty() { "" } else { "; " },
-                        note
-                    );
-                    cpu.passed = !must_refuse("cpu") && cpu.finite && err <= cpu.bound;
-                    cpu_out = Some(out);
+                    match rendered {
+                        // Plans are built valid: a fault is a tonegate bug, shown as a failed row.
+                        Err(e) => cpu.observed = format!("error: {e}"),
+                        Ok((_, out)) => {
+                            let (weights, delta) = operator_constants(pipeline.operator);
+                            let independent = independent_stats(&out.hdr, weights, delta);
+                            let err = stats_error(&out.stats, &independent);
+                            cpu.finite = all_finite(&out.hdr)
+                                && all_finite(&out.toned)
+                                && all_finite(&out.display)
+                                && out.bloom.as_ref().is_none_or(all_finite)
+                                && out.tone.scale.is_finite()
+                                && out.tone.key.is_finite();
+                            cpu.max_rel_error = Some(err);
+                            cpu.observed = format!(
+                                "key {:.4}, adaptation {:.4e}{}{}",
+                                out.tone.key,
+                                out.tone.log_average,
+                                if note.is_empty() { "" } else { "; " },
+                                note
+                            );
+                            cpu.passed = !must_refuse("cpu") && cpu.finite && err <= cpu.bound;
+                            cpu_out = Some(out);
+                        }
+                    }
                 }
             }
             rows.push(cpu);

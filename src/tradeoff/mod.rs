@@ -6,15 +6,11 @@
 
 pub mod svg;
 
-use crate::conventions::rotation_matrix;
-use crate::golden::{scene_environment, GoldenError};
-use crate::gpu::timing::quantile;
-use crate::gpu::{
-    EnvFilter, GpuConfig, GpuContext, GpuError, GpuInput, GpuRenderer, HdrFormat, ReductionMethod,
-};
+use crate::gpu::{EnvFilter, GpuConfig, GpuContext, HdrFormat, ReductionMethod};
+use crate::history::TradeoffRecord;
 use crate::metrics::compare;
-use crate::plan::StagePlan;
-use crate::reference::{render_frame, scene_camera, Pipeline};
+use crate::perf::quantile;
+use crate::render::{scene_environment, RenderError, SceneRenderer};
 use crate::scene::{Factor, Positive, Radius, Scene};
 use serde::Serialize;
 
@@ -126,16 +122,12 @@ impl Default for TradeoffOptions {
 
 #[derive(Debug, thiserror::Error)]
 pub enum TradeoffError {
-    /// The scene's environment could not be made or read.
+    /// The scene's environment could not be made, or the reference failed.
     #[error(transparent)]
-    Golden(#[from] GoldenError),
+    Render(#[from] RenderError),
     /// The GPU failed for one configuration.
-    #[error("scene {scene}, {label}: {source}")]
-    Gpu {
-        scene: String,
-        label: String,
-        source: GpuError,
-    },
+    #[error("{label}: {source}")]
+    Configuration { label: String, source: RenderError },
     /// A knob value the scene cannot take.
     #[error("scene {scene}: {detail}")]
     Invalid { scene: String, detail: String },
@@ -186,10 +178,11 @@ pub fn measure_scene(
         f
     };
     // The reference: the scene as written, at reference_spp, in f64.
-    let references: Vec<_> = frames
+    let reference = SceneRenderer::cpu(scene, &env, opts.reference_spp);
+    let references = frames
         .iter()
-        .map(|&n| render_frame(scene, &env, n, opts.reference_spp))
-        .collect();
+        .map(|&n| reference.frame(n))
+        .collect::<Result<Vec<_>, _>>()?;
     let mut points = Vec::new();
     for knobs in sweep(scene, &opts.spps, &opts.downsamples) {
         let label = knobs.label();
@@ -199,40 +192,25 @@ pub fn measure_scene(
                 detail,
             }
         })?;
-        let gpu = |source| TradeoffError::Gpu {
-            scene: scene.name.clone(),
+        let failed = |source| TradeoffError::Configuration {
             label: label.clone(),
             source,
         };
-        let r = GpuRenderer::new(
-            ctx,
-            StagePlan::for_scene(&variant, knobs.spp),
-            GpuInput::Sphere {
-                env: &env,
-                camera: scene_camera(&variant),
-                spp: knobs.spp,
-            },
-            &Pipeline::of_scene(&variant),
-            GpuConfig {
-                hdr_format: knobs.hdr_format,
-                reduction: knobs.reduction,
-                env_filter: knobs.env_filter,
-                // Fusing changes the time, never the image at f32: the
-                // front is drawn over the staged path's per-stage choices.
-                execution: crate::gpu::Execution::Staged,
-                fault_gain: None,
-            },
-        )
-        .map_err(gpu)?;
+        let config = GpuConfig {
+            hdr_format: knobs.hdr_format,
+            reduction: knobs.reduction,
+            env_filter: knobs.env_filter,
+            // Fusing changes the time, never the image at f32: the
+            // front is drawn over the staged path's per-stage choices.
+            execution: crate::gpu::Execution::Staged,
+            fault_gain: None,
+        };
+        let r = SceneRenderer::gpu(&variant, &env, ctx, config, knobs.spp).map_err(failed)?;
         let mut times = Vec::new();
         let (mut psnr, mut ssim, mut rel): (f64, f64, f64) = (f64::INFINITY, 1.0, 0.0);
         for (&n, reference) in frames.iter().zip(&references) {
-            r.set_rotation(&rotation_matrix(variant.rotation.axis, variant.angle(n)));
-            let out = r.render(true).map_err(gpu)?;
-            let frame = out
-                .frame
-                .ok_or_else(|| gpu(GpuError::Readback("no frame".into())))?;
-            let m = compare(frame.raster(), reference.frame.raster()).map_err(|e| {
+            let out = r.frame(n).map_err(failed)?;
+            let m = compare(out.image.raster(), reference.image.raster()).map_err(|e| {
                 TradeoffError::Invalid {
                     scene: scene.name.clone(),
                     detail: e.to_string(),
@@ -240,8 +218,8 @@ pub fn measure_scene(
             })?;
             psnr = psnr.min(m.psnr);
             ssim = ssim.min(m.ssim);
-            let want = reference.tone.log_average;
-            let got = out.stats.adaptation as f64;
+            let want = reference.adaptation();
+            let got = out.adaptation();
             let e = ((got - want) / want).abs();
             rel = if e.is_nan() {
                 f64::INFINITY
@@ -249,8 +227,8 @@ pub fn measure_scene(
                 rel.max(e)
             };
             for _ in 0..opts.repeats {
-                let t = r.render(false).map_err(gpu)?;
-                times.push(t.timings.iter().map(|s| s.ms).sum::<f64>());
+                let timings = r.stage_times(n).map_err(failed)?;
+                times.push(timings.iter().map(|s| s.ms).sum::<f64>());
             }
         }
         let p = Point {
@@ -268,6 +246,20 @@ pub fn measure_scene(
     }
     mark_pareto(&mut points);
     Ok(points)
+}
+
+/// A measured point as the history stores it.
+pub fn record(p: &Point) -> TradeoffRecord {
+    TradeoffRecord {
+        scene: p.scene.clone(),
+        label: p.label.clone(),
+        config: serde_json::to_string(&p.knobs).unwrap_or_default(),
+        ms: p.ms,
+        psnr: p.psnr,
+        ssim: p.ssim,
+        log_average_rel_error: p.log_average_rel_error,
+        pareto: p.pareto,
+    }
 }
 
 /// One configuration over the whole suite: time summed over scenes, worst

@@ -2,7 +2,7 @@
 //! their numbers and artifacts, stage times, regressions and a summary.
 
 use super::CheckReport;
-use crate::suite::check_label;
+use crate::check::{FrameResult, Summary};
 use std::fmt::Write;
 
 fn fmt_metric(v: f64, decimals: usize) -> String {
@@ -36,17 +36,13 @@ pub fn render(r: &CheckReport) -> String {
             format!("{failed} FAIL")
         };
         let (p, q) = (s.summary("psnr"), s.summary("ssim"));
-        let worst = |m: Option<&crate::suite::Summary>, d: usize| {
+        let worst = |m: Option<&Summary>, d: usize| {
             m.map(|m| format!("{} @{}", fmt_metric(m.worst, d), m.worst_frame))
                 .unwrap_or_default()
         };
-        let mean = |m: Option<&crate::suite::Summary>, d: usize| {
-            m.map(|m| fmt_metric(m.mean, d)).unwrap_or_default()
-        };
-        let test = match s.test {
-            crate::suite::TestKind::Static => "static",
-            crate::suite::TestKind::Moving => "moving",
-        };
+        let mean =
+            |m: Option<&Summary>, d: usize| m.map(|m| fmt_metric(m.mean, d)).unwrap_or_default();
+        let test = s.test.name();
         let _ = writeln!(
             out,
             "{:<36} {:<6} {:>6} {:>18} {:>8} {:>18} {:>8} {:>8}",
@@ -63,9 +59,9 @@ pub fn render(r: &CheckReport) -> String {
             let _ = writeln!(out, "    FAIL {p}");
         }
         for c in s.failed_checks() {
-            let _ = writeln!(out, "    FAIL {}: {}", check_label(&c.spec), c.detail);
+            let _ = writeln!(out, "    FAIL {}: {}", c.spec.label(), c.detail);
         }
-        let with_artifacts: Vec<&crate::suite::FrameResult> = s
+        let with_artifacts: Vec<&FrameResult> = s
             .frames
             .iter()
             .filter(|f| !f.artifacts.is_empty() && !f.failed_checks.is_empty())

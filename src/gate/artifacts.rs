@@ -3,8 +3,8 @@
 //! names its images by adapter the same way).
 
 use super::CheckError;
+use crate::check::KeptFrame;
 use crate::metrics::{diff_heatmap, ssim, ssim_map_image};
-use crate::suite::KeptFrame;
 use std::path::Path;
 
 /// The adapter name as a file-name part: lowercase ASCII letters and digits,

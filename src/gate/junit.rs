@@ -3,15 +3,14 @@
 //! artifact paths; performance regressions in a suite of their own.
 
 use super::CheckReport;
-use crate::suite::check_label;
 use quick_junit::{NonSuccessKind, Report, TestCase, TestCaseStatus, TestSuite};
 
-pub fn render(r: &CheckReport) -> Result<String, String> {
+pub fn render(r: &CheckReport) -> Result<String, quick_junit::SerializeError> {
     let mut report = Report::new("tonegate check");
     for s in &r.scenes {
         let mut suite = TestSuite::new(s.scene.clone());
         suite.add_property(("adapter", r.adapter.name.as_str()));
-        suite.add_property(("test", format!("{:?}", s.test).to_lowercase().as_str()));
+        suite.add_property(("test", s.test.name()));
         let classname = format!("tonegate.{}", s.scene);
         for p in &s.problems {
             let mut status = TestCaseStatus::non_success(NonSuccessKind::Failure);
@@ -48,12 +47,12 @@ pub fn render(r: &CheckReport) -> Result<String, String> {
                         description.push('\n');
                     }
                     st.set_message(c.detail.clone());
-                    st.set_type(crate::suite::check_kind(&c.spec.check));
+                    st.set_type(c.spec.check.kind());
                     st.set_description(description);
                     st
                 }
             };
-            let mut case = TestCase::new(check_label(&c.spec), status);
+            let mut case = TestCase::new(c.spec.label(), status);
             case.set_classname(classname.clone());
             suite.add_test_case(case);
         }
@@ -106,12 +105,12 @@ pub fn render(r: &CheckReport) -> Result<String, String> {
     if !r.regressions.is_empty() {
         report.add_test_suite(perf);
     }
-    report.to_string().map_err(|e| e.to_string())
+    report.to_string()
 }
 
 /// JUnit for a run that could not happen: one errored test case, so CI shows
 /// the reason instead of a missing report.
-pub fn render_error(message: &str) -> Result<String, String> {
+pub fn render_error(message: &str) -> Result<String, quick_junit::SerializeError> {
     let mut report = Report::new("tonegate check");
     let mut suite = TestSuite::new("tonegate");
     let mut status = TestCaseStatus::non_success(NonSuccessKind::Error);
@@ -120,5 +119,5 @@ pub fn render_error(message: &str) -> Result<String, String> {
     case.set_classname("tonegate");
     suite.add_test_case(case);
     report.add_test_suite(suite);
-    report.to_string().map_err(|e| e.to_string())
+    report.to_string()
 }

@@ -2,36 +2,15 @@
 //! the median of the previous runs on the same adapter, with a noise-aware
 //! bound from the median absolute deviation.
 
-use super::query::TrendFilter;
-use super::{History, HistoryError};
-use crate::gpu::timing::quantile;
-use crate::scene::Performance;
-use crate::suite::SceneResult;
-use serde::Serialize;
+use crate::check::SceneResult;
+use crate::history::{History, HistoryError, Regression, TrendFilter};
+use crate::perf::quantile;
+use crate::suite::Performance;
 
 /// 1.4826·MAD estimates the standard deviation of normally distributed noise
 /// (1/Φ⁻¹(3/4)); unlike the standard deviation, one wild run in the window
 /// barely moves it.
 pub const MAD_TO_SIGMA: f64 = 1.4826;
-
-/// A value flagged as slower than its history.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Regression {
-    pub scene: String,
-    /// "fps" or a stage name (median ms).
-    pub metric: String,
-    pub value: f64,
-    /// Median of the previous runs.
-    pub median: f64,
-    /// Median absolute deviation of the previous runs.
-    pub mad: f64,
-    /// The value beyond which this metric is flagged.
-    pub bound: f64,
-    /// How many previous runs the median is over.
-    pub runs: usize,
-    /// value / median.
-    pub ratio: f64,
-}
 
 /// The bound for `value` given its history, and whether it is crossed.
 /// `higher_is_worse` for times, not for FPS. None with too little history.

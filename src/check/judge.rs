@@ -1,0 +1,574 @@
+//! Judging one rendered scene against its goldens: every frame compared with
+//! every metric, the scene's checks evaluated with adapter overrides applied,
+//! seed 002's static and moving summaries.
+
+use super::spec::{not_applied, CheckSpec, Judged, Subject, FRAME_METRICS};
+use crate::image::Rgb8Image;
+use crate::metrics::{compare, fraction_over, Metrics};
+use crate::perf::TimingSummary;
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+#[derive(Debug, thiserror::Error)]
+pub enum JudgeError {
+    /// A frame could not be compared with its golden (sizes differ).
+    #[error("scene {scene}, frame {frame}: {source}")]
+    Metrics {
+        scene: String,
+        frame: u32,
+        source: crate::metrics::MetricsError,
+    },
+    /// The renderer produced another number of frames than there are goldens.
+    #[error("scene {scene}: {rendered} frames rendered for {goldens} goldens")]
+    FrameCount {
+        scene: String,
+        rendered: usize,
+        goldens: usize,
+    },
+}
+
+/// Seed 002's two kinds of test.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TestKind {
+    /// No motion (ω = 0): the checks judge the converged frame, the last one.
+    Static,
+    /// A rotating sequence: the checks judge every frame; the report gives
+    /// best / worst / mean per metric with the frame index (ghosting tables).
+    Moving,
+}
+
+impl TestKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            TestKind::Static => "static",
+            TestKind::Moving => "moving",
+        }
+    }
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct FrameResult {
+    pub frame: u32,
+    pub metrics: Metrics,
+    /// Fraction of pixels off by more than k LSB, for each k a check asks
+    /// about (1 is in `metrics`).
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub fraction_over: BTreeMap<u8, f64>,
+    /// Indices (into the scene's `checks`) of the per-frame checks this frame fails.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub failed_checks: Vec<usize>,
+    /// Artifact files written for this frame (failing frames, and each
+    /// scene's worst judged frame).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub artifacts: Vec<String>,
+}
+
+impl FrameResult {
+    /// The per-frame figure a check's subject reads; None for run-level subjects.
+    fn value(&self, subject: Subject) -> Option<f64> {
+        match subject {
+            Subject::Frame(m) => Some((m.read)(&self.metrics)),
+            Subject::FractionOver(1) => Some(self.metrics.fraction_over_1lsb),
+            Subject::FractionOver(lsb) => {
+                Some(self.fraction_over.get(&lsb).copied().unwrap_or(f64::NAN))
+            }
+            Subject::StageMs(_) | Subject::Fps => None,
+        }
+    }
+
+    /// Whether this frame fails a per-frame check; None for run-level checks.
+    fn fails(&self, spec: &CheckSpec) -> Option<bool> {
+        let rule = spec.check.rule();
+        self.value(rule.subject).map(|v| rule.fails(v))
+    }
+}
+
+/// Best, worst and mean of one metric over a sequence, with frame indices
+/// (seed 002's ghosting tables).
+#[derive(Clone, Debug, Serialize)]
+pub struct Summary {
+    #[serde(with = "crate::metrics::json::extended_f64")]
+    pub best: f64,
+    pub best_frame: u32,
+    #[serde(with = "crate::metrics::json::extended_f64")]
+    pub worst: f64,
+    pub worst_frame: u32,
+    #[serde(with = "crate::metrics::json::extended_f64")]
+    pub mean: f64,
+}
+
+impl Summary {
+    /// `higher_is_better` says which end is best. Ties keep the first frame.
+    pub fn of(values: &[(u32, f64)], higher_is_better: bool) -> Summary {
+        let Some(&first) = values.first() else {
+            return Summary {
+                best: f64::NAN,
+                best_frame: 0,
+                worst: f64::NAN,
+                worst_frame: 0,
+                mean: f64::NAN,
+            };
+        };
+        let mut best = first;
+        let mut worst = first;
+        let mut sum = 0.0;
+        for &(f, v) in values {
+            let (better, worse) = if higher_is_better {
+                (v > best.1, v < worst.1)
+            } else {
+                (v < best.1, v > worst.1)
+            };
+            if better {
+                best = (f, v);
+            }
+            if worse {
+                worst = (f, v);
+            }
+            sum += v;
+        }
+        Summary {
+            best: best.1,
+            best_frame: best.0,
+            worst: worst.1,
+            worst_frame: worst.0,
+            mean: sum / values.len() as f64,
+        }
+    }
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct CheckResult {
+    pub spec: CheckSpec,
+    /// None when the check does not apply here (timing on the CPU, another
+    /// adapter's bound, a generic bound overridden by this adapter's).
+    pub passed: Option<bool>,
+    pub detail: String,
+    /// The frame that decided a per-frame check (its worst).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub frame: Option<u32>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct SceneResult {
+    pub scene: String,
+    pub test: TestKind,
+    pub renderer: String,
+    /// The adapter name checks' `adapter` overrides are matched against.
+    pub adapter: String,
+    pub spp: u32,
+    pub plan: Vec<&'static str>,
+    pub frames: Vec<FrameResult>,
+    /// The frames the checks judged: the last one for a static test, all for a moving one.
+    pub judged_frames: Vec<u32>,
+    /// Best / worst / mean over every frame, per metric (see [`FRAME_METRICS`]).
+    pub summaries: BTreeMap<String, Summary>,
+    pub checks: Vec<CheckResult>,
+    /// Why the scene fails regardless of its checks (for example: none apply).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub problems: Vec<String>,
+    /// Per-stage GPU time (median, p95) over the sequence; empty on the CPU.
+    pub timings: Vec<TimingSummary>,
+    /// Frames per second with readback (GPU only).
+    pub fps: Option<f64>,
+}
+
+impl SceneResult {
+    pub fn passed(&self) -> bool {
+        self.problems.is_empty() && self.checks.iter().all(|c| c.passed != Some(false))
+    }
+
+    pub fn summary(&self, metric: &str) -> Option<&Summary> {
+        self.summaries.get(metric)
+    }
+
+    pub fn failed_checks(&self) -> impl Iterator<Item = &CheckResult> {
+        self.checks.iter().filter(|c| c.passed == Some(false))
+    }
+}
+
+/// Evaluates check `index` of `specs` over the judged `frames`.
+pub fn evaluate(
+    specs: &[CheckSpec],
+    index: usize,
+    frames: &[&FrameResult],
+    on: Judged,
+    timings: &[TimingSummary],
+    fps: Option<f64>,
+) -> CheckResult {
+    let spec = &specs[index];
+    let result = |passed: Option<bool>, detail: String, frame: Option<u32>| CheckResult {
+        spec: spec.clone(),
+        passed,
+        detail,
+        frame,
+    };
+    if let Some(why) = not_applied(specs, index, on) {
+        return result(None, why, None);
+    }
+    let rule = spec.check.rule();
+    match rule.subject {
+        Subject::Frame(_) | Subject::FractionOver(_) => {
+            let lower_is_worse = rule.side == super::spec::Side::Min;
+            // (value, frame) of the worst judged frame; NaN counts as worst.
+            let worst = frames
+                .iter()
+                .filter_map(|r| r.value(rule.subject).map(|v| (v, r.frame)))
+                .reduce(|(w, wf), (v, fr)| {
+                    let worse = v.is_nan() || if lower_is_worse { v < w } else { v > w };
+                    if worse && !w.is_nan() {
+                        (v, fr)
+                    } else {
+                        (w, wf)
+                    }
+                });
+            let show = |v| rule.subject.show(v);
+            match worst {
+                None => result(Some(false), "no frames to judge".into(), None),
+                Some((v, f)) => {
+                    let failed = frames
+                        .iter()
+                        .filter(|fr| fr.fails(spec) == Some(true))
+                        .count();
+                    let detail = if failed == 0 {
+                        format!("worst {} at frame {f}", show(v))
+                    } else {
+                        format!(
+                            "worst {} at frame {f}; {failed} of {} judged frames fail",
+                            show(v),
+                            frames.len()
+                        )
+                    };
+                    result(Some(failed == 0), detail, Some(f))
+                }
+            }
+        }
+        Subject::StageMs(stage) => match timings.iter().find(|t| t.name == stage) {
+            Some(t) => result(
+                Some(!rule.fails(t.median_ms)),
+                format!("{} (max {})", rule.subject.show(t.median_ms), rule.bound),
+                None,
+            ),
+            None => result(None, format!("no GPU timing for stage {stage}"), None),
+        },
+        Subject::Fps => match fps {
+            Some(v) => result(
+                Some(!rule.fails(v)),
+                format!("{} (min {})", rule.subject.show(v), rule.bound),
+                None,
+            ),
+            None => result(None, "FPS is measured on the GPU renderer".into(), None),
+        },
+    }
+}
+
+/// What judging needs to know of a scene.
+#[derive(Clone, Copy, Debug)]
+pub struct Judging<'a> {
+    pub scene: &'a str,
+    pub checks: &'a [CheckSpec],
+    /// The goldens' spp: the spp of checks that name none.
+    pub reference_spp: u32,
+    pub test: TestKind,
+}
+
+/// What a renderer produced for one scene.
+pub struct Rendered {
+    /// Renderer description for reports.
+    pub renderer: String,
+    /// Adapter name the checks' `adapter` overrides are matched against.
+    pub adapter: String,
+    pub spp: u32,
+    /// The stages the frames went through.
+    pub plan: Vec<&'static str>,
+    pub frames: Vec<Rgb8Image>,
+    pub timings: Vec<TimingSummary>,
+    pub fps: Option<f64>,
+}
+
+/// A frame whose images are kept as artifacts (a failing frame, or the
+/// scene's worst judged frame so a passing run can be looked at too).
+pub struct KeptFrame {
+    pub frame: u32,
+    /// Whether the frame failed a check (else it is the scene's worst frame).
+    pub failed: bool,
+    pub actual: Rgb8Image,
+    pub golden: Rgb8Image,
+}
+
+/// Compares the rendered frames with `goldens` (frame n with golden n) and
+/// evaluates the scene's checks. Returns the images of the failing frames and
+/// of the worst judged frame (lowest PSNR), for artifacts.
+pub fn judge(
+    on: Judging,
+    rendered: Rendered,
+    goldens: Vec<Rgb8Image>,
+) -> Result<(SceneResult, Vec<KeptFrame>), JudgeError> {
+    let Rendered {
+        renderer,
+        adapter,
+        spp,
+        plan,
+        frames: images,
+        timings,
+        fps,
+    } = rendered;
+    if images.len() != goldens.len() {
+        return Err(JudgeError::FrameCount {
+            scene: on.scene.into(),
+            rendered: images.len(),
+            goldens: goldens.len(),
+        });
+    }
+    let mut lsbs: Vec<u8> = on
+        .checks
+        .iter()
+        .filter_map(|c| match c.check.rule().subject {
+            Subject::FractionOver(lsb) if lsb != 1 => Some(lsb),
+            _ => None,
+        })
+        .collect();
+    lsbs.sort_unstable();
+    lsbs.dedup();
+    let mut frames = Vec::with_capacity(images.len());
+    for (n, (frame, golden)) in images.iter().zip(&goldens).enumerate() {
+        let n = n as u32;
+        let err = |source| JudgeError::Metrics {
+            scene: on.scene.into(),
+            frame: n,
+            source,
+        };
+        let metrics = compare(frame.raster(), golden.raster()).map_err(err)?;
+        let mut fraction = BTreeMap::new();
+        for &k in &lsbs {
+            fraction.insert(
+                k,
+                fraction_over(frame.raster(), golden.raster(), k).map_err(err)?,
+            );
+        }
+        frames.push(FrameResult {
+            frame: n,
+            metrics,
+            fraction_over: fraction,
+            failed_checks: Vec::new(),
+            artifacts: Vec::new(),
+        });
+    }
+    let judged_frames: Vec<u32> = match on.test {
+        TestKind::Static => frames.last().map(|f| f.frame).into_iter().collect(),
+        TestKind::Moving => frames.iter().map(|f| f.frame).collect(),
+    };
+    let judged: Vec<&FrameResult> = frames
+        .iter()
+        .filter(|f| judged_frames.contains(&f.frame))
+        .collect();
+    let applies_on = Judged {
+        adapter: &adapter,
+        spp,
+        reference_spp: on.reference_spp,
+    };
+    let checks: Vec<CheckResult> = (0..on.checks.len())
+        .map(|i| evaluate(on.checks, i, &judged, applies_on, &timings, fps))
+        .collect();
+    // Per-frame failures of the applied checks, on the judged frames.
+    for f in frames
+        .iter_mut()
+        .filter(|f| judged_frames.contains(&f.frame))
+    {
+        for (i, c) in checks.iter().enumerate() {
+            if c.passed.is_some() && f.fails(&c.spec) == Some(true) {
+                f.failed_checks.push(i);
+            }
+        }
+    }
+    let mut problems = Vec::new();
+    if on.checks.is_empty() {
+        problems.push("the scene has no checks: a scene with no checks fails".into());
+    } else if checks.iter().all(|c| c.passed.is_none()) {
+        problems.push(format!(
+            "none of the scene's {} checks applies to {adapter} at {spp} spp: nothing was judged",
+            checks.len()
+        ));
+    }
+    let summaries = FRAME_METRICS
+        .iter()
+        .map(|m| {
+            let values: Vec<(u32, f64)> = frames
+                .iter()
+                .map(|f| (f.frame, (m.read)(&f.metrics)))
+                .collect();
+            (m.name.to_string(), Summary::of(&values, m.higher_is_better))
+        })
+        .collect();
+    let worst = frames
+        .iter()
+        .filter(|f| judged_frames.contains(&f.frame))
+        .min_by(|a, b| a.metrics.psnr.total_cmp(&b.metrics.psnr))
+        .map(|f| f.frame);
+    let kept: Vec<KeptFrame> = frames
+        .iter()
+        .filter(|f| !f.failed_checks.is_empty() || Some(f.frame) == worst)
+        .map(|f| KeptFrame {
+            frame: f.frame,
+            failed: !f.failed_checks.is_empty(),
+            actual: images[f.frame as usize].clone(),
+            golden: goldens[f.frame as usize].clone(),
+        })
+        .collect();
+    Ok((
+        SceneResult {
+            scene: on.scene.into(),
+            test: on.test,
+            renderer,
+            adapter,
+            spp,
+            plan,
+            frames,
+            judged_frames,
+            summaries,
+            checks,
+            problems,
+            timings,
+            fps,
+        },
+        kept,
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::check::Check;
+
+    fn spec(check: Check, adapter: Option<&str>) -> CheckSpec {
+        CheckSpec {
+            check,
+            adapter: adapter.map(str::to_owned),
+            spp: None,
+            set_by: None,
+        }
+    }
+
+    fn on(adapter: &str) -> Judged<'_> {
+        Judged {
+            adapter,
+            spp: 16,
+            reference_spp: 16,
+        }
+    }
+
+    fn frame(n: u32, psnr: f64) -> FrameResult {
+        FrameResult {
+            frame: n,
+            metrics: Metrics {
+                mse: 0.0,
+                rmse: 0.0,
+                psnr,
+                snr: psnr,
+                ssim: 1.0,
+                max_abs_diff: 0,
+                fraction_over_1lsb: 0.0,
+                ssim_definition: String::new(),
+            },
+            fraction_over: BTreeMap::new(),
+            failed_checks: Vec::new(),
+            artifacts: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn an_adapter_bound_is_evaluated_on_its_adapter_and_the_generic_elsewhere() {
+        let specs = vec![
+            spec(Check::MinPsnr(40.0), None),
+            spec(Check::MinPsnr(30.0), Some("llvmpipe")),
+            spec(Check::MinSsim(0.9), None),
+        ];
+        let frames = [frame(0, 35.0), frame(1, 33.0)];
+        let judged: Vec<&FrameResult> = frames.iter().collect();
+        let on_llvmpipe = evaluate(&specs, 1, &judged, on("llvmpipe"), &[], None);
+        assert_eq!(on_llvmpipe.passed, Some(true));
+        let generic = evaluate(&specs, 0, &judged, on("NVIDIA H100"), &[], None);
+        assert_eq!(generic.passed, Some(false));
+        assert_eq!(generic.frame, Some(1), "{}", generic.detail);
+    }
+
+    #[test]
+    fn a_nan_metric_is_the_worst_and_fails() {
+        let specs = vec![spec(Check::MinPsnr(10.0), None)];
+        let frames = [frame(0, 50.0), frame(1, f64::NAN), frame(2, 40.0)];
+        let judged: Vec<&FrameResult> = frames.iter().collect();
+        let r = evaluate(&specs, 0, &judged, on("x"), &[], None);
+        assert_eq!(r.passed, Some(false));
+        assert_eq!(r.frame, Some(1));
+    }
+
+    #[test]
+    fn run_level_checks_read_the_timings_and_the_fps() {
+        let specs = vec![
+            spec(
+                Check::MaxStageMs {
+                    stage: "sphere".into(),
+                    ms: 5.0,
+                },
+                None,
+            ),
+            spec(Check::MinFps(30.0), None),
+        ];
+        let timings = [TimingSummary {
+            name: "sphere".into(),
+            median_ms: 6.0,
+            p95_ms: 7.0,
+        }];
+        let r = evaluate(&specs, 0, &[], on("x"), &timings, Some(31.0));
+        assert_eq!(r.passed, Some(false), "{}", r.detail);
+        assert_eq!(r.detail, "sphere median 6.000 ms (max 5)");
+        let r = evaluate(&specs, 1, &[], on("x"), &timings, Some(31.0));
+        assert_eq!(r.passed, Some(true), "{}", r.detail);
+        // On the CPU there is neither: the checks do not apply.
+        assert_eq!(evaluate(&specs, 0, &[], on("x"), &[], None).passed, None);
+        assert_eq!(evaluate(&specs, 1, &[], on("x"), &[], None).passed, None);
+    }
+
+    #[test]
+    fn a_fraction_check_reads_its_own_lsb_count() {
+        let mut f = frame(0, 60.0);
+        f.metrics.fraction_over_1lsb = 0.5;
+        f.fraction_over.insert(3, 0.01);
+        let specs = vec![
+            spec(
+                Check::MaxFractionOver {
+                    lsb: 3,
+                    fraction: 0.02,
+                },
+                None,
+            ),
+            spec(
+                Check::MaxFractionOver {
+                    lsb: 1,
+                    fraction: 0.02,
+                },
+                None,
+            ),
+        ];
+        let judged = [&f];
+        let r = evaluate(&specs, 0, &judged, on("x"), &[], None);
+        assert_eq!(r.passed, Some(true), "{}", r.detail);
+        assert_eq!(r.detail, "worst fraction over 3 LSB 0.01000 at frame 0");
+        assert_eq!(
+            evaluate(&specs, 1, &judged, on("x"), &[], None).passed,
+            Some(false)
+        );
+    }
+
+    #[test]
+    fn summaries_name_the_frames_of_the_extremes() {
+        let s = Summary::of(&[(0, 30.0), (1, 50.0), (2, 20.0)], true);
+        assert_eq!(
+            (s.best, s.best_frame, s.worst, s.worst_frame),
+            (50.0, 1, 20.0, 2)
+        );
+        assert!((s.mean - 100.0 / 3.0).abs() < 1e-12);
+        let s = Summary::of(&[(0, 3.0), (1, 1.0)], false);
+        assert_eq!((s.best_frame, s.worst_frame), (1, 0));
+    }
+}

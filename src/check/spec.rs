@@ -1,0 +1,501 @@
+//! The check kinds: how each is written in a scene file, named, labelled,
+//! validated, matched to an adapter and an spp, and which measured figure it
+//! bounds on which side.
+//!
+//! Every kind is described once, by its arm of [`Check::rule`]; the label, the
+//! kind used for adapter overrides, the validation and the evaluation
+//! (`super::judge`) are all derived from that [`Rule`]. The per-frame figures
+//! a rule can read are the rows of [`FRAME_METRICS`].
+
+use crate::conventions::MAX_SPP;
+use crate::metrics::Metrics;
+use serde::{Deserialize, Serialize};
+
+/// A per-frame figure of a frame against its golden: one row of the table
+/// checks, summaries and reports read.
+pub struct FrameMetric {
+    /// The name in reports and summaries (`psnr`).
+    pub name: &'static str,
+    /// What labels call it (`PSNR`).
+    pub title: &'static str,
+    /// Unit after a bound in a label (` dB`).
+    pub bound_unit: &'static str,
+    /// Which end of the scale is good.
+    pub higher_is_better: bool,
+    /// The value of one frame.
+    pub read: fn(&Metrics) -> f64,
+    /// A measured value as details print it (`PSNR 51.23 dB`).
+    pub show: fn(f64) -> String,
+    /// Whether a bound on this figure makes sense (NaN never does).
+    pub valid_bound: fn(f64) -> bool,
+}
+
+fn not_nan(v: f64) -> bool {
+    !v.is_nan()
+}
+
+pub const PSNR: FrameMetric = FrameMetric {
+    name: "psnr",
+    title: "PSNR",
+    bound_unit: " dB",
+    higher_is_better: true,
+    read: |m| m.psnr,
+    show: |v| format!("PSNR {v:.2} dB"),
+    valid_bound: not_nan,
+};
+pub const SSIM: FrameMetric = FrameMetric {
+    name: "ssim",
+    title: "SSIM",
+    bound_unit: "",
+    higher_is_better: true,
+    read: |m| m.ssim,
+    show: |v| format!("SSIM {v:.5}"),
+    valid_bound: |v| v.is_finite() && (-1.0..=1.0).contains(&v),
+};
+pub const SNR: FrameMetric = FrameMetric {
+    name: "snr",
+    title: "SNR",
+    bound_unit: " dB",
+    higher_is_better: true,
+    read: |m| m.snr,
+    show: |v| format!("SNR {v:.2} dB"),
+    valid_bound: not_nan,
+};
+pub const MSE: FrameMetric = FrameMetric {
+    name: "mse",
+    title: "MSE",
+    bound_unit: "",
+    higher_is_better: false,
+    read: |m| m.mse,
+    show: |v| format!("MSE {v:.4}"),
+    valid_bound: not_nan,
+};
+pub const RMSE: FrameMetric = FrameMetric {
+    name: "rmse",
+    title: "RMSE",
+    bound_unit: "",
+    higher_is_better: false,
+    read: |m| m.rmse,
+    show: |v| format!("RMSE {v:.4}"),
+    valid_bound: not_nan,
+};
+pub const MAX_ABS_DIFF: FrameMetric = FrameMetric {
+    name: "max_abs_diff",
+    title: "max abs diff",
+    bound_unit: "",
+    higher_is_better: false,
+    read: |m| f64::from(m.max_abs_diff),
+    show: |v| format!("max abs diff {v} LSB"),
+    valid_bound: |_| true,
+};
+pub const FRACTION_OVER_1LSB: FrameMetric = FrameMetric {
+    name: "fraction_over_1lsb",
+    title: "fraction over 1 LSB",
+    bound_unit: "",
+    higher_is_better: false,
+    read: |m| m.fraction_over_1lsb,
+    show: |v| format!("fraction over 1 LSB {v:.5}"),
+    valid_bound: |v| (0.0..=1.0).contains(&v),
+};
+
+/// Every per-frame figure, in report order: what a sequence is summarised by
+/// (best / worst / mean) and what checks read.
+pub const FRAME_METRICS: [&FrameMetric; 7] = [
+    &PSNR,
+    &SSIM,
+    &SNR,
+    &MSE,
+    &RMSE,
+    &MAX_ABS_DIFF,
+    &FRACTION_OVER_1LSB,
+];
+
+/// A typed comparison the gate applies (against the golden, or to the
+/// run's speed). Written in a scene file as `min_psnr = 50.0`,
+/// `max_fraction_over = { lsb = 1, fraction = 0.001 }`, ….
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Check {
+    MinPsnr(f64),
+    MinSsim(f64),
+    MaxMse(f64),
+    MaxAbsDiff(u8),
+    /// At most `fraction` of pixels may be off by more than `lsb`.
+    MaxFractionOver {
+        lsb: u8,
+        fraction: f64,
+    },
+    MaxStageMs {
+        stage: String,
+        ms: f64,
+    },
+    MinFps(f64),
+}
+
+/// What a rule bounds.
+#[derive(Clone, Copy)]
+pub enum Subject<'a> {
+    /// A metric of every judged frame.
+    Frame(&'static FrameMetric),
+    /// The fraction of a judged frame's pixels off by more than this many LSB.
+    FractionOver(u8),
+    /// A stage's median GPU time over the sequence.
+    StageMs(&'a str),
+    /// Frames per second with readback over the sequence.
+    Fps,
+}
+
+impl Subject<'_> {
+    /// What labels call the bounded figure.
+    fn title(&self) -> String {
+        match self {
+            Subject::Frame(m) => m.title.into(),
+            Subject::FractionOver(lsb) => format!("fraction over {lsb} LSB"),
+            Subject::StageMs(stage) => (*stage).into(),
+            Subject::Fps => "FPS".into(),
+        }
+    }
+
+    /// A measured value as details print it: `PSNR 51.23 dB`.
+    pub fn show(&self, v: f64) -> String {
+        match self {
+            Subject::Frame(m) => (m.show)(v),
+            Subject::FractionOver(lsb) => format!("fraction over {lsb} LSB {v:.5}"),
+            Subject::StageMs(stage) => format!("{stage} median {v:.3} ms"),
+            Subject::Fps => format!("{v:.1} FPS with readback"),
+        }
+    }
+
+    fn bound_unit(&self) -> &'static str {
+        match self {
+            Subject::Frame(m) => m.bound_unit,
+            Subject::StageMs(_) => " ms",
+            Subject::FractionOver(_) | Subject::Fps => "",
+        }
+    }
+
+    fn valid_bound(&self, bound: f64) -> bool {
+        match self {
+            Subject::Frame(m) => (m.valid_bound)(bound),
+            Subject::FractionOver(_) => (0.0..=1.0).contains(&bound),
+            Subject::StageMs(_) => bound.is_finite() && bound > 0.0,
+            Subject::Fps => !bound.is_nan(),
+        }
+    }
+
+    /// Whether the figure is read from each judged frame (rather than from
+    /// the run as a whole).
+    pub fn per_frame(&self) -> bool {
+        matches!(self, Subject::Frame(_) | Subject::FractionOver(_))
+    }
+}
+
+/// Which side of the bound passes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Side {
+    /// The figure must be at least the bound.
+    Min,
+    /// The figure must be at most the bound.
+    Max,
+}
+
+/// A check kind described once: what it bounds, on which side, by how much.
+pub struct Rule<'a> {
+    /// What makes two checks the same kind, so that an adapter's bound
+    /// overrides the generic one: the name, plus the stage or the LSB count.
+    pub kind: String,
+    pub subject: Subject<'a>,
+    pub side: Side,
+    pub bound: f64,
+}
+
+impl Rule<'_> {
+    fn new(kind: impl Into<String>, subject: Subject<'_>, side: Side, bound: f64) -> Rule<'_> {
+        Rule {
+            kind: kind.into(),
+            subject,
+            side,
+            bound,
+        }
+    }
+
+    /// Whether a measured value fails; NaN always fails.
+    pub fn fails(&self, value: f64) -> bool {
+        let order = value.partial_cmp(&self.bound);
+        match self.side {
+            Side::Min => order.is_none_or(|o| o == std::cmp::Ordering::Less),
+            Side::Max => order.is_none_or(|o| o == std::cmp::Ordering::Greater),
+        }
+    }
+
+    /// A short human name, for tables and JUnit test cases: `PSNR >= 50 dB`.
+    pub fn label(&self) -> String {
+        let op = match self.side {
+            Side::Min => ">=",
+            Side::Max => "<=",
+        };
+        format!(
+            "{} {op} {}{}",
+            self.subject.title(),
+            self.bound,
+            self.subject.bound_unit()
+        )
+    }
+}
+
+impl Check {
+    /// The one description of each check kind.
+    pub fn rule(&self) -> Rule<'_> {
+        use Side::{Max, Min};
+        use Subject::Frame;
+        match self {
+            Check::MinPsnr(v) => Rule::new("min_psnr", Frame(&PSNR), Min, *v),
+            Check::MinSsim(v) => Rule::new("min_ssim", Frame(&SSIM), Min, *v),
+            Check::MaxMse(v) => Rule::new("max_mse", Frame(&MSE), Max, *v),
+            Check::MaxAbsDiff(v) => {
+                Rule::new("max_abs_diff", Frame(&MAX_ABS_DIFF), Max, f64::from(*v))
+            }
+            Check::MaxFractionOver { lsb, fraction } => Rule::new(
+                format!("max_fraction_over:{lsb}"),
+                Subject::FractionOver(*lsb),
+                Max,
+                *fraction,
+            ),
+            Check::MaxStageMs { stage, ms } => Rule::new(
+                format!("max_stage_ms:{stage}"),
+                Subject::StageMs(stage),
+                Max,
+                *ms,
+            ),
+            Check::MinFps(v) => Rule::new("min_fps", Subject::Fps, Min, *v),
+        }
+    }
+
+    /// See [`Rule::kind`].
+    pub fn kind(&self) -> String {
+        self.rule().kind
+    }
+}
+
+/// A check as a scene file writes it: the comparison, and where it applies.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CheckSpec {
+    #[serde(flatten)]
+    pub check: Check,
+    /// Adapter name substring this bound applies to; none = every adapter.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub adapter: Option<String>,
+    /// Samples per pixel of the render this bound is for; none = the scene's
+    /// `reference_spp` (the goldens' own, a like-for-like comparison). A
+    /// bound for `spp = 1` measures the plain path's aliasing instead.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spp: Option<u32>,
+    /// Who or what set the bound, e.g. "llvmpipe 1 spp vs 16 spp, 2026-11-21".
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub set_by: Option<String>,
+}
+
+impl CheckSpec {
+    /// The label of [`Rule::label`], with the adapter it is for.
+    pub fn label(&self) -> String {
+        let base = self.check.rule().label();
+        match &self.adapter {
+            Some(a) => format!("{base} [{a}]"),
+            None => base,
+        }
+    }
+
+    /// The rules a parser cannot express: the spp range and a bound that
+    /// makes sense for its figure.
+    pub fn validate(&self) -> Result<(), String> {
+        if let Some(n) = self.spp.filter(|&n| n == 0 || n > MAX_SPP) {
+            return Err(format!("spp must be between 1 and {MAX_SPP}, got {n}"));
+        }
+        let rule = self.check.rule();
+        if !rule.subject.valid_bound(rule.bound) {
+            return Err(format!("bound out of range in {:?}", self.check));
+        }
+        Ok(())
+    }
+
+    fn adapter_matches(&self, adapter: &str) -> bool {
+        self.adapter
+            .as_ref()
+            .map(|a| adapter.to_lowercase().contains(&a.to_lowercase()))
+            .unwrap_or(true)
+    }
+
+    fn spp_matches(&self, on: Judged) -> bool {
+        self.spp.unwrap_or(on.reference_spp) == on.spp
+    }
+}
+
+/// What a check's applicability depends on: the renderer and its spp.
+#[derive(Clone, Copy, Debug)]
+pub struct Judged<'a> {
+    /// The adapter name (`cpu-reference` on the CPU).
+    pub adapter: &'a str,
+    /// Samples per pixel of the render under test.
+    pub spp: u32,
+    /// The scene's `reference_spp`: the spp of checks that name none.
+    pub reference_spp: u32,
+}
+
+/// Why check `index` of `specs` is not applied here, if it is not: a bound
+/// for another spp, another adapter's bound, or a generic bound this
+/// adapter overrides.
+pub fn not_applied(specs: &[CheckSpec], index: usize, on: Judged) -> Option<String> {
+    let spec = &specs[index];
+    if !spec.spp_matches(on) {
+        return Some(format!(
+            "a bound for {} spp; this render has {}",
+            spec.spp.unwrap_or(on.reference_spp),
+            on.spp
+        ));
+    }
+    if !spec.adapter_matches(on.adapter) {
+        return Some(format!(
+            "applies to adapter {:?} only",
+            spec.adapter.as_deref().unwrap_or("")
+        ));
+    }
+    if spec.adapter.is_none() {
+        let kind = spec.check.kind();
+        if let Some(o) = specs.iter().find(|o| {
+            o.adapter.is_some()
+                && o.adapter_matches(on.adapter)
+                && o.spp_matches(on)
+                && o.check.kind() == kind
+        }) {
+            return Some(format!(
+                "overridden by the {:?} bound ({})",
+                o.adapter.as_deref().unwrap_or(""),
+                o.label()
+            ));
+        }
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn spec(check: Check, adapter: Option<&str>) -> CheckSpec {
+        CheckSpec {
+            check,
+            adapter: adapter.map(str::to_owned),
+            spp: None,
+            set_by: None,
+        }
+    }
+
+    fn on(adapter: &str) -> Judged<'_> {
+        Judged {
+            adapter,
+            spp: 16,
+            reference_spp: 16,
+        }
+    }
+
+    #[test]
+    fn labels_and_kinds_name_the_figure_the_side_and_the_bound() {
+        let cases = [
+            (Check::MinPsnr(50.0), "PSNR >= 50 dB", "min_psnr"),
+            (Check::MinSsim(0.99), "SSIM >= 0.99", "min_ssim"),
+            (Check::MaxMse(0.5), "MSE <= 0.5", "max_mse"),
+            (Check::MaxAbsDiff(3), "max abs diff <= 3", "max_abs_diff"),
+            (
+                Check::MaxFractionOver {
+                    lsb: 2,
+                    fraction: 0.001,
+                },
+                "fraction over 2 LSB <= 0.001",
+                "max_fraction_over:2",
+            ),
+            (
+                Check::MaxStageMs {
+                    stage: "sphere".into(),
+                    ms: 4.5,
+                },
+                "sphere <= 4.5 ms",
+                "max_stage_ms:sphere",
+            ),
+            (Check::MinFps(24.0), "FPS >= 24", "min_fps"),
+        ];
+        for (check, label, kind) in cases {
+            assert_eq!(check.rule().label(), label);
+            assert_eq!(check.kind(), kind);
+        }
+        let mut s = spec(Check::MinPsnr(40.0), Some("llvmpipe"));
+        assert_eq!(s.label(), "PSNR >= 40 dB [llvmpipe]");
+        s.adapter = None;
+        assert_eq!(s.label(), "PSNR >= 40 dB");
+    }
+
+    #[test]
+    fn bounds_that_make_no_sense_are_refused() {
+        for bad in [
+            Check::MinSsim(1.5),
+            Check::MinPsnr(f64::NAN),
+            Check::MaxFractionOver {
+                lsb: 1,
+                fraction: 2.0,
+            },
+            Check::MaxStageMs {
+                stage: "sphere".into(),
+                ms: 0.0,
+            },
+        ] {
+            let e = spec(bad.clone(), None).validate().unwrap_err();
+            assert!(e.contains("bound out of range"), "{bad:?}: {e}");
+        }
+        let mut s = spec(Check::MinPsnr(f64::INFINITY), None);
+        assert_eq!(s.validate(), Ok(()));
+        s.spp = Some(0);
+        assert!(s.validate().unwrap_err().contains("spp must be between 1"));
+    }
+
+    #[test]
+    fn nan_fails_either_side_and_the_bound_itself_passes() {
+        let min = Check::MinPsnr(40.0);
+        let max = Check::MaxMse(1.0);
+        assert!(min.rule().fails(f64::NAN) && max.rule().fails(f64::NAN));
+        assert!(!min.rule().fails(40.0) && !max.rule().fails(1.0));
+        assert!(min.rule().fails(39.9) && max.rule().fails(1.1));
+    }
+
+    #[test]
+    fn an_adapter_bound_overrides_the_generic_one_of_its_kind_only() {
+        let specs = vec![
+            spec(Check::MinPsnr(40.0), None),
+            spec(Check::MinPsnr(30.0), Some("llvmpipe")),
+            spec(Check::MinSsim(0.9), None),
+        ];
+        assert!(not_applied(&specs, 0, on("llvmpipe (LLVM 15)"))
+            .unwrap()
+            .contains("overridden"));
+        assert_eq!(not_applied(&specs, 1, on("llvmpipe (LLVM 15)")), None);
+        assert_eq!(not_applied(&specs, 2, on("llvmpipe (LLVM 15)")), None);
+        // On another adapter the generic bound holds and the override does not apply.
+        assert_eq!(not_applied(&specs, 0, on("NVIDIA H100")), None);
+        assert!(not_applied(&specs, 1, on("NVIDIA H100")).is_some());
+    }
+
+    #[test]
+    fn a_bound_applies_at_its_own_spp_only() {
+        let mut plain = spec(Check::MinPsnr(20.0), None);
+        plain.spp = Some(1);
+        let specs = vec![plain, spec(Check::MinPsnr(50.0), None)];
+        let at = |spp| Judged {
+            adapter: "llvmpipe",
+            spp,
+            reference_spp: 16,
+        };
+        assert_eq!(not_applied(&specs, 0, at(1)), None);
+        assert!(not_applied(&specs, 1, at(1)).is_some());
+        assert!(not_applied(&specs, 0, at(16)).is_some());
+        assert_eq!(not_applied(&specs, 1, at(16)), None);
+    }
+}

@@ -1,0 +1,313 @@
+//! The commands on single images and scenes: `tonemap`, `compare`, `plan`,
+//! `render`, `bench` and `env`.
+
+use super::progress::Bar;
+use super::{invalid, write_json, GpuArgs};
+use clap::Args;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use tonegate::error::{Error, Result};
+use tonegate::golden::frame_file;
+use tonegate::gpu::GpuContext;
+use tonegate::progress::Progress;
+use tonegate::render::{scene_environment, FrameDetail, SceneRenderer};
+use tonegate::scene::{Scene, Size, MAX_SPP};
+use tonegate::toning::ToneSettings;
+
+#[derive(Args)]
+pub struct BenchArgs {
+    #[arg(long, default_value = "1920x1080")]
+    pub size: Size,
+    /// Measured frames (after the warm-up).
+    #[arg(long, default_value_t = 60)]
+    pub frames: u32,
+    #[arg(long, default_value_t = 10)]
+    pub warmup: u32,
+    /// Print the report as JSON.
+    #[arg(long)]
+    pub json: bool,
+    #[command(flatten)]
+    pub gpu: GpuArgs,
+}
+
+#[derive(Args)]
+pub struct TonemapArgs {
+    /// Input HDR image.
+    pub input: PathBuf,
+    /// Output: .png (8-bit encoded), .exr / .pfm / .hdr (linear, before encoding).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Tone-map on the GPU instead of the CPU reference.
+    #[arg(long)]
+    pub gpu: bool,
+    #[command(flatten)]
+    pub gpu_options: GpuArgs,
+    #[command(flatten)]
+    pub settings: ToneSettings,
+    /// Set NaN and ±Inf input values to 0 (and count them) instead of refusing the file.
+    #[arg(long)]
+    pub sanitize: bool,
+    /// Largest accepted input, in pixels.
+    #[arg(long, default_value_t = tonegate::io::LoadOptions::default().max_pixels)]
+    pub max_pixels: u64,
+    /// Print a JSON report (load report, plan, statistics, parameters) on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Args)]
+pub struct CompareArgs {
+    /// The image under test.
+    pub a: PathBuf,
+    /// The reference image.
+    pub b: PathBuf,
+    /// Write the per-pixel SSIM map as a greyscale PNG.
+    #[arg(long)]
+    pub ssim_map: Option<PathBuf>,
+    /// Write a heat map of the absolute differences.
+    #[arg(long)]
+    pub diff: Option<PathBuf>,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Args)]
+pub struct PlanArgs {
+    pub scene: PathBuf,
+    /// Samples per pixel of the sphere stage.
+    #[arg(long, default_value_t = 1)]
+    pub spp: u32,
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Args)]
+pub struct RenderArgs {
+    pub scene: PathBuf,
+    /// Output directory for NNN.png frames and frames.json.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Samples per pixel (GPU default 1; CPU default the scene's reference_spp).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Render with the CPU reference instead of the GPU.
+    #[arg(long)]
+    pub cpu: bool,
+    #[command(flatten)]
+    pub gpu: GpuArgs,
+}
+
+#[derive(Args)]
+pub struct EnvArgs {
+    /// sky, interior, night or grid.
+    pub name: Option<String>,
+    #[arg(long, default_value = "1024x512")]
+    pub size: Size,
+    /// Output file (.exr, .pfm, .hdr).
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// List the built-in environments.
+    #[arg(long)]
+    pub list: bool,
+}
+
+pub fn tonemap(a: TonemapArgs) -> Result<ExitCode> {
+    let resolved = a.settings.resolve()?;
+    let opts = tonegate::io::LoadOptions {
+        sanitize: a.sanitize,
+        max_pixels: a.max_pixels,
+    };
+    let (img, load_report) = tonegate::io::load_hdr(&a.input, &opts)?;
+    let ctx = if a.gpu {
+        Some(GpuContext::new(&a.gpu_options.adapter)?)
+    } else {
+        None
+    };
+    let ext = a
+        .output
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    let out = tonegate::toning::tone_map(
+        &img,
+        &resolved.pipeline(),
+        ctx.as_ref().map(|c| (c, a.gpu_options.config())),
+        ext != "png",
+    )?;
+    let plan = &out.plan;
+    match &out.display {
+        Some(display) if ext != "png" => {
+            tonegate::io::write_image_hdr(&a.output, &display.to_hdr())?
+        }
+        _ => tonegate::io::write_png8(&a.output, &out.frame)?,
+    }
+    if a.json {
+        let report = serde_json::json!({
+            "input": load_report,
+            "output": a.output,
+            "renderer": if a.gpu { "gpu" } else { "cpu-reference" },
+            "plan": plan.names(),
+            "stats": out.stats,
+            "tone": out.tone,
+        });
+        write_json(Path::new("-"), "the tone-map report", &report)?;
+    } else {
+        eprintln!(
+            "{}: {}x{}, Y {:.4e} .. {:.4e} ({:.1} stops), key {:.4}, log-average {:.4e} -> {}",
+            a.input.display(),
+            load_report.width,
+            load_report.height,
+            load_report.min_luminance,
+            load_report.max_luminance,
+            load_report.dynamic_range_stops,
+            out.tone.key,
+            out.tone.log_average,
+            a.output.display()
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+pub fn bench(a: BenchArgs) -> Result<ExitCode> {
+    let ctx = GpuContext::new(&a.gpu.adapter)?;
+    if a.frames == 0 {
+        return Err(invalid("--frames must be at least 1"));
+    }
+    let opts = tonegate::gpu::bench::BenchOptions {
+        width: a.size.width,
+        height: a.size.height,
+        frames: a.frames,
+        warmup: a.warmup,
+        config: a.gpu.config(),
+    };
+    let report = tonegate::gpu::bench::run(&ctx, &opts)?;
+    if a.json {
+        write_json(Path::new("-"), "the bench report", &report)?;
+    } else {
+        println!("{report}");
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+pub fn compare(a: CompareArgs) -> Result<ExitCode> {
+    let img_a = tonegate::io::read_png8(&a.a)?;
+    let img_b = tonegate::io::read_png8(&a.b)?;
+    let m = tonegate::metrics::compare(img_a.raster(), img_b.raster())?;
+    if let Some(path) = &a.ssim_map {
+        let s = tonegate::metrics::ssim(img_a.raster(), img_b.raster())?;
+        tonegate::io::write_png8(path, &tonegate::metrics::ssim_map_image(&s))?;
+    }
+    if let Some(path) = &a.diff {
+        tonegate::io::write_png8(
+            path,
+            &tonegate::metrics::diff_heatmap(img_a.raster(), img_b.raster())?,
+        )?;
+    }
+    if a.json {
+        write_json(Path::new("-"), "the metrics", &m)?;
+    } else {
+        println!("{m}");
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+pub fn plan(a: PlanArgs) -> Result<ExitCode> {
+    let scene = Scene::load(&a.scene)?;
+    let plan = tonegate::plan::StagePlan::for_scene(&scene, a.spp);
+    if a.json {
+        write_json(Path::new("-"), "the plan", &plan)?;
+    } else {
+        println!("{} ({} frames, {}):", scene.name, scene.frames, scene.size);
+        print!("{plan}");
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+pub fn render(a: RenderArgs) -> Result<ExitCode> {
+    let scene = Scene::load(&a.scene)?;
+    let spp = a.spp.unwrap_or(if a.cpu { scene.reference_spp } else { 1 });
+    if spp == 0 || spp > MAX_SPP {
+        return Err(invalid(format!(
+            "--spp: must be between 1 and {MAX_SPP}, got {spp}"
+        )));
+    }
+    let env = scene_environment(&scene)?;
+    std::fs::create_dir_all(&a.out).map_err(|source| Error::File {
+        path: a.out.clone(),
+        source,
+    })?;
+    let ctx = if a.cpu {
+        None
+    } else {
+        Some(GpuContext::new(&a.gpu.adapter)?)
+    };
+    let renderer = match &ctx {
+        None => SceneRenderer::cpu(&scene, &env, spp),
+        Some(ctx) => SceneRenderer::gpu(&scene, &env, ctx, a.gpu.config(), spp)?,
+    };
+    let bar = Bar::new();
+    bar.start("render", scene.frames as u64, "frames");
+    let mut frames = Vec::new();
+    for n in 0..scene.frames {
+        let out = renderer.frame(n)?;
+        tonegate::io::write_png8(&a.out.join(frame_file(n)), &out.image)?;
+        frames.push(match &out.detail {
+            FrameDetail::Cpu(s) => serde_json::json!({
+                "frame": n, "file": frame_file(n), "wall_ms": out.wall_ms,
+                "stats": s.stats, "tone": s.tone,
+            }),
+            FrameDetail::Gpu { stats, timings } => serde_json::json!({
+                "frame": n, "file": frame_file(n), "wall_ms": out.wall_ms,
+                "stats": stats, "timings": timings,
+            }),
+        });
+        bar.advance(1);
+    }
+    bar.finish();
+    // The GPU configuration in effect (after any f16 promotion or staged
+    // fallback) and why it differs from the one asked for.
+    let gpu = renderer.gpu_renderer();
+    let renderer_name = match &ctx {
+        Some(ctx) => ctx.adapter.name.clone(),
+        None => "cpu-reference".to_owned(),
+    };
+    let report = serde_json::json!({
+        "scene": scene.name, "renderer": renderer_name,
+        "adapter": ctx.as_ref().map(|c| &c.adapter), "spp": spp,
+        "plan": renderer.plan().names(), "gpu_config": gpu.map(|r| r.config),
+        "notes": gpu.map(|r| r.notes.clone()).unwrap_or_default(), "frames": frames,
+    });
+    write_json(&a.out.join("frames.json"), "frames.json", &report)?;
+    println!(
+        "{} frames of {} rendered on {renderer_name}, written to {}",
+        scene.frames,
+        scene.name,
+        a.out.display()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+pub fn env(a: EnvArgs) -> Result<ExitCode> {
+    use tonegate::env::BuiltinEnv;
+    if a.list || a.name.is_none() {
+        for e in BuiltinEnv::ALL {
+            println!("{:<9} {}", e.name(), e.description());
+        }
+        return Ok(ExitCode::SUCCESS);
+    }
+    let name = a.name.unwrap_or_default();
+    let env = BuiltinEnv::from_name(&name).ok_or_else(|| {
+        invalid(format!(
+            "unknown environment {name:?}; built-in: sky, interior, night, grid"
+        ))
+    })?;
+    let output = a
+        .output
+        .ok_or_else(|| invalid("-o/--output is required to export an environment"))?;
+    let img = env.generate(a.size.width, a.size.height);
+    tonegate::io::write_image_hdr(&output, &img)?;
+    println!("{name} {} -> {}", a.size, output.display());
+    Ok(ExitCode::SUCCESS)
+}

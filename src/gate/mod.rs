@@ -1,0 +1,412 @@
+//! `tonegate check`: the CI gate. Renders every scene of a suite, compares
+//! every frame with its golden, evaluates the typed checks, writes artifacts
+//! for failing frames (and each scene's worst frame), flags performance regressions against the history and
+//! records the run.
+//!
+//! The outcome is one of three, and the exit code says which (see
+//! [`CheckOutcome::exit_code`]): everything passed (0), a check failed (1), or
+//! the run could not happen (2: no adapter, missing golden, bad suite file).
+
+mod artifacts;
+pub mod console;
+pub mod junit;
+pub mod regress;
+
+pub use artifacts::{adapter_slug, artifact_name};
+pub use regress::find_regressions;
+
+use crate::check::{judge, JudgeError, SceneResult};
+use crate::golden::Problem;
+use crate::gpu::{AdapterChoice, GpuConfig, GpuContext};
+use crate::history::{
+    CheckRecord, FrameRecord, History, HistoryError, Regression, RunAdapter, RunKind, RunMeta,
+    RunStatus, SceneRecord,
+};
+use crate::progress::Progress;
+use crate::render::{scene_environment, RenderError, SceneRenderer};
+use crate::scene::SceneError;
+use crate::suite::Performance;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// What renders the suite.
+#[derive(Clone, Debug)]
+pub enum Renderer {
+    /// The GPU pipeline (the thing under test).
+    Gpu {
+        adapter: AdapterChoice,
+        config: GpuConfig,
+        /// Samples per pixel; None renders each scene at its goldens' spp
+        /// (`reference_spp`), so the comparison is like for like.
+        spp: Option<u32>,
+    },
+    /// The CPU reference (to check the gate and the goldens themselves);
+    /// None renders at the goldens' spp.
+    Cpu { spp: Option<u32> },
+}
+
+#[derive(Clone, Debug)]
+pub struct CheckOptions {
+    pub suite: PathBuf,
+    pub renderer: Renderer,
+    /// Where the kept frames' PNGs go (failing frames, each scene's worst frame); None writes none.
+    pub artifacts: Option<PathBuf>,
+    /// The history database; None records nothing (and finds no regressions).
+    pub db: Option<PathBuf>,
+    /// Told the run's id as soon as the history has it (the HTTP API answers
+    /// `POST /runs` with it while the run goes on).
+    pub started: Option<std::sync::mpsc::Sender<i64>>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum CheckError {
+    /// The suite file or one of its scenes is unreadable or invalid.
+    #[error(transparent)]
+    Suite(#[from] SceneError),
+    /// Goldens are missing, stale or tampered with; `golden bless` makes them.
+    #[error("the golden set is incomplete or stale:\n  {}\n(run `tonegate golden bless` after reviewing the change)", .0.iter().map(|p| p.to_string()).collect::<Vec<_>>().join("\n  "))]
+    Goldens(Vec<Problem>),
+    /// The manifest could not be read.
+    #[error(transparent)]
+    Golden(#[from] crate::golden::GoldenError),
+    /// No usable adapter, or the device failed.
+    #[error(transparent)]
+    Gpu(#[from] crate::gpu::GpuError),
+    /// Rendering a scene failed.
+    #[error(transparent)]
+    Render(#[from] RenderError),
+    /// A frame could not be compared with its golden.
+    #[error(transparent)]
+    Judge(#[from] JudgeError),
+    /// The history database could not be opened or written.
+    #[error(transparent)]
+    History(#[from] HistoryError),
+    /// An artifact could not be written.
+    #[error("writing artifact {path}: {detail}")]
+    Artifact { path: PathBuf, detail: String },
+}
+
+/// The adapter (or CPU reference) the run used, as every result records it.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct AdapterInfo {
+    pub name: String,
+    pub backend: String,
+    pub driver: String,
+    pub driver_info: String,
+}
+
+/// Everything a check run found; the console, the JSON and the JUnit are
+/// views of this.
+#[derive(Clone, Debug, Serialize)]
+pub struct CheckReport {
+    /// The run's id in the history (None without a database).
+    pub run_id: Option<i64>,
+    pub db: Option<PathBuf>,
+    pub passed: bool,
+    pub started_at: String,
+    pub ended_at: String,
+    pub tonegate_version: String,
+    pub git_commit: Option<String>,
+    pub suite: PathBuf,
+    pub suite_hash: String,
+    pub adapter: AdapterInfo,
+    /// The renderer's knobs: intermediates, reduction, filter, spp.
+    pub renderer: serde_json::Value,
+    pub ssim_definition: String,
+    pub scenes: Vec<SceneResult>,
+    pub performance: Performance,
+    /// Slowdowns against the history on this adapter (failures only when
+    /// `performance.fail_on_regression`).
+    pub regressions: Vec<Regression>,
+    pub artifacts_dir: Option<PathBuf>,
+    /// Artifact files written, relative to `artifacts_dir`.
+    pub artifacts: Vec<String>,
+    /// The stress suite's table, when the suite asks for it (`stress = true`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stress: Option<crate::stress::StressReport>,
+}
+
+impl CheckReport {
+    pub fn scenes_failed(&self) -> usize {
+        self.scenes.iter().filter(|s| !s.passed()).count()
+    }
+}
+
+/// The artifacts a stored [`CheckReport`] lists, read back from its JSON:
+/// the part of the report the server needs to serve an artifact.
+#[derive(Debug, Default, PartialEq, Deserialize)]
+pub struct StoredArtifacts {
+    pub artifacts_dir: Option<PathBuf>,
+    #[serde(default)]
+    pub artifacts: Vec<String>,
+}
+
+impl StoredArtifacts {
+    /// None when the JSON is not a report.
+    pub fn of_report(json: &str) -> Option<StoredArtifacts> {
+        serde_json::from_str(json).ok()
+    }
+}
+
+/// How a check ended.
+pub enum CheckOutcome {
+    Finished(Box<CheckReport>),
+    /// The run could not happen; the run id in the history when it got that far.
+    Error(CheckError, Option<i64>),
+}
+
+impl CheckOutcome {
+    /// 0 all passed, 1 a check (or a regression the suite fails on) failed,
+    /// 2 the run could not happen.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            CheckOutcome::Finished(r) if r.passed => 0,
+            CheckOutcome::Finished(_) => 1,
+            CheckOutcome::Error(..) => 2,
+        }
+    }
+}
+
+/// Runs the gate and records it in the history (when a database is given):
+/// the run is `running` from the start and ends `passed`, `failed` or `error`.
+pub fn run(opts: &CheckOptions, progress: &dyn Progress) -> CheckOutcome {
+    let mut history = match opts.db.as_deref().map(History::open).transpose() {
+        Ok(h) => h,
+        Err(e) => return CheckOutcome::Error(e.into(), None),
+    };
+    let meta = RunMeta {
+        suite: Some(opts.suite.display().to_string()),
+        suite_hash: None,
+        git_commit: crate::history::git_commit(opts.suite.parent().unwrap_or(Path::new("."))),
+    };
+    let run_id = match history
+        .as_ref()
+        .map(|h| h.start_run(RunKind::Check, &meta))
+        .transpose()
+    {
+        Ok(id) => id,
+        Err(e) => return CheckOutcome::Error(e.into(), None),
+    };
+    if let (Some(tx), Some(id)) = (&opts.started, run_id) {
+        let _ = tx.send(id);
+    }
+    let started_at = crate::history::now();
+    // Without --artifacts, a recorded run keeps its images beside the
+    // database, one folder a run, where the API can serve them.
+    let mut opts = opts.clone();
+    if opts.artifacts.is_none() {
+        if let (Some(db), Some(id)) = (&opts.db, run_id) {
+            opts.artifacts = Some(artifacts_dir_of(db, id));
+        }
+    }
+    let result = run_inner(&opts, &meta, &mut history, run_id, started_at, progress);
+    if let (Some(h), Some(id)) = (&history, run_id) {
+        let finished = match &result {
+            Ok(report) => {
+                let json = serde_json::to_string(report).ok();
+                let status = if report.passed {
+                    RunStatus::Passed
+                } else {
+                    RunStatus::Failed
+                };
+                h.finish_run(id, status, None, json.as_deref())
+            }
+            Err(e) => h.finish_run(id, RunStatus::Error, Some(&e.to_string()), None),
+        };
+        if let Err(e) = finished {
+            return CheckOutcome::Error(e.into(), run_id);
+        }
+    }
+    match result {
+        Ok(report) => CheckOutcome::Finished(Box::new(report)),
+        Err(e) => CheckOutcome::Error(e, run_id),
+    }
+}
+
+fn spp_json(spp: Option<u32>) -> serde_json::Value {
+    match spp {
+        Some(n) => n.into(),
+        None => "reference_spp".into(),
+    }
+}
+
+/// Where a recorded run's artifacts go by default: `<db folder>/artifacts/run-<id>`.
+pub fn artifacts_dir_of(db: &Path, run: i64) -> PathBuf {
+    db.parent()
+        .unwrap_or(Path::new("."))
+        .join("artifacts")
+        .join(format!("run-{run}"))
+}
+
+fn run_inner(
+    opts: &CheckOptions,
+    meta: &RunMeta,
+    history: &mut Option<History>,
+    run_id: Option<i64>,
+    started_at: String,
+    progress: &dyn Progress,
+) -> Result<CheckReport, CheckError> {
+    let suite = crate::suite::load_suite_file(&opts.suite)?;
+    if let (Some(h), Some(id)) = (history.as_ref(), run_id) {
+        h.set_suite_hash(id, &suite.hash)?;
+    }
+    let root = opts.suite.parent().unwrap_or(Path::new(".")).to_owned();
+    let problems = crate::golden::check_manifest(&root, &suite.scenes)?;
+    if !problems.is_empty() {
+        return Err(CheckError::Goldens(problems));
+    }
+    let (ctx, adapter, renderer_json) = match &opts.renderer {
+        Renderer::Gpu {
+            adapter,
+            config,
+            spp,
+        } => {
+            let ctx = GpuContext::new(adapter)?;
+            let a = &ctx.adapter;
+            let info = AdapterInfo {
+                name: a.name.clone(),
+                backend: a.backend.clone(),
+                driver: a.driver.clone(),
+                driver_info: a.driver_info.clone(),
+            };
+            let mut json = serde_json::to_value(config).unwrap_or_default();
+            if let Some(o) = json.as_object_mut() {
+                o.insert("spp".into(), spp_json(*spp));
+            }
+            (Some((ctx, *config)), info, json)
+        }
+        Renderer::Cpu { spp } => (
+            None,
+            AdapterInfo {
+                name: "cpu-reference".into(),
+                backend: "cpu".into(),
+                driver: "tonegate".into(),
+                driver_info: format!("reference version {}", crate::reference::REFERENCE_VERSION),
+            },
+            serde_json::json!({ "spp": spp_json(*spp) }),
+        ),
+    };
+    if let (Some(h), Some(id)) = (history.as_ref(), run_id) {
+        h.set_adapter(
+            id,
+            &RunAdapter {
+                name: adapter.name.clone(),
+                backend: adapter.backend.clone(),
+                driver: adapter.driver.clone(),
+                driver_info: adapter.driver_info.clone(),
+                config: renderer_json.to_string(),
+            },
+        )?;
+    }
+    let total: u64 = suite.scenes.iter().map(|s| s.frames as u64).sum();
+    progress.start("check", total, "frames");
+    let slug = adapter_slug(&adapter.name);
+    let mut scenes = Vec::with_capacity(suite.scenes.len());
+    let mut written = Vec::new();
+    for scene in &suite.scenes {
+        progress.working_on(&scene.name);
+        let spp = match opts.renderer {
+            Renderer::Cpu { spp } | Renderer::Gpu { spp, .. } => spp.unwrap_or(scene.reference_spp),
+        };
+        let env = scene_environment(scene)?;
+        let renderer = match &ctx {
+            Some((ctx, config)) => SceneRenderer::gpu(scene, &env, ctx, *config, spp)?,
+            None => SceneRenderer::cpu(scene, &env, spp),
+        };
+        let rendered = renderer.sequence(|_| progress.advance(1))?;
+        let goldens = (0..scene.frames)
+            .map(|n| crate::golden::read_frame(&root, &scene.name, n))
+            .collect::<Result<Vec<_>, _>>()?;
+        let (mut result, kept) = judge(scene.judging(), rendered, goldens)?;
+        if let Some(dir) = &opts.artifacts {
+            for f in &kept {
+                let names = artifacts::write_frame(dir, &scene.name, &slug, f)?;
+                if let Some(fr) = result.frames.iter_mut().find(|r| r.frame == f.frame) {
+                    fr.artifacts = names.clone();
+                }
+                written.extend(names);
+            }
+        }
+        if let (Some(h), Some(id)) = (history.as_mut(), run_id) {
+            h.record_scene(id, &scene_record(&result)?)?;
+        }
+        scenes.push(result);
+    }
+    progress.finish();
+    let regressions = match (history.as_mut(), run_id, &ctx) {
+        (Some(h), Some(id), Some(_)) => {
+            let found = find_regressions(
+                h,
+                id,
+                &adapter.name,
+                &renderer_json.to_string(),
+                &scenes,
+                &suite.performance,
+            )?;
+            h.record_regressions(id, &found)?;
+            found
+        }
+        _ => Vec::new(),
+    };
+    let stress = suite.stress.then(|| {
+        crate::stress::run(
+            &crate::stress::cases::all(true),
+            ctx.as_ref().map(|(c, _)| c),
+        )
+    });
+    let passed = scenes.iter().all(|s| s.passed())
+        && (regressions.is_empty() || !suite.performance.fail_on_regression)
+        && stress.as_ref().is_none_or(|s| s.passed);
+    Ok(CheckReport {
+        run_id,
+        db: opts.db.clone(),
+        passed,
+        started_at,
+        ended_at: crate::history::now(),
+        tonegate_version: env!("CARGO_PKG_VERSION").into(),
+        git_commit: meta.git_commit.clone(),
+        suite: opts.suite.clone(),
+        suite_hash: suite.hash,
+        adapter,
+        renderer: renderer_json,
+        ssim_definition: crate::metrics::SSIM_DEFINITION.into(),
+        scenes,
+        performance: suite.performance,
+        regressions,
+        artifacts_dir: opts.artifacts.clone(),
+        artifacts: written,
+        stress,
+    })
+}
+
+/// A scene's result as the history stores it.
+pub fn scene_record(r: &SceneResult) -> Result<SceneRecord, HistoryError> {
+    let result_json = serde_json::to_string(r).map_err(|e| HistoryError::Invalid(e.to_string()))?;
+    Ok(SceneRecord {
+        scene: r.scene.clone(),
+        test: r.test.name().into(),
+        passed: r.passed(),
+        fps: r.fps,
+        frames: r
+            .frames
+            .iter()
+            .map(|f| FrameRecord {
+                frame: f.frame,
+                metrics: f.metrics.clone(),
+            })
+            .collect(),
+        timings: r.timings.clone(),
+        checks: r
+            .checks
+            .iter()
+            .map(|c| CheckRecord {
+                label: c.spec.label(),
+                passed: c.passed,
+                detail: c.detail.clone(),
+                adapter: c.spec.adapter.clone(),
+                set_by: c.spec.set_by.clone(),
+            })
+            .collect(),
+        result_json,
+    })
+}

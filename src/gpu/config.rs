@@ -1,0 +1,129 @@
+//! The GPU path's knobs: each has serde names (the words the command line,
+//! the API and the reports use), and the rule for what actually runs.
+
+use crate::plan::{Stage, StagePlan};
+use serde::{Deserialize, Serialize};
+
+/// The largest finite value f16 (rgba16float) can hold.
+pub const F16_MAX: f32 = 65504.0;
+
+/// Format of the HDR intermediates.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum HdrFormat {
+    /// Half floats: half the bandwidth; overflows above 65504.
+    #[serde(alias = "rgba16float", alias = "f16")]
+    Rgba16Float,
+    /// Full floats: the default, exact enough to match the f64 reference.
+    #[default]
+    #[serde(alias = "rgba32float", alias = "f32")]
+    Rgba32Float,
+}
+
+impl HdrFormat {
+    pub fn wgsl_name(self) -> &'static str {
+        match self {
+            HdrFormat::Rgba16Float => "rgba16float",
+            HdrFormat::Rgba32Float => "rgba32float",
+        }
+    }
+
+    pub fn texture_format(self) -> wgpu::TextureFormat {
+        match self {
+            HdrFormat::Rgba16Float => wgpu::TextureFormat::Rgba16Float,
+            HdrFormat::Rgba32Float => wgpu::TextureFormat::Rgba32Float,
+        }
+    }
+
+    pub fn bytes_per_pixel(self) -> u32 {
+        match self {
+            HdrFormat::Rgba16Float => 8,
+            HdrFormat::Rgba32Float => 16,
+        }
+    }
+}
+
+/// How `sphere` filters the environment.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EnvFilter {
+    /// Bilinear in the shader from four loads: the reference's arithmetic.
+    #[default]
+    Manual,
+    /// The texture unit's linear filter (needs float32-filterable textures).
+    Hardware,
+}
+
+/// How `luminance_stats` reduces the frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ReductionMethod {
+    /// Seed 001: one pass of barrier-free 16×16 block partials, one combine.
+    #[default]
+    #[serde(alias = "block")]
+    BlockPartials,
+    /// Seed 000: log₂ passes of 2×2 downsampling.
+    #[serde(alias = "pingpong")]
+    PingPong,
+}
+
+/// How the plan's stages map onto kernels.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Execution {
+    /// One kernel per stage: every stage timed and readable on its own.
+    #[default]
+    Staged,
+    /// The display-referred stages merged (shaders/fused.wgsl): tonemap,
+    /// bloom_composite and encode in one kernel; bloom_bright and
+    /// bloom_downsample in another. Same per-pixel functions in the same
+    /// order, fewer full-frame stores and loads. Timed per kernel; the
+    /// merged stages' outputs cannot be read back. Plans with a grade run
+    /// staged (the grade needs the whole frame's mean first); `notes` says so.
+    Fused,
+}
+
+/// The knobs of the GPU path that trade accuracy for speed.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct GpuConfig {
+    pub hdr_format: HdrFormat,
+    pub reduction: ReductionMethod,
+    pub env_filter: EnvFilter,
+    pub execution: Execution,
+    /// Fault injection: multiply the tone-mapped colour by this gain, a
+    /// deliberately wrong tone mapper that proves the gate catches one
+    /// (`check --fault-gain 1.02`). None in every real run.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fault_gain: Option<f32>,
+}
+
+impl GpuConfig {
+    /// What runs for `plan` on an input whose largest component is
+    /// `input_max`, and why it differs from `self` (the renderer's notes).
+    pub fn in_effect(self, input_max: f32, plan: &StagePlan) -> (GpuConfig, Vec<String>) {
+        let mut config = self;
+        let mut notes = Vec::new();
+        // f16 overflow: every HDR intermediate before `tonemap` is a filtered
+        // or averaged copy of the input, so none exceeds the input's largest
+        // component. Past f16's 65504 the f16 path would store +Inf, so it is
+        // promoted to f32 here and the promotion reported.
+        if config.hdr_format == HdrFormat::Rgba16Float && input_max > F16_MAX {
+            notes.push(format!(
+                "rgba16float intermediates promoted to rgba32float: the input reaches {input_max:.4e}, beyond f16's largest value {F16_MAX}"
+            ));
+            config.hdr_format = HdrFormat::Rgba32Float;
+        }
+        if config.execution == Execution::Fused
+            && plan
+                .stages()
+                .iter()
+                .any(|s| matches!(s, Stage::Grade | Stage::GradeStats))
+        {
+            notes.push(
+                "executed staged: fused execution covers plans without a grade (the grade needs the whole frame's mean first)".into(),
+            );
+            config.execution = Execution::Staged;
+        }
+        (config, notes)
+    }
+}

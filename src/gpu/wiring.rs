@@ -1,0 +1,211 @@
+//! Wiring a plan's stages into passes, in plan order: which texture or
+//! buffer each stage reads, which it writes, and which outputs can be read
+//! back. Fused execution (`super::fused`) takes over the stages it merges and
+//! leaves the rest to [`Wiring::staged`].
+
+use super::sphere::Environment;
+use super::stages::{hdr_texture, shared_buffer, Dispatch};
+use super::tonemap::ToneParams;
+use super::{GpuContext, GpuError, HdrFormat};
+use crate::plan::{BloomSource, PlanError, Stage};
+use crate::reference::bloom_downsample::downsampled_size;
+use crate::reference::Pipeline;
+use crate::scene::Bloom;
+
+/// One compute pass: a stage (or merged stages) and its dispatches.
+pub struct Pass {
+    pub name: &'static str,
+    pub dispatches: Vec<Dispatch>,
+}
+
+impl Pass {
+    /// A stage that runs inside another stage's pass.
+    pub fn merged(name: &'static str) -> Pass {
+        Pass {
+            name,
+            dispatches: Vec::new(),
+        }
+    }
+}
+
+/// The frame's resources while its stages are wired.
+pub struct Wiring<'a, 'p> {
+    pub ctx: &'a GpuContext,
+    pub format: HdrFormat,
+    pub width: u32,
+    pub height: u32,
+    pub pipeline: &'p Pipeline<'p>,
+    pub reduction: super::ReductionMethod,
+    /// Fault injection: a gain on the tone-mapped colour (`check --fault-gain`).
+    pub fault_gain: Option<f32>,
+    /// The operator's luminance weights and δ.
+    pub weights: [f64; 3],
+    pub delta: f64,
+    /// The HDR frame: `sphere`'s output, or the uploaded flat image.
+    pub hdr: wgpu::Texture,
+    /// `luminance_stats`'s output and the resolved operator parameters.
+    pub stats: wgpu::Buffer,
+    /// `encode`'s packed 8-bit frame.
+    pub frame: wgpu::Buffer,
+    /// The environment and the frame uniforms `sphere` reads.
+    pub environment: Option<(Environment, wgpu::Buffer)>,
+    /// Stage outputs that can be read back: (stage name, texture).
+    pub outputs: Vec<(&'static str, wgpu::Texture)>,
+    /// The texture the next display-referred stage reads.
+    pub display: Option<wgpu::Texture>,
+    pub toned: Option<wgpu::Texture>,
+    pub bright: Option<wgpu::Texture>,
+    pub low: Option<wgpu::Texture>,
+    pub blurred: Option<wgpu::Texture>,
+    pub grade_mean: Option<wgpu::Buffer>,
+    /// Fused execution: the operator's parameters for the merged kernels,
+    /// whether their resolve step still has to run, and the bright pass's source.
+    pub tone: Option<ToneParams>,
+    pub pending_resolve: bool,
+    pub bright_source: Option<BloomSource>,
+}
+
+impl<'p> Wiring<'_, 'p> {
+    /// The bloom's parameters, which every bloom stage needs.
+    pub fn bloom(&self, stage: &'static str) -> Result<&'p Bloom, PlanError> {
+        self.pipeline.bloom.ok_or(PlanError::NoParameters {
+            stage,
+            what: "bloom",
+        })
+    }
+
+    fn texture(&self, stage: &'static str, width: u32, height: u32) -> wgpu::Texture {
+        hdr_texture(
+            self.ctx,
+            &format!("tonegate.{stage}"),
+            width,
+            height,
+            self.format,
+        )
+    }
+
+    /// Wires `stage` as its own pass (the staged execution).
+    pub fn staged(&mut self, stage: &Stage) -> Result<Pass, GpuError> {
+        let name = stage.name();
+        let (ctx, format) = (self.ctx, self.format);
+        let order = |needs| PlanError::order(name, needs);
+        let dispatches = match stage {
+            Stage::Sphere { spp } => {
+                let (env, uniforms) = self.environment.as_ref().ok_or(PlanError::NoParameters {
+                    stage: name,
+                    what: "environment",
+                })?;
+                self.outputs.push((name, self.hdr.clone()));
+                vec![super::sphere::sphere(
+                    ctx, format, *spp, uniforms, env, &self.hdr,
+                )]
+            }
+            Stage::LuminanceStats(needs) => super::luminance_stats::luminance_stats(
+                ctx,
+                format,
+                self.reduction,
+                *needs,
+                self.weights,
+                self.delta,
+                &self.hdr,
+                &self.stats,
+            ),
+            Stage::Tonemap { .. } => {
+                let out = self.texture(name, self.width, self.height);
+                let params = ToneParams::new(ctx, self.pipeline.operator, self.fault_gain);
+                let d = super::tonemap::tonemap(ctx, format, &params, &self.stats, &self.hdr, &out);
+                self.outputs.push((name, out.clone()));
+                self.toned = Some(out.clone());
+                self.display = Some(out);
+                d
+            }
+            Stage::BloomBright { source } => {
+                let b = self.bloom(name)?;
+                let src = match source {
+                    BloomSource::Hdr => self.hdr.clone(),
+                    BloomSource::Toned => self.toned.clone().ok_or(order("tonemap"))?,
+                };
+                let out = self.texture(name, self.width, self.height);
+                let d = super::bloom_bright::bloom_bright(
+                    ctx,
+                    format,
+                    b,
+                    self.weights,
+                    &self.stats,
+                    &src,
+                    &out,
+                );
+                self.bright = Some(out);
+                vec![d]
+            }
+            Stage::BloomDownsample { factor } => {
+                let (lw, lh) = downsampled_size(self.width, self.height, *factor);
+                let out = self.texture(name, lw, lh);
+                let src = self.bright.take().ok_or(order("bloom_bright"))?;
+                let d = super::bloom_downsample::bloom_downsample(ctx, format, *factor, &src, &out);
+                self.low = Some(out);
+                vec![d]
+            }
+            Stage::BloomBlur { radius } => {
+                let sigma = self.bloom(name)?.sigma.get();
+                let src = self.low.take().ok_or(order("bloom_downsample"))?;
+                let (w, h) = (src.width(), src.height());
+                let tmp = hdr_texture(ctx, "tonegate.bloom_blur.horizontal", w, h, format);
+                let out = self.texture(name, w, h);
+                let d =
+                    super::bloom_blur::bloom_blur(ctx, format, *radius, sigma, &src, &tmp, &out);
+                self.outputs.push((name, out.clone()));
+                self.blurred = Some(out);
+                d
+            }
+            Stage::BloomComposite => {
+                let strength = self.bloom(name)?.strength.get();
+                let base = self.display.take().ok_or(order("tonemap"))?;
+                let blurred = self.blurred.clone().ok_or(order("bloom_blur"))?;
+                let out = self.texture(name, self.width, self.height);
+                let d = super::bloom_composite::bloom_composite(
+                    ctx, format, strength, &base, &blurred, &out,
+                );
+                self.outputs.push((name, out.clone()));
+                self.display = Some(out);
+                vec![d]
+            }
+            Stage::GradeStats => {
+                let base = self.display.clone().ok_or(order("tonemap"))?;
+                let mean = shared_buffer(ctx, "tonegate.grade_stats", 4);
+                let d = super::grade_stats::grade_stats(ctx, format, &base, &mean);
+                self.grade_mean = Some(mean);
+                d
+            }
+            Stage::Grade => {
+                let g = self.pipeline.grade.ok_or(PlanError::NoParameters {
+                    stage: name,
+                    what: "grade",
+                })?;
+                let base = self.display.take().ok_or(order("tonemap"))?;
+                // Without contrast the mean is unused: a zero buffer stands in.
+                let mean = self
+                    .grade_mean
+                    .clone()
+                    .unwrap_or_else(|| shared_buffer(ctx, "tonegate.grade_stats", 4));
+                let out = self.texture(name, self.width, self.height);
+                let d = super::grade::grade(ctx, format, g, &mean, &base, &out);
+                self.outputs.push((name, out.clone()));
+                self.display = Some(out);
+                vec![d]
+            }
+            Stage::Encode => {
+                let base = self.display.clone().ok_or(order("tonemap"))?;
+                self.outputs.push(("display", base.clone()));
+                vec![super::encode::encode(
+                    ctx,
+                    format,
+                    self.pipeline.encoding,
+                    &base,
+                    &self.frame,
+                )]
+            }
+        };
+        Ok(Pass { name, dispatches })
+    }
+}

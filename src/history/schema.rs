@@ -1,0 +1,100 @@
+//! The history's schema: one migration per version, applied in order.
+
+/// The schema, one migration per version. Never edit a released migration:
+/// add a new one. `PRAGMA user_version` holds how many have been applied.
+pub(super) const MIGRATIONS: &[&str] = &[
+    // 1: runs, scene results, per-frame metrics, stage timings, checks,
+    //    regressions and trade-off points.
+    r#"
+    CREATE TABLE runs (
+        id               INTEGER PRIMARY KEY,
+        kind             TEXT NOT NULL CHECK (kind IN ('check', 'tradeoff')),
+        status           TEXT NOT NULL CHECK (status IN ('running', 'passed', 'failed', 'error', 'aborted')),
+        started_at       TEXT NOT NULL,
+        ended_at         TEXT,
+        tonegate_version TEXT NOT NULL,
+        git_commit       TEXT,
+        suite            TEXT,
+        suite_hash       TEXT,
+        adapter          TEXT,
+        backend          TEXT,
+        driver           TEXT,
+        driver_info      TEXT,
+        config           TEXT,
+        host             TEXT NOT NULL,
+        pid              INTEGER NOT NULL,
+        pid_start        TEXT,
+        detail           TEXT,
+        report           TEXT
+    );
+    CREATE INDEX runs_by_adapter ON runs (kind, adapter, id);
+    CREATE TABLE scene_results (
+        run_id  INTEGER NOT NULL REFERENCES runs (id) ON DELETE CASCADE,
+        scene   TEXT NOT NULL,
+        test    TEXT NOT NULL,
+        passed  INTEGER NOT NULL,
+        fps     REAL,
+        frames  INTEGER NOT NULL,
+        result  TEXT NOT NULL,
+        PRIMARY KEY (run_id, scene)
+    );
+    CREATE TABLE frame_metrics (
+        run_id       INTEGER NOT NULL REFERENCES runs (id) ON DELETE CASCADE,
+        scene        TEXT NOT NULL,
+        frame        INTEGER NOT NULL,
+        mse          REAL,
+        rmse         REAL,
+        psnr         REAL,
+        snr          REAL,
+        ssim         REAL,
+        max_abs_diff INTEGER,
+        fraction_over_1lsb REAL,
+        PRIMARY KEY (run_id, scene, frame)
+    );
+    CREATE TABLE stage_timings (
+        run_id    INTEGER NOT NULL REFERENCES runs (id) ON DELETE CASCADE,
+        scene     TEXT NOT NULL,
+        stage     TEXT NOT NULL,
+        median_ms REAL NOT NULL,
+        p95_ms    REAL NOT NULL,
+        PRIMARY KEY (run_id, scene, stage)
+    );
+    CREATE TABLE check_results (
+        run_id  INTEGER NOT NULL REFERENCES runs (id) ON DELETE CASCADE,
+        scene   TEXT NOT NULL,
+        idx     INTEGER NOT NULL,
+        label   TEXT NOT NULL,
+        passed  INTEGER,
+        detail  TEXT NOT NULL,
+        adapter TEXT,
+        set_by  TEXT,
+        PRIMARY KEY (run_id, scene, idx)
+    );
+    CREATE TABLE regressions (
+        run_id  INTEGER NOT NULL REFERENCES runs (id) ON DELETE CASCADE,
+        scene   TEXT NOT NULL,
+        metric  TEXT NOT NULL,
+        value   REAL NOT NULL,
+        median  REAL NOT NULL,
+        mad     REAL NOT NULL,
+        bound   REAL NOT NULL,
+        runs    INTEGER NOT NULL,
+        PRIMARY KEY (run_id, scene, metric)
+    );
+    CREATE TABLE tradeoff_points (
+        run_id  INTEGER NOT NULL REFERENCES runs (id) ON DELETE CASCADE,
+        scene   TEXT NOT NULL,
+        label   TEXT NOT NULL,
+        config  TEXT NOT NULL,
+        ms      REAL NOT NULL,
+        psnr    REAL,
+        ssim    REAL,
+        log_average_rel_error REAL,
+        pareto  INTEGER NOT NULL,
+        PRIMARY KEY (run_id, scene, label)
+    );
+    "#,
+];
+
+/// The schema version this build writes.
+pub const SCHEMA_VERSION: i64 = MIGRATIONS.len() as i64;

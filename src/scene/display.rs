@@ -1,0 +1,81 @@
+//! What follows the operator: bloom, the colour grade and the display
+//! encoding (SPEC §4).
+
+use super::units::{Factor, NonNegative, Positive, Radius};
+use serde::{Deserialize, Serialize};
+
+/// Which pixels feed the bloom.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+#[serde(rename_all = "snake_case")]
+pub enum BrightPass {
+    /// Seed 001: HDR colour scaled by Y/Lmax where Y > threshold (Y in scene
+    /// units): a sun spreads, a lamp-lit wall does not.
+    #[default]
+    Seed001,
+    /// Seed 004: the tone-mapped colour where its Y > threshold (display units,
+    /// e.g. 0.8), else 0.
+    Threshold,
+}
+
+/// Bloom (SPEC §4): bright pass, downsample, separable Gaussian, composite.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Bloom {
+    #[serde(default)]
+    pub bright_pass: BrightPass,
+    pub threshold: NonNegative,
+    /// Downsample factor 2..=8 (seed 001 uses 2, seed 004 suggests 8).
+    #[serde(default = "default_downsample")]
+    pub downsample: Factor,
+    /// Gaussian radius in low-resolution pixels (taps = 2·radius + 1).
+    #[serde(default = "default_radius")]
+    pub radius: Radius,
+    pub sigma: Positive,
+    /// k in C = C_tone + k·C_bloom.
+    pub strength: NonNegative,
+}
+
+fn default_downsample() -> Factor {
+    Factor(2)
+}
+fn default_radius() -> Radius {
+    Radius(6)
+}
+
+/// Seed 004's colour grade on the display-referred image.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Grade {
+    /// Scales every channel.
+    #[serde(default = "one")]
+    pub brightness: NonNegative,
+    /// Mix with the mean-luminance grey: 0 is flat grey, 1 unchanged.
+    #[serde(default = "one")]
+    pub contrast: NonNegative,
+    /// Mix with the pixel's luminance: 0 is greyscale, 1 unchanged.
+    #[serde(default = "one")]
+    pub saturation: NonNegative,
+}
+
+fn one() -> NonNegative {
+    NonNegative(1.0)
+}
+
+impl Grade {
+    /// A neutral grade changes nothing, so the plan leaves it out.
+    pub fn is_neutral(&self) -> bool {
+        self.brightness.0 == 1.0 && self.contrast.0 == 1.0 && self.saturation.0 == 1.0
+    }
+}
+
+/// Display encoding of the final 8-bit frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Encoding {
+    /// The sRGB OETF (piecewise: linear below 0.0031308).
+    #[default]
+    Srgb,
+    /// A plain 1/γ power, γ default 2.2 (seed 004).
+    Gamma(Positive),
+}

@@ -1,0 +1,389 @@
+//! Scene scripts (TOML): what to render, how to tone-map it and what the gate checks.
+//!
+//! Every struct denies unknown keys, and every range rule lives in a validated
+//! type (`try_from`), so the TOML parser reports a bad value with its key and
+//! line, exactly like a typo.
+
+use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
+use std::path::{Path, PathBuf};
+
+mod display;
+mod operator;
+mod sequence;
+mod units;
+
+pub use crate::conventions::MAX_SPP;
+pub use display::{Bloom, BrightPass, Encoding, Grade};
+pub use operator::{ColourPath, Key, Operator, OperatorKind};
+pub use sequence::{Environment, Rotation, MAX_FRAMES};
+pub use units::{Factor, NonNegative, Positive, Radius, Size, MAX_OUTPUT_PIXELS};
+
+use crate::check::{CheckSpec, Judging, TestKind};
+
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    /// The file could not be read.
+    #[error("{path}: cannot read scene file: {source}")]
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    /// TOML syntax, an unknown key, a missing key or a value out of range; the
+    /// message carries the line, the column and the key.
+    #[error("{path}: {message}")]
+    Parse { path: PathBuf, message: String },
+    /// A rule that spans several keys.
+    #[error("{path}: {message}")]
+    Invalid { path: PathBuf, message: String },
+}
+
+/// One scene script.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    pub name: String,
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub description: String,
+    pub environment: Environment,
+    /// Output frame size.
+    pub size: Size,
+    /// Vertical field of view, degrees, in (0, 180).
+    #[serde(default = "default_fov")]
+    pub fov_y: f64,
+    pub frames: u32,
+    pub rotation: Rotation,
+    #[serde(default)]
+    pub operator: Operator,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bloom: Option<Bloom>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub grade: Option<Grade>,
+    #[serde(default)]
+    pub encoding: Encoding,
+    /// Samples per pixel of the reference (accumulation buffer), 1..=128.
+    #[serde(default = "default_spp")]
+    pub reference_spp: u32,
+    #[serde(default)]
+    pub checks: Vec<CheckSpec>,
+}
+
+fn default_fov() -> f64 {
+    60.0
+}
+fn default_spp() -> u32 {
+    16
+}
+
+impl Scene {
+    /// Reads and validates a scene file.
+    pub fn load(path: &Path) -> Result<Scene, SceneError> {
+        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
+            path: path.to_owned(),
+            source,
+        })?;
+        Scene::parse(&text, path)
+    }
+
+    /// Parses and validates scene text; `path` names it in errors and anchors
+    /// a relative environment path.
+    pub fn parse(text: &str, path: &Path) -> Result<Scene, SceneError> {
+        let mut scene: Scene = toml::from_str(text).map_err(|e| SceneError::Parse {
+            path: path.to_owned(),
+            message: e.to_string().trim_end().to_owned(),
+        })?;
+        scene
+            .validate(text)
+            .map_err(|message| SceneError::Invalid {
+                path: path.to_owned(),
+                message,
+            })?;
+        if let Some(p) = &scene.environment.path {
+            if p.is_relative() {
+                if let Some(dir) = path.parent() {
+                    scene.environment.path = Some(dir.join(p));
+                }
+            }
+        }
+        Ok(scene)
+    }
+
+    /// Cross-key rules, each message naming the key and its line.
+    fn validate(&self, text: &str) -> Result<(), String> {
+        let at = |key: &str| match line_of(text, key) {
+            Some(l) => format!("line {l}, key `{key}`"),
+            None => format!("key `{key}`"),
+        };
+        if self.name.is_empty()
+            || !self
+                .name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
+        {
+            return Err(format!(
+                "{}: name must be non-empty ASCII letters, digits, '-' or '_' (it names golden folders), got {:?}",
+                at("name"),
+                self.name
+            ));
+        }
+        match (&self.environment.builtin, &self.environment.path) {
+            (Some(_), Some(_)) | (None, None) => {
+                return Err(format!(
+                    "{}: give exactly one of `builtin` or `path`",
+                    at("environment")
+                ))
+            }
+            (None, Some(_)) if self.environment.size.is_some() => {
+                return Err(format!(
+                    "{}: `size` applies to built-in maps only; a file has its own size",
+                    at("size")
+                ))
+            }
+            _ => {}
+        }
+        if !(self.fov_y > 0.0 && self.fov_y < 180.0) {
+            return Err(format!(
+                "{}: must be in (0, 180) degrees, got {}",
+                at("fov_y"),
+                self.fov_y
+            ));
+        }
+        if self.frames == 0 || self.frames > MAX_FRAMES {
+            return Err(format!(
+                "{}: must be between 1 and {MAX_FRAMES}, got {}",
+                at("frames"),
+                self.frames
+            ));
+        }
+        let a = self.rotation.axis;
+        if !a.iter().all(|c| c.is_finite()) || a.iter().all(|&c| c == 0.0) {
+            return Err(format!("{}: must be a finite non-zero vector", at("axis")));
+        }
+        if !self.rotation.degrees_per_frame.is_finite() {
+            return Err(format!("{}: must be finite", at("degrees_per_frame")));
+        }
+        if self.reference_spp == 0 || self.reference_spp > MAX_SPP {
+            return Err(format!(
+                "{}: must be between 1 and {MAX_SPP}, got {}",
+                at("reference_spp"),
+                self.reference_spp
+            ));
+        }
+        if let Operator::Seed000 { white_fraction, .. } = &self.operator {
+            if white_fraction.get() > 1.0 {
+                return Err(format!(
+                    "{}: must be in (0, 1], got {}",
+                    at("white_fraction"),
+                    white_fraction.get()
+                ));
+            }
+        }
+        for c in &self.checks {
+            c.validate()
+                .map_err(|message| format!("{}: {message}", at("checks")))?;
+        }
+        Ok(())
+    }
+
+    /// SHA-256 of the canonical form (JSON of the parsed scene): formatting and
+    /// comments do not change it, any parameter does.
+    pub fn hash(&self) -> String {
+        let canonical = serde_json::to_vec(self).unwrap_or_default();
+        hex::encode(Sha256::digest(&canonical))
+    }
+
+    /// The rotation angle of frame `n`, in radians.
+    pub fn angle(&self, n: u32) -> f64 {
+        (n as f64 * self.rotation.degrees_per_frame).to_radians()
+    }
+
+    /// A static scene (ω = 0) renders the same frame every time.
+    pub fn is_static(&self) -> bool {
+        self.rotation.degrees_per_frame == 0.0
+    }
+
+    /// Seed 002's kind of test: static scenes are judged on their converged
+    /// frame, moving ones on every frame.
+    pub fn test_kind(&self) -> TestKind {
+        if self.is_static() {
+            TestKind::Static
+        } else {
+            TestKind::Moving
+        }
+    }
+
+    /// What the gate's judge needs of this scene.
+    pub fn judging(&self) -> Judging<'_> {
+        Judging {
+            scene: &self.name,
+            checks: &self.checks,
+            reference_spp: self.reference_spp,
+            test: self.test_kind(),
+        }
+    }
+}
+
+/// 1-based line of the first `key =` or `[key` in `text`.
+fn line_of(text: &str, key: &str) -> Option<usize> {
+    text.lines()
+        .position(|l| {
+            let t = l.trim_start();
+            t.strip_prefix(key)
+                .map(|rest| rest.trim_start().starts_with('='))
+                .unwrap_or(false)
+                || t.starts_with(&format!("[{key}]"))
+        })
+        .map(|i| i + 1)
+}
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::check::Check;
+
+    const MINIMAL: &str = r#"
+name = "t"
+size = [32, 18]
+frames = 2
+[environment]
+builtin = "sky"
+size = [64, 32]
+[rotation]
+degrees_per_frame = 5.0
+"#;
+
+    fn parse(text: &str) -> Result<Scene, SceneError> {
+        Scene::parse(text, Path::new("scene.toml"))
+    }
+
+    #[test]
+    fn minimal_scene_takes_defaults() {
+        let s = parse(MINIMAL).unwrap();
+        assert_eq!(s.operator, Operator::default());
+        assert_eq!(s.reference_spp, 16);
+        assert_eq!(s.fov_y, 60.0);
+        assert_eq!(s.rotation.axis, [1.0, 0.0, 0.0]);
+        assert_eq!(s.encoding, Encoding::Srgb);
+    }
+
+    #[test]
+    fn unknown_key_names_key_file_and_line() {
+        let text = MINIMAL.replace("frames = 2", "frames = 2\nfrobnicate = 1");
+        let e = parse(&text).unwrap_err().to_string();
+        assert!(
+            e.contains("scene.toml") && e.contains("frobnicate") && e.contains("line 5"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn unknown_key_in_operator_is_refused() {
+        let text = format!("{MINIMAL}\n[operator]\nkind = \"seed000\"\nkee = 0.2\n");
+        let e = parse(&text).unwrap_err().to_string();
+        assert!(e.contains("kee") && e.contains("line"), "{e}");
+    }
+
+    #[test]
+    fn out_of_range_values_name_their_line() {
+        let text = format!("{MINIMAL}\n[operator]\nkind = \"reinhard02\"\nkey = -1.0\n");
+        let e = parse(&text).unwrap_err().to_string();
+        assert!(
+            e.contains("must be a finite number > 0") && e.contains("line 13"),
+            "{e}"
+        );
+        let text = MINIMAL.replace("size = [32, 18]", "size = [0, 18]");
+        let e = parse(&text).unwrap_err().to_string();
+        assert!(e.contains("at least 1x1") && e.contains("line 3"), "{e}");
+        let text = MINIMAL.replace("frames = 2", "frames = 0");
+        let e = parse(&text).unwrap_err().to_string();
+        assert!(e.contains("frames") && e.contains("line 4"), "{e}");
+        let text = format!("{MINIMAL}\n[operator]\nkind = \"seed000\"\nwhite_fraction = 1.5\n");
+        assert!(parse(&text)
+            .unwrap_err()
+            .to_string()
+            .contains("white_fraction"));
+        let text = format!("{MINIMAL}\n[operator]\nkind = \"seed001\"\nwhite = 2.0\n");
+        let e = parse(&text).unwrap_err().to_string();
+        assert!(
+            e.contains("`white` does not apply") && e.contains("line 11"),
+            "{e}"
+        );
+        let text = format!("{MINIMAL}\n[operator]\nkind = \"seed000\"\nkey = \"auto\"\n");
+        assert!(parse(&text)
+            .unwrap_err()
+            .to_string()
+            .contains("needs a number"));
+    }
+
+    #[test]
+    fn absurd_output_size_is_refused() {
+        let text = MINIMAL.replace("size = [32, 18]", "size = [100000, 100000]");
+        assert!(parse(&text)
+            .unwrap_err()
+            .to_string()
+            .contains("exceeds the limit"));
+    }
+
+    #[test]
+    fn operator_variants_and_auto_key_parse() {
+        let text = format!(
+            "{MINIMAL}\n[operator]\nkind = \"seed001\"\nkey = \"auto\"\ncolour = \"xyy\"\n"
+        );
+        let s = parse(&text).unwrap();
+        assert_eq!(
+            s.operator,
+            Operator::Seed001 {
+                key: Key::Auto,
+                colour: ColourPath::Xyy
+            }
+        );
+        let text = format!("{MINIMAL}\n[operator]\nkind = \"seed001\"\nkey = 0.3\n");
+        let s = parse(&text).unwrap();
+        assert!(
+            matches!(s.operator, Operator::Seed001 { key: Key::Fixed(k), .. } if k.get() == 0.3)
+        );
+    }
+
+    #[test]
+    fn checks_parse_with_adapter_overrides() {
+        let text = format!(
+            "{MINIMAL}\n[[checks]]\nmin_psnr = 30.0\n[[checks]]\nmin_ssim = 0.9\nadapter = \"llvmpipe\"\nset_by = \"measured\"\n[[checks]]\nmax_fraction_over = {{ lsb = 1, fraction = 0.01 }}\n"
+        );
+        let s = parse(&text).unwrap();
+        assert_eq!(s.checks.len(), 3);
+        assert_eq!(s.checks[0].check, Check::MinPsnr(30.0));
+        assert_eq!(s.checks[1].adapter.as_deref(), Some("llvmpipe"));
+    }
+
+    #[test]
+    fn hash_ignores_formatting_but_not_parameters() {
+        let a = parse(MINIMAL).unwrap();
+        let b = parse(&MINIMAL.replace("frames = 2", "frames   =   2 # two")).unwrap();
+        let c = parse(&MINIMAL.replace("frames = 2", "frames = 3")).unwrap();
+        assert_eq!(a.hash(), b.hash());
+        assert_ne!(a.hash(), c.hash());
+    }
+
+    #[test]
+    fn environment_needs_exactly_one_source() {
+        let text = MINIMAL.replace("builtin = \"sky\"", "");
+        assert!(parse(&text)
+            .unwrap_err()
+            .to_string()
+            .contains("exactly one"));
+        let text = MINIMAL.replace("builtin = \"sky\"", "builtin = \"moon\"");
+        assert!(parse(&text).unwrap_err().to_string().contains("moon"));
+    }
+
+    #[test]
+    fn size_parses_from_command_line_form() {
+        assert_eq!(
+            "320x180".parse::<Size>(),
+            Ok(Size {
+                width: 320,
+                height: 180
+            })
+        );
+        assert!("320".parse::<Size>().is_err());
+        assert!("0x5".parse::<Size>().is_err());
+    }
+}

@@ -1,0 +1,39 @@
+//! Where the frames come from: the environment map and the sphere's motion.
+
+use super::units::Size;
+use crate::env::BuiltinEnv;
+use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
+
+/// Where the environment map comes from.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Environment {
+    /// A built-in map (`sky`, `interior`, `night`, `grid`) …
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub builtin: Option<BuiltinEnv>,
+    /// … or an HDR file (.hdr, .exr, .pfm), relative to the scene file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub path: Option<PathBuf>,
+    /// Resolution of a built-in map; ignored (and refused) for files.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub size: Option<Size>,
+}
+
+/// Rotation of the sphere per frame.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Rotation {
+    /// Axis of rotation; default the horizontal x axis, as in seed 000.
+    #[serde(default = "default_axis")]
+    pub axis: [f64; 3],
+    /// ω, degrees per frame; 0 makes a static sequence.
+    pub degrees_per_frame: f64,
+}
+
+fn default_axis() -> [f64; 3] {
+    [1.0, 0.0, 0.0]
+}
+
+/// Largest frame count of one sequence.
+pub const MAX_FRAMES: u32 = 10_000;
