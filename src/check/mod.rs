@@ -3,17 +3,16 @@
 //! goldens with those checks (`judge`).
 //!
 //! Adding a check kind is one variant of [`Check`] and one arm of
-//! [`Check::rule`]; a new per-frame figure is one row of [`FRAME_METRICS`].
+//! [`Check::rule`]; a new per-frame figure is one row of [`FRAME_METRICS`] (`figures`).
 //! Nothing here renders or reads files: the gate (`crate::gate`) renders,
 //! loads the goldens and calls [`judge`].
 
+pub mod figures;
 pub mod judge;
+pub mod result;
 pub mod spec;
 
-pub use judge::{
-    evaluate, judge, CheckResult, FrameResult, JudgeError, Judging, KeptFrame, Rendered,
-    SceneResult, Summary, TestKind,
-};
-pub use spec::{
-    not_applied, Check, CheckSpec, FrameMetric, Judged, Rule, Side, Subject, FRAME_METRICS,
-};
+pub use figures::{FrameMetric, FRAME_METRICS};
+pub use judge::{evaluate, judge, JudgeError, Judging, KeptFrame, Rendered};
+pub use result::{CheckResult, FrameResult, SceneResult, Summary, TestKind};
+pub use spec::{not_applied, Check, CheckSpec, Judged, Rule, Side, Subject};

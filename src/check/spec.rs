@@ -5,110 +5,11 @@
 //! Every kind is described once, by its arm of [`Check::rule`]; the label, the
 //! kind used for adapter overrides, the validation and the evaluation
 //! (`super::judge`) are all derived from that [`Rule`]. The per-frame figures
-//! a rule can read are the rows of [`FRAME_METRICS`].
+//! a rule can read are the rows of `super::figures`.
 
+use super::figures::{FrameMetric, MAX_ABS_DIFF, MSE, PSNR, SSIM};
 use crate::conventions::MAX_SPP;
-use crate::metrics::Metrics;
 use serde::{Deserialize, Serialize};
-
-/// A per-frame figure of a frame against its golden: one row of the table
-/// checks, summaries and reports read.
-pub struct FrameMetric {
-    /// The name in reports and summaries (`psnr`).
-    pub name: &'static str,
-    /// What labels call it (`PSNR`).
-    pub title: &'static str,
-    /// Unit after a bound in a label (` dB`).
-    pub bound_unit: &'static str,
-    /// Which end of the scale is good.
-    pub higher_is_better: bool,
-    /// The value of one frame.
-    pub read: fn(&Metrics) -> f64,
-    /// A measured value as details print it (`PSNR 51.23 dB`).
-    pub show: fn(f64) -> String,
-    /// Whether a bound on this figure makes sense (NaN never does).
-    pub valid_bound: fn(f64) -> bool,
-}
-
-fn not_nan(v: f64) -> bool {
-    !v.is_nan()
-}
-
-pub const PSNR: FrameMetric = FrameMetric {
-    name: "psnr",
-    title: "PSNR",
-    bound_unit: " dB",
-    higher_is_better: true,
-    read: |m| m.psnr,
-    show: |v| format!("PSNR {v:.2} dB"),
-    valid_bound: not_nan,
-};
-pub const SSIM: FrameMetric = FrameMetric {
-    name: "ssim",
-    title: "SSIM",
-    bound_unit: "",
-    higher_is_better: true,
-    read: |m| m.ssim,
-    show: |v| format!("SSIM {v:.5}"),
-    valid_bound: |v| v.is_finite() && (-1.0..=1.0).contains(&v),
-};
-pub const SNR: FrameMetric = FrameMetric {
-    name: "snr",
-    title: "SNR",
-    bound_unit: " dB",
-    higher_is_better: true,
-    read: |m| m.snr,
-    show: |v| format!("SNR {v:.2} dB"),
-    valid_bound: not_nan,
-};
-pub const MSE: FrameMetric = FrameMetric {
-    name: "mse",
-    title: "MSE",
-    bound_unit: "",
-    higher_is_better: false,
-    read: |m| m.mse,
-    show: |v| format!("MSE {v:.4}"),
-    valid_bound: not_nan,
-};
-pub const RMSE: FrameMetric = FrameMetric {
-    name: "rmse",
-    title: "RMSE",
-    bound_unit: "",
-    higher_is_better: false,
-    read: |m| m.rmse,
-    show: |v| format!("RMSE {v:.4}"),
-    valid_bound: not_nan,
-};
-pub const MAX_ABS_DIFF: FrameMetric = FrameMetric {
-    name: "max_abs_diff",
-    title: "max abs diff",
-    bound_unit: "",
-    higher_is_better: false,
-    read: |m| f64::from(m.max_abs_diff),
-    show: |v| format!("max abs diff {v} LSB"),
-    valid_bound: |_| true,
-};
-pub const FRACTION_OVER_1LSB: FrameMetric = FrameMetric {
-    name: "fraction_over_1lsb",
-    title: "fraction over 1 LSB",
-    bound_unit: "",
-    higher_is_better: false,
-    read: |m| m.fraction_over_1lsb,
-    show: |v| format!("fraction over 1 LSB {v:.5}"),
-    valid_bound: |v| (0.0..=1.0).contains(&v),
-};
-
-/// Every per-frame figure, in report order: what a sequence is summarised by
-/// (best / worst / mean) and what checks read.
-pub const FRAME_METRICS: [&FrameMetric; 7] = [
-    &PSNR,
-    &SSIM,
-    &SNR,
-    &MSE,
-    &RMSE,
-    &MAX_ABS_DIFF,
-    &FRACTION_OVER_1LSB,
-];
 
 /// A typed comparison the gate applies (against the golden, or to the
 /// run's speed). Written in a scene file as `min_psnr = 50.0`,
@@ -379,10 +280,11 @@ pub fn not_applied(specs: &[CheckSpec], index: usize, on: Judged) -> Option<Stri
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
-    fn spec(check: Check, adapter: Option<&str>) -> CheckSpec {
+    /// A check with no spp or provenance, on `adapter` or every adapter.
+    pub fn spec(check: Check, adapter: Option<&str>) -> CheckSpec {
         CheckSpec {
             check,
             adapter: adapter.map(str::to_owned),
@@ -391,7 +293,8 @@ mod tests {
         }
     }
 
-    fn on(adapter: &str) -> Judged<'_> {
+    /// Judged on `adapter` at the goldens' 16 spp.
+    pub fn on(adapter: &str) -> Judged<'_> {
         Judged {
             adapter,
             spp: 16,

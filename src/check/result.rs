@@ -1,0 +1,186 @@
+//! What judging a scene produces: per-frame metrics, per-check outcomes and
+//! seed 002's best / worst / mean summaries. The report, the JUnit, the
+//! console and the history are views of these.
+
+use super::spec::{CheckSpec, Subject};
+use crate::metrics::Metrics;
+use crate::perf::TimingSummary;
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// Seed 002's two kinds of test.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TestKind {
+    /// No motion (ω = 0): the checks judge the converged frame, the last one.
+    Static,
+    /// A rotating sequence: the checks judge every frame; the report gives
+    /// best / worst / mean per metric with the frame index (ghosting tables).
+    Moving,
+}
+
+impl TestKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            TestKind::Static => "static",
+            TestKind::Moving => "moving",
+        }
+    }
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct FrameResult {
+    pub frame: u32,
+    pub metrics: Metrics,
+    /// Fraction of pixels off by more than k LSB, for each k a check asks
+    /// about (1 is in `metrics`).
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub fraction_over: BTreeMap<u8, f64>,
+    /// Indices (into the scene's `checks`) of the per-frame checks this frame fails.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub failed_checks: Vec<usize>,
+    /// Artifact files written for this frame (failing frames, and each
+    /// scene's worst judged frame).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub artifacts: Vec<String>,
+}
+
+impl FrameResult {
+    /// The per-frame figure a check's subject reads; None for run-level subjects.
+    pub(super) fn value(&self, subject: Subject) -> Option<f64> {
+        match subject {
+            Subject::Frame(m) => Some((m.read)(&self.metrics)),
+            Subject::FractionOver(1) => Some(self.metrics.fraction_over_1lsb),
+            Subject::FractionOver(lsb) => {
+                Some(self.fraction_over.get(&lsb).copied().unwrap_or(f64::NAN))
+            }
+            Subject::StageMs(_) | Subject::Fps => None,
+        }
+    }
+
+    /// Whether this frame fails a per-frame check; None for run-level checks.
+    pub(super) fn fails(&self, spec: &CheckSpec) -> Option<bool> {
+        let rule = spec.check.rule();
+        self.value(rule.subject).map(|v| rule.fails(v))
+    }
+}
+
+/// Best, worst and mean of one metric over a sequence, with frame indices
+/// (seed 002's ghosting tables).
+#[derive(Clone, Debug, Serialize)]
+pub struct Summary {
+    #[serde(with = "crate::metrics::json::extended_f64")]
+    pub best: f64,
+    pub best_frame: u32,
+    #[serde(with = "crate::metrics::json::extended_f64")]
+    pub worst: f64,
+    pub worst_frame: u32,
+    #[serde(with = "crate::metrics::json::extended_f64")]
+    pub mean: f64,
+}
+
+impl Summary {
+    /// `higher_is_better` says which end is best. Ties keep the first frame.
+    pub fn of(values: &[(u32, f64)], higher_is_better: bool) -> Summary {
+        let Some(&first) = values.first() else {
+            return Summary {
+                best: f64::NAN,
+                best_frame: 0,
+                worst: f64::NAN,
+                worst_frame: 0,
+                mean: f64::NAN,
+            };
+        };
+        let mut best = first;
+        let mut worst = first;
+        let mut sum = 0.0;
+        for &(f, v) in values {
+            let (better, worse) = if higher_is_better {
+                (v > best.1, v < worst.1)
+            } else {
+                (v < best.1, v > worst.1)
+            };
+            if better {
+                best = (f, v);
+            }
+            if worse {
+                worst = (f, v);
+            }
+            sum += v;
+        }
+        Summary {
+            best: best.1,
+            best_frame: best.0,
+            worst: worst.1,
+            worst_frame: worst.0,
+            mean: sum / values.len() as f64,
+        }
+    }
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct CheckResult {
+    pub spec: CheckSpec,
+    /// None when the check does not apply here (timing on the CPU, another
+    /// adapter's bound, a generic bound overridden by this adapter's).
+    pub passed: Option<bool>,
+    pub detail: String,
+    /// The frame that decided a per-frame check (its worst).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub frame: Option<u32>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct SceneResult {
+    pub scene: String,
+    pub test: TestKind,
+    pub renderer: String,
+    /// The adapter name checks' `adapter` overrides are matched against.
+    pub adapter: String,
+    pub spp: u32,
+    pub plan: Vec<&'static str>,
+    pub frames: Vec<FrameResult>,
+    /// The frames the checks judged: the last one for a static test, all for a moving one.
+    pub judged_frames: Vec<u32>,
+    /// Best / worst / mean over every frame, per metric (see [`FRAME_METRICS`]).
+    pub summaries: BTreeMap<String, Summary>,
+    pub checks: Vec<CheckResult>,
+    /// Why the scene fails regardless of its checks (for example: none apply).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub problems: Vec<String>,
+    /// Per-stage GPU time (median, p95) over the sequence; empty on the CPU.
+    pub timings: Vec<TimingSummary>,
+    /// Frames per second with readback (GPU only).
+    pub fps: Option<f64>,
+}
+
+impl SceneResult {
+    pub fn passed(&self) -> bool {
+        self.problems.is_empty() && self.checks.iter().all(|c| c.passed != Some(false))
+    }
+
+    pub fn summary(&self, metric: &str) -> Option<&Summary> {
+        self.summaries.get(metric)
+    }
+
+    pub fn failed_checks(&self) -> impl Iterator<Item = &CheckResult> {
+        self.checks.iter().filter(|c| c.passed == Some(false))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn summaries_name_the_frames_of_the_extremes() {
+        let s = Summary::of(&[(0, 30.0), (1, 50.0), (2, 20.0)], true);
+        assert_eq!(
+            (s.best, s.best_frame, s.worst, s.worst_frame),
+            (50.0, 1, 20.0, 2)
+        );
+        assert!((s.mean - 100.0 / 3.0).abs() < 1e-12);
+        let s = Summary::of(&[(0, 3.0), (1, 1.0)], false);
+        assert_eq!((s.best_frame, s.worst_frame), (1, 0));
+    }
+}
