@@ -157,3 +157,63 @@ fn with_too_few_previous_runs_nothing_is_flagged() {
         find_regressions(&h, id, "llvmpipe", "{}", &[slow], &Performance::default()).unwrap();
     assert!(found.is_empty());
 }
+
+#[test]
+fn a_version_1_file_is_migrated_without_losing_its_runs() {
+    use tonegate::check::FrameResult;
+    use tonegate::metrics::Metrics;
+    let frame = |mean_abs_diff: f64| FrameResult {
+        frame: 0,
+        metrics: Metrics {
+            mse: 1.0,
+            rmse: 1.0,
+            psnr: 48.1,
+            snr: 40.0,
+            ssim: 0.99,
+            max_abs_diff: 2,
+            mean_abs_diff,
+            fraction_over_1lsb: 0.01,
+            ssim_definition: String::new(),
+        },
+        fraction_over: BTreeMap::new(),
+        failed_checks: Vec::new(),
+        artifacts: Vec::new(),
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("h.sqlite");
+    let a = adapter("llvmpipe", "{}");
+    let mut old = scene("sky", 10.0, 10.0);
+    old.frames.push(frame(0.5));
+    let old_id = record(&mut History::open(&db).unwrap(), &a, &old);
+    // Make it the file schema version 1 wrote: no mean_abs_diff column.
+    let conn = rusqlite::Connection::open(&db).unwrap();
+    conn.execute_batch(
+        "ALTER TABLE frame_metrics DROP COLUMN mean_abs_diff; PRAGMA user_version = 1;",
+    )
+    .unwrap();
+    drop(conn);
+    let mut h = History::open(&db).unwrap();
+    assert_eq!(h.schema_version().unwrap(), SCHEMA_VERSION);
+    let mut new = scene("sky", 10.0, 10.0);
+    new.frames.push(frame(0.25));
+    let new_id = record(&mut h, &a, &new);
+    let trend = |metric| {
+        h.trend(
+            metric,
+            &tonegate::history::TrendFilter {
+                limit: 10,
+                ..Default::default()
+            },
+        )
+        .unwrap()
+    };
+    // The old run keeps its figures; the new column has the new run only.
+    let psnr = trend("psnr");
+    assert_eq!(
+        psnr.iter().map(|p| p.run_id).collect::<Vec<_>>(),
+        [old_id, new_id]
+    );
+    let mean = trend("mean_abs_diff");
+    assert_eq!(mean.len(), 1, "{mean:?}");
+    assert_eq!((mean[0].run_id, mean[0].value), (new_id, 0.25));
+}

@@ -24,8 +24,8 @@
 use serde::Deserialize;
 use serde_json::value::RawValue;
 use tonegate::metrics::{
-    compare, fraction_over, max_abs_diff, mean_ssim, mse, psnr, rmse, snr, ssim, MetricsError,
-    Raster,
+    compare, fraction_over, max_abs_diff, mean_abs_diff, mean_ssim, mse, psnr, rmse, snr, ssim,
+    MetricsError, Raster,
 };
 
 const TOLERANCE: f64 = 1e-6;
@@ -55,6 +55,7 @@ struct Case {
     psnr: Number,
     snr: Number,
     max_abs_diff: u8,
+    mean_abs_diff: Number,
     fraction_over_1lsb: Number,
     /// `null` where scikit-image refused the pair.
     ssim: Number,
@@ -151,6 +152,12 @@ fn pixel_metrics_match_numpy() {
             c.value(&c.fraction_over_1lsb),
         );
         assert_eq!(max_abs_diff(t, r).unwrap(), c.max_abs_diff, "{}", c.name);
+        dev.check(
+            &c.name,
+            "mean_abs_diff",
+            mean_abs_diff(t, r).unwrap(),
+            c.value(&c.mean_abs_diff),
+        );
     }
     eprintln!(
         "pixel metrics: {} values, max |Δ| = {:e} ({})",

@@ -80,6 +80,15 @@ pub const MAX_ABS_DIFF: FrameMetric = FrameMetric {
     show: |v| format!("max abs diff {v} LSB"),
     valid_bound: |_| true,
 };
+pub const MEAN_ABS_DIFF: FrameMetric = FrameMetric {
+    name: "mean_abs_diff",
+    title: "mean abs diff",
+    bound_unit: " LSB",
+    higher_is_better: false,
+    read: |m| m.mean_abs_diff,
+    show: |v| format!("mean abs diff {v:.4} LSB"),
+    valid_bound: |v| (0.0..=255.0).contains(&v),
+};
 pub const FRACTION_OVER_1LSB: FrameMetric = FrameMetric {
     name: "fraction_over_1lsb",
     title: "fraction over 1 LSB",
@@ -92,12 +101,13 @@ pub const FRACTION_OVER_1LSB: FrameMetric = FrameMetric {
 
 /// Every per-frame figure, in report order: what a sequence is summarised by
 /// (best / worst / mean) and what checks read.
-pub const FRAME_METRICS: [&FrameMetric; 7] = [
+pub const FRAME_METRICS: [&FrameMetric; 8] = [
     &PSNR,
     &SSIM,
     &SNR,
     &MSE,
     &RMSE,
     &MAX_ABS_DIFF,
+    &MEAN_ABS_DIFF,
     &FRACTION_OVER_1LSB,
 ];

@@ -281,6 +281,7 @@ mod tests {
     use super::*;
     use crate::check::spec::tests::{on, spec};
     use crate::check::Check;
+    use crate::image::Rgb8Image;
     use crate::metrics::Metrics;
 
     fn frame(n: u32, psnr: f64) -> FrameResult {
@@ -293,6 +294,7 @@ mod tests {
                 snr: psnr,
                 ssim: 1.0,
                 max_abs_diff: 0,
+                mean_abs_diff: 0.0,
                 fraction_over_1lsb: 0.0,
                 ssim_definition: String::new(),
             },
@@ -384,5 +386,88 @@ mod tests {
             evaluate(&specs, 1, &judged, on("x"), &[], None).passed,
             Some(false)
         );
+    }
+
+    /// A smooth 32×24 frame: large enough for SSIM's window.
+    fn gradient() -> Rgb8Image {
+        Rgb8Image {
+            width: 32,
+            height: 24,
+            pixels: (0..32 * 24)
+                .map(|i| {
+                    let (x, y) = (i % 32, i / 32);
+                    [(x * 7) as u8, (y * 9) as u8, ((x + y) * 3) as u8]
+                })
+                .collect(),
+        }
+    }
+
+    fn judged(checks: &[CheckSpec], frame: Rgb8Image) -> SceneResult {
+        let on = Judging {
+            scene: "s",
+            checks,
+            reference_spp: 16,
+            test: TestKind::Static,
+        };
+        let rendered = Rendered {
+            renderer: "test".into(),
+            adapter: "test".into(),
+            spp: 16,
+            plan: vec!["encode"],
+            frames: vec![frame],
+            timings: Vec::new(),
+            fps: None,
+        };
+        judge(on, rendered, vec![gradient()]).unwrap().0
+    }
+
+    #[test]
+    fn the_mean_check_catches_a_uniform_shift_the_per_pixel_bounds_let_through() {
+        let checks = [
+            spec(Check::MaxAbsDiff(1), None),
+            spec(
+                Check::MaxFractionOver {
+                    lsb: 1,
+                    fraction: 0.001,
+                },
+                None,
+            ),
+            spec(Check::MaxMeanAbsDiff(0.5), None),
+        ];
+        // Every sample one level brighter: a biased encoder, not rounding noise.
+        let mut shifted = gradient();
+        for p in &mut shifted.pixels {
+            *p = p.map(|c| c.saturating_add(1));
+        }
+        let r = judged(&checks, shifted);
+        let passed: Vec<Option<bool>> = r.checks.iter().map(|c| c.passed).collect();
+        assert_eq!(
+            passed,
+            [Some(true), Some(true), Some(false)],
+            "{:?}",
+            r.checks
+        );
+        assert!(r.checks[2]
+            .detail
+            .starts_with("worst mean abs diff 1.0000 LSB"));
+        assert_eq!(r.frames[0].failed_checks, [2]);
+        // A few wild pixels: the maximum catches them, the mean does not move much.
+        let mut outliers = gradient();
+        for p in outliers.pixels.iter_mut().step_by(97) {
+            p[0] = p[0].wrapping_add(40);
+        }
+        let r = judged(&checks, outliers);
+        let passed: Vec<Option<bool>> = r.checks.iter().map(|c| c.passed).collect();
+        assert_eq!(
+            passed,
+            [Some(false), Some(false), Some(true)],
+            "{:?}",
+            r.checks
+        );
+        // The figure is summarised with the others.
+        assert!(r.summary("mean_abs_diff").unwrap().worst < 0.5);
+        // The frame against its own golden passes everything.
+        let r = judged(&checks, gradient());
+        assert!(r.passed(), "{:?}", r.checks);
     }
 }

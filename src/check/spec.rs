@@ -7,7 +7,7 @@
 //! (`super::judge`) are all derived from that [`Rule`]. The per-frame figures
 //! a rule can read are the rows of `super::figures`.
 
-use super::figures::{FrameMetric, MAX_ABS_DIFF, MSE, PSNR, SSIM};
+use super::figures::{FrameMetric, MAX_ABS_DIFF, MEAN_ABS_DIFF, MSE, PSNR, SSIM};
 use crate::conventions::MAX_SPP;
 use serde::{Deserialize, Serialize};
 
@@ -21,6 +21,10 @@ pub enum Check {
     MinSsim(f64),
     MaxMse(f64),
     MaxAbsDiff(u8),
+    /// The mean absolute sample difference, in LSB: the typical error, which a
+    /// few outlying pixels do not decide (unlike `max_abs_diff`), and which a
+    /// uniform shift of every pixel does (unlike `max_fraction_over`).
+    MaxMeanAbsDiff(f64),
     /// At most `fraction` of pixels may be off by more than `lsb`.
     MaxFractionOver {
         lsb: u8,
@@ -155,6 +159,9 @@ impl Check {
             Check::MaxMse(v) => Rule::new("max_mse", Frame(&MSE), Max, *v),
             Check::MaxAbsDiff(v) => {
                 Rule::new("max_abs_diff", Frame(&MAX_ABS_DIFF), Max, f64::from(*v))
+            }
+            Check::MaxMeanAbsDiff(v) => {
+                Rule::new("max_mean_abs_diff", Frame(&MEAN_ABS_DIFF), Max, *v)
             }
             Check::MaxFractionOver { lsb, fraction } => Rule::new(
                 format!("max_fraction_over:{lsb}"),
@@ -310,6 +317,11 @@ pub(super) mod tests {
             (Check::MaxMse(0.5), "MSE <= 0.5", "max_mse"),
             (Check::MaxAbsDiff(3), "max abs diff <= 3", "max_abs_diff"),
             (
+                Check::MaxMeanAbsDiff(0.25),
+                "mean abs diff <= 0.25 LSB",
+                "max_mean_abs_diff",
+            ),
+            (
                 Check::MaxFractionOver {
                     lsb: 2,
                     fraction: 0.001,
@@ -342,6 +354,7 @@ pub(super) mod tests {
         for bad in [
             Check::MinSsim(1.5),
             Check::MinPsnr(f64::NAN),
+            Check::MaxMeanAbsDiff(-0.5),
             Check::MaxFractionOver {
                 lsb: 1,
                 fraction: 2.0,

@@ -94,6 +94,11 @@ pub(super) const MIGRATIONS: &[&str] = &[
         PRIMARY KEY (run_id, scene, label)
     );
     "#,
+    // 2: the mean absolute difference per frame (the `max_mean_abs_diff`
+    //    check's figure); runs recorded before it have NULL there.
+    r#"
+    ALTER TABLE frame_metrics ADD COLUMN mean_abs_diff REAL;
+    "#,
 ];
 
 /// The schema version this build writes.

@@ -1,5 +1,5 @@
-//! Pixel-wise error metrics: MSE, RMSE, PSNR, SNR, maximum difference and the
-//! fraction of pixels off by more than k LSB.
+//! Pixel-wise error metrics: MSE, RMSE, PSNR, SNR, mean and maximum
+//! difference and the fraction of pixels off by more than k LSB.
 //!
 //! Every sum here is an exact `u64` over integer samples (it would take ~2⁴⁸
 //! samples, each off by 255, to overflow), so MSE is the correctly rounded
@@ -21,6 +21,8 @@ pub(crate) struct ErrorSums {
     pub squared_error: u64,
     /// Σ reference² over all samples (the signal energy for SNR).
     pub reference_energy: u64,
+    /// Σ |test − reference| over all samples.
+    pub abs_error: u64,
     /// max |test − reference| over all samples.
     pub max_abs_diff: u8,
     /// Number of samples (pixels × channels).
@@ -32,6 +34,7 @@ impl ErrorSums {
         Self {
             squared_error: self.squared_error + other.squared_error,
             reference_energy: self.reference_energy + other.reference_energy,
+            abs_error: self.abs_error + other.abs_error,
             max_abs_diff: self.max_abs_diff.max(other.max_abs_diff),
             samples: self.samples + other.samples,
         }
@@ -45,16 +48,19 @@ impl ErrorSums {
         for (t, r) in test.chunks(1 << 15).zip(reference.chunks(1 << 15)) {
             let mut squared_error = 0u32;
             let mut reference_energy = 0u32;
+            let mut abs_error = 0u32;
             let mut max_abs_diff = 0u8;
             for (&t, &r) in t.iter().zip(r) {
                 let d = t.abs_diff(r);
                 squared_error += u32::from(d) * u32::from(d);
                 reference_energy += u32::from(r) * u32::from(r);
+                abs_error += u32::from(d);
                 max_abs_diff = max_abs_diff.max(d);
             }
             sums = sums.merge(Self {
                 squared_error: squared_error.into(),
                 reference_energy: reference_energy.into(),
+                abs_error: abs_error.into(),
                 max_abs_diff,
                 samples: t.len() as u64,
             });
@@ -80,6 +86,12 @@ impl ErrorSums {
 
     pub(crate) fn psnr(&self) -> f64 {
         psnr_from_mse(self.mse())
+    }
+
+    /// The exact integer sum over the sample count, correctly rounded: the
+    /// bits numpy's `mean(abs(test - ref))` gives.
+    pub(crate) fn mean_abs_diff(&self) -> f64 {
+        self.abs_error as f64 / self.samples as f64
     }
 
     pub(crate) fn snr(&self) -> f64 {
@@ -131,6 +143,12 @@ pub fn snr(test: Raster, reference: Raster) -> Result<f64, MetricsError> {
     Ok(ErrorSums::of(&test, &reference)?.snr())
 }
 
+/// Mean over all pixels and channels of |test − reference|, in LSB: the
+/// typical error, which a few outliers (unlike the maximum) do not decide.
+pub fn mean_abs_diff(test: Raster, reference: Raster) -> Result<f64, MetricsError> {
+    Ok(ErrorSums::of(&test, &reference)?.mean_abs_diff())
+}
+
 /// Largest absolute difference of any sample, in LSB.
 pub fn max_abs_diff(test: Raster, reference: Raster) -> Result<u8, MetricsError> {
     Ok(ErrorSums::of(&test, &reference)?.max_abs_diff)
@@ -179,6 +197,8 @@ mod tests {
         let expected_snr = 10.0 * (3000.0f64 / 13.0).log10();
         assert!((snr(t, r).unwrap() - expected_snr).abs() < 1e-12);
         assert_eq!(max_abs_diff(t, r).unwrap(), 3);
+        // (0 + 2 + 3 + 0) / 4
+        assert_eq!(mean_abs_diff(t, r).unwrap(), 1.25);
         assert_eq!(fraction_over(t, r, 1).unwrap(), 0.5);
         assert_eq!(fraction_over(t, r, 2).unwrap(), 0.25);
         assert_eq!(fraction_over(t, r, 3).unwrap(), 0.0);
@@ -204,6 +224,7 @@ mod tests {
             assert_eq!(psnr(r, r).unwrap(), f64::INFINITY);
             assert_eq!(snr(r, r).unwrap(), f64::INFINITY);
             assert_eq!(max_abs_diff(r, r).unwrap(), 0);
+            assert_eq!(mean_abs_diff(r, r).unwrap(), 0.0);
         }
     }
 
@@ -242,6 +263,12 @@ mod tests {
             .map(|(&a, &b)| (a as i64 - b as i64).pow(2) as u64)
             .sum();
         assert_eq!(sums.squared_error, naive);
+        let naive_abs: u64 = test
+            .iter()
+            .zip(&reference)
+            .map(|(&a, &b)| u64::from(a.abs_diff(b)))
+            .sum();
+        assert_eq!(sums.abs_error, naive_abs);
     }
 
     #[test]

@@ -20,7 +20,7 @@ mod ssim_avx2;
 mod ssim_kernel;
 pub mod visual;
 
-pub use basic::{fraction_over, max_abs_diff, mse, psnr, rmse, snr};
+pub use basic::{fraction_over, max_abs_diff, mean_abs_diff, mse, psnr, rmse, snr};
 pub use raster::Raster;
 pub use ssim::{mean_ssim, ssim, Ssim, SSIM_WINDOW};
 pub use visual::{diff_heatmap, heatmap_colour, ssim_map_image, HEATMAP_RAMP};
@@ -113,6 +113,8 @@ pub struct Metrics {
     pub ssim: f64,
     /// Largest absolute sample difference, in LSB.
     pub max_abs_diff: u8,
+    /// Mean absolute sample difference, in LSB.
+    pub mean_abs_diff: f64,
     /// Fraction of pixels with any channel off by more than 1 LSB.
     pub fraction_over_1lsb: f64,
     /// Which SSIM this is; tools disagree, so the report says.
@@ -137,6 +139,7 @@ pub fn compare(test: Raster, reference: Raster) -> Result<Metrics, MetricsError>
         snr: sums.snr(),
         ssim,
         max_abs_diff: sums.max_abs_diff,
+        mean_abs_diff: sums.mean_abs_diff(),
         fraction_over_1lsb: fraction_over(test, reference, 1)?,
         ssim_definition: SSIM_DEFINITION.to_owned(),
     })
@@ -148,13 +151,14 @@ impl fmt::Display for Metrics {
         write!(
             f,
             "MSE {:.6}  RMSE {:.6}  PSNR {:.4} dB  SNR {:.4} dB  SSIM {:.6}  \
-             max |diff| {}  >1 LSB {:.4}%",
+             max |diff| {}  mean |diff| {:.4}  >1 LSB {:.4}%",
             self.mse,
             self.rmse,
             self.psnr,
             self.snr,
             self.ssim,
             self.max_abs_diff,
+            self.mean_abs_diff,
             self.fraction_over_1lsb * 100.0
         )
     }
@@ -248,7 +252,13 @@ mod tests {
             text.contains(r#""ssim_definition":"Wang et al. 2004"#),
             "{text}"
         );
-        for field in ["mse", "rmse", "max_abs_diff", "fraction_over_1lsb"] {
+        for field in [
+            "mse",
+            "rmse",
+            "max_abs_diff",
+            "mean_abs_diff",
+            "fraction_over_1lsb",
+        ] {
             assert!(text.contains(&format!("\"{field}\":")), "{field} in {text}");
         }
         let back: Metrics = serde_json::from_str(&text).unwrap();

@@ -355,6 +355,19 @@ degrees_per_frame = 5.0
     }
 
     #[test]
+    fn the_mean_abs_diff_check_parses_and_refuses_a_negative_bound() {
+        let text = format!("{MINIMAL}\n[[checks]]\nmax_mean_abs_diff = 0.25\n");
+        let s = parse(&text).unwrap();
+        assert_eq!(s.checks[0].check, Check::MaxMeanAbsDiff(0.25));
+        let text = format!("{MINIMAL}\n[[checks]]\nmax_mean_abs_diff = -1.0\n");
+        let e = parse(&text).unwrap_err().to_string();
+        assert!(
+            e.contains("bound out of range") && e.contains("checks"),
+            "{e}"
+        );
+    }
+
+    #[test]
     fn hash_ignores_formatting_but_not_parameters() {
         let a = parse(MINIMAL).unwrap();
         let b = parse(&MINIMAL.replace("frames = 2", "frames   =   2 # two")).unwrap();

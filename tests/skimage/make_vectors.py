@@ -12,6 +12,7 @@ u8 lists (the layout of tonegate's Raster).
 Definitions (SPEC §6), all in float64:
   mse   = mean((test - ref)^2)               over all pixels and channels
   rmse  = sqrt(mse)
+  mean_abs_diff = mean(|test - ref|)         over all pixels and channels
   psnr  = 10 log10(255^2 / mse)              +inf when mse == 0
   snr   = 10 log10(sum(ref^2) / sum((test - ref)^2))
           +inf when the images are identical, -inf when ref is all zero
@@ -94,6 +95,7 @@ def reference_metrics(test, ref):
         "psnr": finite_or_str(psnr),
         "snr": finite_or_str(snr),
         "max_abs_diff": int(absdiff.max()),
+        "mean_abs_diff": float(np.mean(absdiff)),
         "fraction_over_1lsb": float(np.mean(np.any(absdiff > 1, axis=-1))),
     }
 
