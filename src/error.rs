@@ -51,7 +51,7 @@ pub enum Error {
     /// The server could not start, or stopped serving.
     #[error("{what}: {source}")]
     Service {
-        what: &'static str,
+        what: String,
         source: std::io::Error,
     },
     /// A command-line argument or parameter that cannot be used.

@@ -108,6 +108,9 @@ pub enum PlanError {
         stage: &'static str,
         needs: &'static str,
     },
+    /// The plan lacks a stage every frame needs.
+    #[error("the plan has no {missing} stage, which every frame needs (a tonegate bug)")]
+    Incomplete { missing: &'static str },
     /// The plan has a stage whose parameters the pipeline lacks.
     #[error("stage {stage} is in the plan but the pipeline has no {what} (a tonegate bug)")]
     NoParameters {

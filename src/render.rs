@@ -13,9 +13,15 @@ use std::time::Instant;
 
 #[derive(Debug, thiserror::Error)]
 pub enum RenderError {
-    /// The scene's environment could not be made or read.
-    #[error("scene {scene}: {detail}")]
-    Environment { scene: String, detail: String },
+    /// The scene's environment file could not be read.
+    #[error("scene {scene}: {source}")]
+    Environment {
+        scene: String,
+        source: crate::io::HdrIoError,
+    },
+    /// The scene names no environment (validation refuses such scenes).
+    #[error("scene {scene}: no environment")]
+    NoEnvironment { scene: String },
     /// The GPU failed while rendering the scene.
     #[error("scene {scene}: {source}")]
     Gpu { scene: String, source: GpuError },
@@ -26,10 +32,6 @@ pub enum RenderError {
 
 /// The environment map of a scene: generated, or loaded with the default policy.
 pub fn scene_environment(scene: &Scene) -> Result<HdrImage, RenderError> {
-    let refuse = |detail: String| RenderError::Environment {
-        scene: scene.name.clone(),
-        detail,
-    };
     match (&scene.environment.builtin, &scene.environment.path) {
         (Some(env), _) => {
             let size = scene.environment.size.unwrap_or(Size {
@@ -40,8 +42,13 @@ pub fn scene_environment(scene: &Scene) -> Result<HdrImage, RenderError> {
         }
         (None, Some(path)) => crate::io::load_hdr(path, &crate::io::LoadOptions::default())
             .map(|(img, _)| img)
-            .map_err(|e| refuse(e.to_string())),
-        (None, None) => Err(refuse("no environment".into())),
+            .map_err(|source| RenderError::Environment {
+                scene: scene.name.clone(),
+                source,
+            }),
+        (None, None) => Err(RenderError::NoEnvironment {
+            scene: scene.name.clone(),
+        }),
     }
 }
 

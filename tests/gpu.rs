@@ -209,7 +209,7 @@ fn each_stage_matches_its_reference_on_the_same_input() {
             }
         }
         // tonemap: the curve in f32 against f64 with the same statistics.
-        let params = tonemap::resolve(pipeline.operator, &cpu_stats);
+        let params = tonemap::resolve(pipeline.operator, &cpu_stats).unwrap();
         assert!(
             rel(gpu.stats.scale as f64, params.scale) <= 2e-5,
             "{name} scale {} vs {}",
@@ -448,6 +448,46 @@ fn oversized_frames_are_refused_not_crashed() {
     .err()
     .expect("refused");
     assert!(err.to_string().contains("texture limit"), "{err}");
+}
+
+#[test]
+fn a_plan_its_pipeline_cannot_fill_is_an_error_on_both_renderers() {
+    // A plan with bloom stages run with a pipeline that has no bloom: the
+    // plan is valid, the pairing is a caller's bug, and neither renderer panics.
+    let ctx = context();
+    let img = tonegate::image::HdrImage::filled(16, 12, [2.0, 1.0, 0.5]);
+    let op = tonegate::scene::Operator::default();
+    let bloom: tonegate::scene::Bloom =
+        toml::from_str("threshold = 0.5\nradius = 2\nsigma = 1.0\nstrength = 0.5").unwrap();
+    let plan = StagePlan::build(tonegate::plan::Input::Flat, &op, Some(&bloom), None);
+    let without_bloom = Pipeline {
+        operator: &op,
+        bloom: None,
+        grade: None,
+        encoding: tonegate::scene::Encoding::Srgb,
+    };
+    let cpu = reference::run_plan(&plan, img.to_linear(), &without_bloom)
+        .expect_err("the reference refuses");
+    assert!(cpu.to_string().contains("bloom_bright"), "{cpu}");
+    for execution in [Execution::Staged, Execution::Fused] {
+        let config = GpuConfig {
+            execution,
+            ..GpuConfig::default()
+        };
+        let gpu = GpuRenderer::new(
+            &ctx,
+            plan.clone(),
+            GpuInput::Flat(&img),
+            &without_bloom,
+            config,
+        )
+        .err()
+        .expect("the GPU refuses");
+        assert!(
+            matches!(gpu, tonegate::gpu::GpuError::Plan(_)),
+            "{execution:?}: {gpu}"
+        );
+    }
 }
 
 #[test]

@@ -173,6 +173,13 @@ mod tests {
     use super::*;
 
     #[test]
+    fn test_kind_names_are_the_serde_names() {
+        for k in [TestKind::Static, TestKind::Moving] {
+            assert_eq!(serde_json::to_value(k).unwrap(), k.name());
+        }
+    }
+
+    #[test]
     fn summaries_name_the_frames_of_the_extremes() {
         let s = Summary::of(&[(0, 30.0), (1, 50.0), (2, 20.0)], true);
         assert_eq!(

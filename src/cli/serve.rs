@@ -88,13 +88,13 @@ pub fn serve(a: ServeArgs) -> Result<ExitCode> {
         .enable_all()
         .build()
         .map_err(|source| Error::Service {
-            what: "starting the async runtime",
+            what: "starting the async runtime".into(),
             source,
         })?;
     rt.block_on(async move {
         let server = Server::bind(opts).await?;
         let addr = server.local_addr().map_err(|source| Error::Service {
-            what: "reading the bound address",
+            what: "reading the bound address".into(),
             source,
         })?;
         println!(
@@ -121,7 +121,7 @@ pub fn serve(a: ServeArgs) -> Result<ExitCode> {
             .run(shutdown_signal())
             .await
             .map_err(|source| Error::Service {
-                what: "serving",
+                what: "serving".into(),
                 source,
             })
     })?;

@@ -101,55 +101,26 @@ fn floor_times(
     format: HdrFormat,
     frames: u32,
 ) -> Result<Vec<f64>, GpuError> {
-    if !ctx.adapter.timestamps {
-        return Ok(Vec::new());
-    }
     let out = super::stages::hdr_texture(ctx, "tonegate.floor", width, height, format);
     let d = super::floor::floor(ctx, format, &out);
-    let set = ctx.device.create_query_set(&wgpu::QuerySetDescriptor {
-        label: Some("tonegate.floor.timestamps"),
-        ty: wgpu::QueryType::Timestamp,
-        count: 2,
-    });
-    let resolve = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("tonegate.floor.resolve"),
-        size: 16,
-        usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
-        mapped_at_creation: false,
-    });
-    let read = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("tonegate.floor.read"),
-        size: 16,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
+    let Some(queries) = super::timing::Queries::new(ctx, 1) else {
+        return Ok(Vec::new());
+    };
     let mut times = Vec::with_capacity(frames as usize);
     for _ in 0..frames {
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("tonegate.floor"),
-                timestamp_writes: Some(wgpu::ComputePassTimestampWrites {
-                    query_set: &set,
-                    beginning_of_pass_write_index: Some(0),
-                    end_of_pass_write_index: Some(1),
-                }),
+                timestamp_writes: Some(queries.writes(0, 0)),
             });
             d.record(&mut pass);
         }
-        encoder.resolve_query_set(&set, 0..2, &resolve, 0);
-        encoder.copy_buffer_to_buffer(&resolve, 0, &read, 0, 16);
+        queries.resolve(&mut encoder, 0);
+        queries.copy(&mut encoder);
         ctx.queue.submit([encoder.finish()]);
-        let bytes = ctx.read_buffer(&read)?;
-        let t = super::timing::durations(
-            &["floor"],
-            &[
-                u64::from_le_bytes(bytes[0..8].try_into().unwrap_or([0; 8])),
-                u64::from_le_bytes(bytes[8..16].try_into().unwrap_or([0; 8])),
-            ],
-            ctx.timestamp_period,
-        );
-        times.push(t[0].ms);
+        let slot = queries.read(ctx, &["floor"], 1)?;
+        times.extend(slot.first().and_then(|t| t.first()).map(|t| t.ms));
     }
     Ok(times)
 }

@@ -51,15 +51,20 @@ pub fn wire(w: &mut Wiring, stage: &Stage) -> Result<Option<Pass>, GpuError> {
             w.low = Some(out);
             Pass { name, dispatches }
         }
-        Stage::BloomComposite => Pass::merged(name),
+        Stage::BloomComposite => {
+            let strength = w.bloom(name)?.strength.get();
+            let blurred = w
+                .blurred
+                .clone()
+                .ok_or(PlanError::order(name, "bloom_blur"))?;
+            w.composite = Some((blurred, strength));
+            Pass::merged(name)
+        }
         Stage::Encode => {
             let Some(t) = &w.tone else {
                 return Err(PlanError::order(name, "tonemap").into());
             };
-            let bloom = match (w.pipeline.bloom, &w.blurred) {
-                (Some(b), Some(bl)) => Some((bl, b.strength.get())),
-                _ => None,
-            };
+            let bloom = w.composite.as_ref().map(|(t, k)| (t, *k));
             let name = if bloom.is_some() {
                 "tonemap+bloom_composite+encode"
             } else {

@@ -431,5 +431,6 @@ fn frame_resources<'a, 'p>(
         tone: None,
         pending_resolve: false,
         bright_source: None,
+        composite: None,
     })
 }

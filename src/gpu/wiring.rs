@@ -63,6 +63,8 @@ pub struct Wiring<'a, 'p> {
     pub tone: Option<ToneParams>,
     pub pending_resolve: bool,
     pub bright_source: Option<BloomSource>,
+    /// The bloom (blurred texture, strength) the fused tail adds.
+    pub composite: Option<(wgpu::Texture, f64)>,
 }
 
 impl<'p> Wiring<'_, 'p> {
@@ -187,7 +189,7 @@ impl<'p> Wiring<'_, 'p> {
                 let mean = self
                     .grade_mean
                     .clone()
-                    .unwrap_or_else(|| shared_buffer(ctx, "tonegate.grade_stats", 4));
+                    .unwrap_or_else(|| shared_buffer(ctx, "tonegate.grade.unused_mean", 4));
                 let out = self.texture(name, self.width, self.height);
                 let d = super::grade::grade(ctx, format, g, &mean, &base, &out);
                 self.outputs.push((name, out.clone()));

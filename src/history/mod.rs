@@ -347,7 +347,7 @@ impl History {
     }
 
     /// The status of run `id`, if it exists.
-    pub fn status(&self, id: i64) -> Result<Option<String>, HistoryError> {
+    pub fn status(&self, id: i64) -> Result<Option<RunStatus>, HistoryError> {
         self.conn
             .query_row("SELECT status FROM runs WHERE id = ?1", [id], |r| r.get(0))
             .optional()
@@ -363,5 +363,22 @@ impl History {
 
     pub(crate) fn conn(&self) -> &Connection {
         &self.conn
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stored_words_are_the_serde_names() {
+        // The database, the JSON and the console must say the same word.
+        for k in RunKind::ALL {
+            assert_eq!(serde_json::to_value(k).unwrap(), k.as_str());
+            assert_eq!(format!("{k:<9}|"), format!("{:<9}|", k.as_str()));
+        }
+        for s in RunStatus::ALL {
+            assert_eq!(serde_json::to_value(s).unwrap(), s.as_str());
+        }
     }
 }

@@ -104,7 +104,7 @@ pub fn run_plan(
                 stats = luminance_stats::luminance_stats(&hdr, *needs, weights, delta);
             }
             Stage::Tonemap { .. } => {
-                let params = tonemap::resolve(p.operator, &stats);
+                let params = tonemap::resolve(p.operator, &stats)?;
                 let out = tonemap::tonemap(&hdr, &params);
                 tone = Some(params);
                 display = Some(out.clone());
@@ -171,12 +171,12 @@ pub fn run_plan(
         }
     }
     let (Some(toned), Some(tone)) = (toned, tone) else {
-        return Err(PlanError::order("encode", "tonemap"));
+        return Err(PlanError::Incomplete { missing: "tonemap" });
     };
     Ok(FrameOutputs {
         tone,
         display: display.unwrap_or_else(|| toned.clone()),
-        frame: frame.ok_or(PlanError::order("the frame", "encode"))?,
+        frame: frame.ok_or(PlanError::Incomplete { missing: "encode" })?,
         hdr,
         stats,
         toned,

@@ -2,8 +2,9 @@
 
 use crate::color::{luminance_with, BT709, PFS};
 use crate::image::LinearImage;
+use crate::plan::PlanError;
 use crate::reference::luminance_stats::LuminanceStats;
-use crate::scene::{ColourPath, Key, Operator};
+use crate::scene::{ColourPath, Key, Operator, Positive};
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -67,12 +68,14 @@ pub fn automatic_key(min: f64, log_average: f64, max: f64) -> f64 {
 }
 
 /// Resolves the operator's parameters for one frame. Statistics the plan did
-/// not measure must be fixed in the operator (the plan guarantees it).
-pub fn resolve(op: &Operator, stats: &LuminanceStats) -> ToneParams {
+/// not measure must be fixed in the operator (the plan guarantees it; a plan
+/// that does not is a [`PlanError`]).
+pub fn resolve(op: &Operator, stats: &LuminanceStats) -> Result<ToneParams, PlanError> {
     let (weights, _) = operator_constants(op);
-    let measured = |v: Option<f64>, what: &str| -> f64 {
-        v.unwrap_or_else(|| panic!("stage plan did not measure {what}"))
-    };
+    // A measured statistic, unless the operator fixes it.
+    let measured = |v: Option<f64>| v.ok_or(PlanError::order("tonemap", "luminance_stats"));
+    let fixed_or =
+        |fixed: &Option<Positive>, v: Option<f64>| measured(fixed.map(|f| f.get()).or(v));
     let (key, log_average, white_sq) = match op {
         Operator::Seed000 {
             key,
@@ -81,21 +84,17 @@ pub fn resolve(op: &Operator, stats: &LuminanceStats) -> ToneParams {
             max_luminance,
             ..
         } => {
-            let lavg = log_average
-                .map(|v| v.get())
-                .unwrap_or_else(|| measured(stats.log_average, "the log-average"));
-            let lmax = max_luminance
-                .map(|v| v.get())
-                .unwrap_or_else(|| measured(stats.max, "the maximum"));
+            let lavg = fixed_or(log_average, stats.log_average)?;
+            let lmax = fixed_or(max_luminance, stats.max)?;
             let w = white_fraction.get();
             (key.get(), lavg, finite_positive_or_inf(w * w * lmax))
         }
         Operator::Seed001 { key, .. } => {
-            let lavg = measured(stats.weighted_log_average, "the weighted log-average");
-            let lmax = measured(stats.max, "the maximum");
+            let lavg = measured(stats.weighted_log_average)?;
+            let lmax = measured(stats.max)?;
             let a = match key {
                 Key::Fixed(k) => k.get(),
-                Key::Auto => automatic_key(measured(stats.min, "the minimum"), lavg, lmax),
+                Key::Auto => automatic_key(measured(stats.min)?, lavg, lmax),
             };
             let white = a * lmax / lavg;
             (a, lavg, finite_positive_or_inf(white * white))
@@ -106,25 +105,23 @@ pub fn resolve(op: &Operator, stats: &LuminanceStats) -> ToneParams {
             log_average,
             ..
         } => {
-            let lavg = log_average
-                .map(|v| v.get())
-                .unwrap_or_else(|| measured(stats.log_average, "the log-average"));
+            let lavg = fixed_or(log_average, stats.log_average)?;
             let a = key.get();
             let white = match white {
                 Some(w) => w.get(),
-                None => a * measured(stats.max, "the maximum") / lavg,
+                None => a * measured(stats.max)? / lavg,
             };
             (a, lavg, finite_positive_or_inf(white * white))
         }
     };
-    ToneParams {
+    Ok(ToneParams {
         key,
         log_average,
         scale: key / log_average,
         white_sq,
         weights,
         colour: op.colour(),
-    }
+    })
 }
 
 /// The display luminance of scaled luminance L. Written as L/(1+L)·(1+L/W)
@@ -286,13 +283,13 @@ mod tests {
             weight_sum: Some(1.0),
         };
         let seed000 = Operator::default();
-        let p = resolve(&seed000, &stats);
+        let p = resolve(&seed000, &stats).unwrap();
         assert!((p.white_sq - 0.64 * 100.0).abs() < 1e-12 && (p.scale - 0.36).abs() < 1e-15);
         let seed001 = Operator::Seed001 {
             key: Key::Auto,
             colour: ColourPath::Ratio,
         };
-        let p = resolve(&seed001, &stats);
+        let p = resolve(&seed001, &stats).unwrap();
         let a = automatic_key(0.01, 0.8, 100.0);
         assert!((p.key - a).abs() < 1e-15 && (p.white_sq - (a * 100.0 / 0.8).powi(2)).abs() < 1e-9);
         let r02 = Operator::Reinhard02 {
@@ -302,7 +299,7 @@ mod tests {
             colour: ColourPath::Ratio,
             pfs_compatible: false,
         };
-        assert_eq!(resolve(&r02, &stats).white_sq, 9.0);
+        assert_eq!(resolve(&r02, &stats).unwrap().white_sq, 9.0);
     }
 
     #[test]
@@ -312,7 +309,7 @@ mod tests {
             max: Some(0.0),
             ..Default::default()
         };
-        let p = resolve(&Operator::default(), &stats);
+        let p = resolve(&Operator::default(), &stats).unwrap();
         assert_eq!(p.white_sq, f64::INFINITY);
     }
 }

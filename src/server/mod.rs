@@ -271,9 +271,11 @@ impl Server {
     /// Opens (and migrates) the history, starts the tone-map workers and
     /// binds the address; port 0 picks a free port (see `local_addr`).
     pub async fn bind(opts: ServeOptions) -> Result<Server, crate::Error> {
-        let invalid = |e: String| crate::Error::Invalid(e);
-        crate::history::History::open(&opts.db).map_err(|e| invalid(e.to_string()))?;
-        let file = |e: std::io::Error| invalid(format!("starting a tone-map worker: {e}"));
+        crate::history::History::open(&opts.db)?;
+        let file = |source| crate::Error::Service {
+            what: "starting a tone-map worker".into(),
+            source,
+        };
         let gpu = Queue::start(
             "gpu",
             opts.limits.queue,
@@ -293,7 +295,10 @@ impl Server {
         .map_err(file)?;
         let listener = tokio::net::TcpListener::bind(opts.bind)
             .await
-            .map_err(|e| invalid(format!("binding {}: {e}", opts.bind)))?;
+            .map_err(|source| crate::Error::Service {
+                what: format!("binding {}", opts.bind),
+                source,
+            })?;
         Ok(Server {
             listener,
             state: Arc::new(AppState {

@@ -126,8 +126,18 @@ pub enum TradeoffError {
     #[error(transparent)]
     Render(#[from] RenderError),
     /// The GPU failed for one configuration.
-    #[error("{label}: {source}")]
-    Configuration { label: String, source: RenderError },
+    #[error("scene {scene}, {label}: {source}")]
+    Gpu {
+        scene: String,
+        label: String,
+        source: crate::gpu::GpuError,
+    },
+    /// A frame could not be compared with the reference's.
+    #[error("scene {scene}: {source}")]
+    Metrics {
+        scene: String,
+        source: crate::metrics::MetricsError,
+    },
     /// A knob value the scene cannot take.
     #[error("scene {scene}: {detail}")]
     Invalid { scene: String, detail: String },
@@ -192,9 +202,13 @@ pub fn measure_scene(
                 detail,
             }
         })?;
-        let failed = |source| TradeoffError::Configuration {
-            label: label.clone(),
-            source,
+        let failed = |e| match e {
+            RenderError::Gpu { source, .. } => TradeoffError::Gpu {
+                scene: scene.name.clone(),
+                label: label.clone(),
+                source,
+            },
+            other => TradeoffError::Render(other),
         };
         let config = GpuConfig {
             hdr_format: knobs.hdr_format,
@@ -210,10 +224,10 @@ pub fn measure_scene(
         let (mut psnr, mut ssim, mut rel): (f64, f64, f64) = (f64::INFINITY, 1.0, 0.0);
         for (&n, reference) in frames.iter().zip(&references) {
             let out = r.frame(n).map_err(failed)?;
-            let m = compare(out.image.raster(), reference.image.raster()).map_err(|e| {
-                TradeoffError::Invalid {
+            let m = compare(out.image.raster(), reference.image.raster()).map_err(|source| {
+                TradeoffError::Metrics {
                     scene: scene.name.clone(),
-                    detail: e.to_string(),
+                    source,
                 }
             })?;
             psnr = psnr.min(m.psnr);
