@@ -4,15 +4,19 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 source ci/deps.sh
 cargo fmt --all -- --check
-# The scikit-image lock: regenerate the metric vectors with the pinned versions
-# in a venv (.venv) and require the committed file to be exactly what they give.
-committed=$(mktemp)
-cp tests/skimage/vectors.json "$committed"
-if ! tests/skimage/make_vectors.sh >/dev/null || ! cmp -s "$committed" tests/skimage/vectors.json; then
-  cp "$committed" tests/skimage/vectors.json
-  echo "tests/skimage/vectors.json is not what the pinned scikit-image produces (or it could not run)" >&2
-  exit 1
-fi
-rm -f "$committed"
+# The metric locks: regenerate each lock's vectors with its pinned versions in
+# a venv (.venv) and require the committed file to be exactly what they give.
+#   tests/skimage     MSE, PSNR, SNR, SSIM, mean |diff| against numpy and scikit-image
+#   tests/perceptual  FLIP, HDR-FLIP (flip-evaluator), PU21, delta E ITP (colour-science)
+for lock in skimage perceptual; do
+  committed=$(mktemp)
+  cp "tests/$lock/vectors.json" "$committed"
+  if ! "tests/$lock/make_vectors.sh" >/dev/null || ! cmp -s "$committed" "tests/$lock/vectors.json"; then
+    cp "$committed" "tests/$lock/vectors.json"
+    echo "tests/$lock/vectors.json is not what the pinned tools produce (or they could not run)" >&2
+    exit 1
+  fi
+  rm -f "$committed"
+done
 cargo test --locked --all-targets "$@"
 cargo test --locked --doc

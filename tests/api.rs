@@ -204,8 +204,8 @@ async fn every_read_endpoint_answers_on_a_seeded_history() {
     let kept = ok_run["report"]["artifacts"].as_array().unwrap();
     assert_eq!(
         kept.len(),
-        2 * 4,
-        "one worst frame per scene, four images each: {kept:?}"
+        2 * 5,
+        "one worst frame per scene, five images each: {kept:?}"
     );
     // Path traversal and names that are not this run's are refused.
     for bad in [

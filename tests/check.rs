@@ -123,7 +123,10 @@ fn a_tone_mapper_two_percent_too_bright_fails_with_artifacts_and_junit_failures(
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     let out = text(&o);
     assert!(out.contains("FAIL PSNR >= 50 dB"), "{out}");
-    // Four images per failing frame, named <scene>-<frame>-<adapter>-<kind>.png.
+    // The perceptual bound catches it too (issue 16: a GPU frame 2 % too
+    // bright fails a FLIP check).
+    assert!(out.contains("FAIL FLIP mean <= 0.001"), "{out}");
+    // Five images per failing frame, named <scene>-<frame>-<adapter>-<kind>.png.
     let names: Vec<String> = std::fs::read_dir(&art)
         .unwrap()
         .map(|e| e.unwrap().file_name().into_string().unwrap())
@@ -132,8 +135,8 @@ fn a_tone_mapper_two_percent_too_bright_fails_with_artifacts_and_junit_failures(
         .iter()
         .filter(|n| n.starts_with("sky-seed000-000-"))
         .collect();
-    assert_eq!(actual.len(), 4, "{names:?}");
-    for kind in ["actual", "golden", "diff", "ssim"] {
+    assert_eq!(actual.len(), 5, "{names:?}");
+    for kind in ["actual", "golden", "diff", "ssim", "flip"] {
         let name = names
             .iter()
             .find(|n| n.starts_with("sky-seed000-000-") && n.ends_with(&format!("-{kind}.png")))

@@ -131,7 +131,7 @@ fn the_dashboard_shows_runs_charts_and_image_comparisons_in_chromium() {
     assert_eq!(count(&dom, "class=\"run-row\""), 1, "the status filter");
 
     // The failing run: scenes, checks, per-frame table, the comparer with
-    // golden / actual / diff / SSIM images the browser decoded, and a slider.
+    // golden / actual / diff / SSIM / FLIP images the browser decoded, and a slider.
     let dom = browse(
         &format!("{}/#/runs/{}?scene=sky-seed000", s.base, seeded.failed),
         "run-failed",
@@ -140,7 +140,7 @@ fn the_dashboard_shows_runs_charts_and_image_comparisons_in_chromium() {
     assert!(dom.contains("class=\"badge failed\""));
     assert!(count(&dom, "data-frame=") >= 8, "eight frames in the table");
     assert!(dom.contains("class=\"comparer\""), "{dom}");
-    for kind in ["golden", "actual", "diff", "ssim"] {
+    for kind in ["golden", "actual", "diff", "ssim", "flip"] {
         let marker = format!("data-kind=\"{kind}\" data-loaded=\"1\"");
         assert!(dom.contains(&marker), "{kind} image not loaded:\n{dom}");
     }
@@ -158,7 +158,8 @@ fn the_dashboard_shows_runs_charts_and_image_comparisons_in_chromium() {
 
     // Trends: FPS, PSNR, SSIM and stage time charts with points.
     let dom = browse(&format!("{}/#/trends?scene=sky-seed000", s.base), "trends");
-    assert!(count(&dom, "<svg class=\"chart\"") >= 4, "{dom}");
+    assert!(count(&dom, "<svg class=\"chart\"") >= 5, "{dom}");
+    assert!(dom.contains("Worst-frame FLIP mean"), "the FLIP trend");
     assert!(count(&dom, "class=\"series\"") >= 4, "{dom}");
     assert!(count(&dom, "<circle") >= 8, "{dom}");
     assert!(dom.contains("data-series=\"sphere\""), "a stage series");

@@ -173,9 +173,11 @@ fn a_version_1_file_is_migrated_without_losing_its_runs() {
             max_abs_diff: 2,
             mean_abs_diff,
             fraction_over_1lsb: 0.01,
+            flip_mean: 0.002,
             ssim_definition: String::new(),
         },
         fraction_over: BTreeMap::new(),
+        flip_percentiles: BTreeMap::new(),
         failed_checks: Vec::new(),
         artifacts: Vec::new(),
     };
@@ -185,10 +187,12 @@ fn a_version_1_file_is_migrated_without_losing_its_runs() {
     let mut old = scene("sky", 10.0, 10.0);
     old.frames.push(frame(0.5));
     let old_id = record(&mut History::open(&db).unwrap(), &a, &old);
-    // Make it the file schema version 1 wrote: no mean_abs_diff column.
+    // Make it the file schema version 1 wrote: no mean_abs_diff or flip_mean columns.
     let conn = rusqlite::Connection::open(&db).unwrap();
     conn.execute_batch(
-        "ALTER TABLE frame_metrics DROP COLUMN mean_abs_diff; PRAGMA user_version = 1;",
+        "ALTER TABLE frame_metrics DROP COLUMN mean_abs_diff;
+         ALTER TABLE frame_metrics DROP COLUMN flip_mean;
+         PRAGMA user_version = 1;",
     )
     .unwrap();
     drop(conn);
@@ -216,4 +220,7 @@ fn a_version_1_file_is_migrated_without_losing_its_runs() {
     let mean = trend("mean_abs_diff");
     assert_eq!(mean.len(), 1, "{mean:?}");
     assert_eq!((mean[0].run_id, mean[0].value), (new_id, 0.25));
+    let flip = trend("flip_mean");
+    assert_eq!(flip.len(), 1, "{flip:?}");
+    assert_eq!((flip[0].run_id, flip[0].value), (new_id, 0.002));
 }

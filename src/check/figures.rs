@@ -99,9 +99,19 @@ pub const FRACTION_OVER_1LSB: FrameMetric = FrameMetric {
     valid_bound: |v| (0.0..=1.0).contains(&v),
 };
 
+pub const FLIP_MEAN: FrameMetric = FrameMetric {
+    name: "flip_mean",
+    title: "FLIP mean",
+    bound_unit: "",
+    higher_is_better: false,
+    read: |m| m.flip_mean,
+    show: |v| format!("FLIP mean {v:.5}"),
+    valid_bound: |v| (0.0..=1.0).contains(&v),
+};
+
 /// Every per-frame figure, in report order: what a sequence is summarised by
 /// (best / worst / mean) and what checks read.
-pub const FRAME_METRICS: [&FrameMetric; 8] = [
+pub const FRAME_METRICS: [&FrameMetric; 9] = [
     &PSNR,
     &SSIM,
     &SNR,
@@ -110,4 +120,5 @@ pub const FRAME_METRICS: [&FrameMetric; 8] = [
     &MAX_ABS_DIFF,
     &MEAN_ABS_DIFF,
     &FRACTION_OVER_1LSB,
+    &FLIP_MEAN,
 ];

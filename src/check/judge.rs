@@ -6,7 +6,7 @@ use super::figures::FRAME_METRICS;
 use super::result::{CheckResult, FrameResult, SceneResult, Summary, TestKind};
 use super::spec::{not_applied, CheckSpec, Judged, Subject};
 use crate::image::Rgb8Image;
-use crate::metrics::{compare, fraction_over};
+use crate::metrics::{compare_with_flip, fraction_over};
 use crate::perf::TimingSummary;
 use std::collections::BTreeMap;
 
@@ -49,7 +49,7 @@ pub fn evaluate(
     }
     let rule = spec.check.rule();
     match rule.subject {
-        Subject::Frame(_) | Subject::FractionOver(_) => {
+        Subject::Frame(_) | Subject::FractionOver(_) | Subject::FlipPercentile(_) => {
             let lower_is_worse = rule.side == super::spec::Side::Min;
             // (value, frame) of the worst judged frame; NaN counts as worst.
             let worst = frames
@@ -171,6 +171,14 @@ pub fn judge(
         .collect();
     lsbs.sort_unstable();
     lsbs.dedup();
+    let flip_ps: Vec<f64> = on
+        .checks
+        .iter()
+        .filter_map(|c| match c.check.rule().subject {
+            Subject::FlipPercentile(p) => Some(p),
+            _ => None,
+        })
+        .collect();
     let mut frames = Vec::with_capacity(images.len());
     for (n, (frame, golden)) in images.iter().zip(&goldens).enumerate() {
         let n = n as u32;
@@ -179,7 +187,11 @@ pub fn judge(
             frame: n,
             source,
         };
-        let metrics = compare(frame.raster(), golden.raster()).map_err(err)?;
+        let (metrics, flip) = compare_with_flip(frame.raster(), golden.raster()).map_err(err)?;
+        let flip_percentiles = flip_ps
+            .iter()
+            .map(|&p| (p.to_string(), flip.weighted_percentile(p)))
+            .collect();
         let mut fraction = BTreeMap::new();
         for &k in &lsbs {
             fraction.insert(
@@ -191,6 +203,7 @@ pub fn judge(
             frame: n,
             metrics,
             fraction_over: fraction,
+            flip_percentiles,
             failed_checks: Vec::new(),
             artifacts: Vec::new(),
         });
@@ -296,9 +309,11 @@ mod tests {
                 max_abs_diff: 0,
                 mean_abs_diff: 0.0,
                 fraction_over_1lsb: 0.0,
+                flip_mean: 0.0,
                 ssim_definition: String::new(),
             },
             fraction_over: BTreeMap::new(),
+            flip_percentiles: BTreeMap::new(),
             failed_checks: Vec::new(),
             artifacts: Vec::new(),
         }

@@ -36,6 +36,9 @@ pub struct FrameResult {
     /// about (1 is in `metrics`).
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub fraction_over: BTreeMap<u8, f64>,
+    /// FLIP's weighted percentiles, for each p (as written) a check asks about.
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub flip_percentiles: BTreeMap<String, f64>,
     /// Indices (into the scene's `checks`) of the per-frame checks this frame fails.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub failed_checks: Vec<usize>,
@@ -54,6 +57,12 @@ impl FrameResult {
             Subject::FractionOver(lsb) => {
                 Some(self.fraction_over.get(&lsb).copied().unwrap_or(f64::NAN))
             }
+            Subject::FlipPercentile(p) => Some(
+                self.flip_percentiles
+                    .get(&p.to_string())
+                    .copied()
+                    .unwrap_or(f64::NAN),
+            ),
             Subject::StageMs(_) | Subject::Fps => None,
         }
     }

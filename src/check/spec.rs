@@ -7,7 +7,7 @@
 //! (`super::judge`) are all derived from that [`Rule`]. The per-frame figures
 //! a rule can read are the rows of `super::figures`.
 
-use super::figures::{FrameMetric, MAX_ABS_DIFF, MEAN_ABS_DIFF, MSE, PSNR, SSIM};
+use super::figures::{FrameMetric, FLIP_MEAN, MAX_ABS_DIFF, MEAN_ABS_DIFF, MSE, PSNR, SSIM};
 use crate::conventions::MAX_SPP;
 use serde::{Deserialize, Serialize};
 
@@ -35,6 +35,15 @@ pub enum Check {
         ms: f64,
     },
     MinFps(f64),
+    /// NVIDIA's FLIP error, mean over the frame: the perceptual difference
+    /// wgpu's and vello's image tests gate on.
+    MaxFlipMean(f64),
+    /// FLIP's weighted percentile `p` (0..=1) of the frame's error: bounds the
+    /// worst visible differences rather than their average.
+    MaxFlipPercentile {
+        p: f64,
+        value: f64,
+    },
 }
 
 /// What a rule bounds.
@@ -48,6 +57,8 @@ pub enum Subject<'a> {
     StageMs(&'a str),
     /// Frames per second with readback over the sequence.
     Fps,
+    /// FLIP's weighted percentile `p` of a judged frame's error map.
+    FlipPercentile(f64),
 }
 
 impl Subject<'_> {
@@ -58,6 +69,7 @@ impl Subject<'_> {
             Subject::FractionOver(lsb) => format!("fraction over {lsb} LSB"),
             Subject::StageMs(stage) => (*stage).into(),
             Subject::Fps => "FPS".into(),
+            Subject::FlipPercentile(p) => format!("FLIP weighted percentile {p}"),
         }
     }
 
@@ -68,6 +80,7 @@ impl Subject<'_> {
             Subject::FractionOver(lsb) => format!("fraction over {lsb} LSB {v:.5}"),
             Subject::StageMs(stage) => format!("{stage} median {v:.3} ms"),
             Subject::Fps => format!("{v:.1} FPS with readback"),
+            Subject::FlipPercentile(p) => format!("FLIP weighted percentile {p} {v:.5}"),
         }
     }
 
@@ -75,7 +88,7 @@ impl Subject<'_> {
         match self {
             Subject::Frame(m) => m.bound_unit,
             Subject::StageMs(_) => " ms",
-            Subject::FractionOver(_) | Subject::Fps => "",
+            Subject::FractionOver(_) | Subject::Fps | Subject::FlipPercentile(_) => "",
         }
     }
 
@@ -85,13 +98,17 @@ impl Subject<'_> {
             Subject::FractionOver(_) => (0.0..=1.0).contains(&bound),
             Subject::StageMs(_) => bound.is_finite() && bound > 0.0,
             Subject::Fps => !bound.is_nan(),
+            Subject::FlipPercentile(p) => (0.0..=1.0).contains(p) && (0.0..=1.0).contains(&bound),
         }
     }
 
     /// Whether the figure is read from each judged frame (rather than from
     /// the run as a whole).
     pub fn per_frame(&self) -> bool {
-        matches!(self, Subject::Frame(_) | Subject::FractionOver(_))
+        matches!(
+            self,
+            Subject::Frame(_) | Subject::FractionOver(_) | Subject::FlipPercentile(_)
+        )
     }
 }
 
@@ -176,6 +193,13 @@ impl Check {
                 *ms,
             ),
             Check::MinFps(v) => Rule::new("min_fps", Subject::Fps, Min, *v),
+            Check::MaxFlipMean(v) => Rule::new("max_flip_mean", Frame(&FLIP_MEAN), Max, *v),
+            Check::MaxFlipPercentile { p, value } => Rule::new(
+                format!("max_flip_percentile:{p}"),
+                Subject::FlipPercentile(*p),
+                Max,
+                *value,
+            ),
         }
     }
 
@@ -338,6 +362,19 @@ pub(super) mod tests {
                 "max_stage_ms:sphere",
             ),
             (Check::MinFps(24.0), "FPS >= 24", "min_fps"),
+            (
+                Check::MaxFlipMean(0.01),
+                "FLIP mean <= 0.01",
+                "max_flip_mean",
+            ),
+            (
+                Check::MaxFlipPercentile {
+                    p: 0.99,
+                    value: 0.2,
+                },
+                "FLIP weighted percentile 0.99 <= 0.2",
+                "max_flip_percentile:0.99",
+            ),
         ];
         for (check, label, kind) in cases {
             assert_eq!(check.rule().label(), label);
@@ -355,6 +392,8 @@ pub(super) mod tests {
             Check::MinSsim(1.5),
             Check::MinPsnr(f64::NAN),
             Check::MaxMeanAbsDiff(-0.5),
+            Check::MaxFlipMean(1.5),
+            Check::MaxFlipPercentile { p: 1.5, value: 0.1 },
             Check::MaxFractionOver {
                 lsb: 1,
                 fraction: 2.0,

@@ -61,7 +61,7 @@ pub struct HistoryArgs {
     /// Only this scene.
     #[arg(long)]
     pub scene: Option<String>,
-    /// psnr, ssim, snr, mse, rmse, max_abs_diff, mean_abs_diff, fraction_over_1lsb, fps or a
+    /// psnr, ssim, snr, mse, rmse, max_abs_diff, mean_abs_diff, fraction_over_1lsb, flip_mean, fps or a
     /// stage name (median ms). Without it, the run list.
     #[arg(long)]
     pub metric: Option<String>,

@@ -9,6 +9,7 @@ use std::process::ExitCode;
 use tonegate::error::{Error, Result};
 use tonegate::golden::frame_file;
 use tonegate::gpu::GpuContext;
+use tonegate::metrics::flip::ToneMapper;
 use tonegate::progress::Progress;
 use tonegate::render::{scene_environment, FrameDetail, SceneRenderer};
 use tonegate::scene::{Scene, Size, MAX_SPP};
@@ -57,16 +58,37 @@ pub struct TonemapArgs {
 
 #[derive(Args)]
 pub struct CompareArgs {
-    /// The image under test.
+    /// The image under test: 8-bit PNG (LDR metrics), or linear .exr / .hdr / .pfm (HDR metrics).
     pub a: PathBuf,
-    /// The reference image.
+    /// The reference image, of the same kind.
     pub b: PathBuf,
-    /// Write the per-pixel SSIM map as a greyscale PNG.
+    /// Write the per-pixel SSIM map as a greyscale PNG (PU21-SSIM's for HDR inputs).
     #[arg(long)]
     pub ssim_map: Option<PathBuf>,
-    /// Write a heat map of the absolute differences.
+    /// Write a heat map of the absolute differences (8-bit inputs).
     #[arg(long)]
     pub diff: Option<PathBuf>,
+    /// Write the FLIP error map (HDR-FLIP's for HDR inputs), magma-coloured.
+    #[arg(long)]
+    pub flip_map: Option<PathBuf>,
+    /// FLIP's pixels per degree (default: a 0.7 m wide 4K display at 0.7 m, 67.02).
+    #[arg(long)]
+    pub ppd: Option<f64>,
+    /// HDR inputs: the display peak in cd/m² that 1.0 maps to (PU21, delta E ITP).
+    #[arg(long, default_value_t = tonegate::metrics::pu21::DEFAULT_PEAK)]
+    pub peak: f64,
+    /// HDR-FLIP's tone mapper: aces, hable or reinhard.
+    #[arg(long, default_value = "aces", value_parser = super::by_name::<ToneMapper>)]
+    pub tone_mapper: ToneMapper,
+    /// HDR-FLIP's first exposure in stops (default: from the reference's maximum).
+    #[arg(long, allow_hyphen_values = true)]
+    pub start_exposure: Option<f64>,
+    /// HDR-FLIP's last exposure in stops (default: from the reference's median).
+    #[arg(long, allow_hyphen_values = true)]
+    pub stop_exposure: Option<f64>,
+    /// HDR-FLIP's number of exposures (default: one a stop, at least 2).
+    #[arg(long)]
+    pub exposures: Option<u32>,
     /// Print JSON instead of text.
     #[arg(long)]
     pub json: bool,
@@ -191,10 +213,42 @@ pub fn bench(a: BenchArgs) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// What `compare --json` prints for two 8-bit images: the metrics, and
+/// FLIP's pooled statistics at the chosen viewing distance.
+#[derive(serde::Serialize)]
+struct LdrComparison {
+    #[serde(flatten)]
+    metrics: tonegate::metrics::Metrics,
+    flip: tonegate::metrics::flip::FlipStats,
+    flip_definition: &'static str,
+}
+
+fn is_png(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"))
+}
+
 pub fn compare(a: CompareArgs) -> Result<ExitCode> {
+    match (is_png(&a.a), is_png(&a.b)) {
+        (true, true) => compare_ldr(&a),
+        (false, false) => compare_hdr(&a),
+        _ => Err(invalid(format!(
+            "{} and {} are not of one kind: compare two 8-bit PNGs (LDR metrics) or two linear HDR files (.exr, .hdr, .pfm)",
+            a.a.display(),
+            a.b.display()
+        ))),
+    }
+}
+
+fn compare_ldr(a: &CompareArgs) -> Result<ExitCode> {
     let img_a = tonegate::io::read_png8(&a.a)?;
     let img_b = tonegate::io::read_png8(&a.b)?;
-    let m = tonegate::metrics::compare(img_a.raster(), img_b.raster())?;
+    let (m, default_flip) = tonegate::metrics::compare_with_flip(img_a.raster(), img_b.raster())?;
+    let flip = match a.ppd {
+        Some(ppd) => tonegate::metrics::flip::flip(img_a.raster(), img_b.raster(), ppd)?,
+        None => default_flip,
+    };
     if let Some(path) = &a.ssim_map {
         let s = tonegate::metrics::ssim(img_a.raster(), img_b.raster())?;
         tonegate::io::write_png8(path, &tonegate::metrics::ssim_map_image(&s))?;
@@ -205,10 +259,74 @@ pub fn compare(a: CompareArgs) -> Result<ExitCode> {
             &tonegate::metrics::diff_heatmap(img_a.raster(), img_b.raster())?,
         )?;
     }
+    if let Some(path) = &a.flip_map {
+        tonegate::io::write_png8(path, &flip.magma_image())?;
+    }
+    let stats = flip.stats();
     if a.json {
-        write_json(Path::new("-"), "the metrics", &m)?;
+        let report = LdrComparison {
+            metrics: m,
+            flip: stats,
+            flip_definition: tonegate::metrics::FLIP_DEFINITION,
+        };
+        write_json(Path::new("-"), "the metrics", &report)?;
     } else {
         println!("{m}");
+        println!(
+            "FLIP at {:.2} ppd: mean {:.5}, median {:.5}, max {:.5}, weighted quartiles {:.5} / {:.5} / {:.5}",
+            stats.ppd,
+            stats.mean,
+            stats.median,
+            stats.max,
+            stats.weighted_quartiles[0],
+            stats.weighted_quartiles[1],
+            stats.weighted_quartiles[2]
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn compare_hdr(a: &CompareArgs) -> Result<ExitCode> {
+    use tonegate::metrics::flip::HdrFlipOptions;
+    use tonegate::metrics::hdr::{compare_hdr, HdrOptions};
+    if a.diff.is_some() {
+        return Err(invalid(
+            "--diff is the 8-bit difference heat map; for HDR inputs use --flip-map or --ssim-map",
+        ));
+    }
+    let load = tonegate::io::LoadOptions::default();
+    let (img_a, _) = tonegate::io::load_hdr(&a.a, &load)?;
+    let (img_b, _) = tonegate::io::load_hdr(&a.b, &load)?;
+    let opts = HdrOptions {
+        peak: a.peak,
+        flip: HdrFlipOptions {
+            ppd: a.ppd.unwrap_or(tonegate::metrics::flip::DEFAULT_PPD),
+            tone_mapper: a.tone_mapper,
+            start: a.start_exposure,
+            stop: a.stop_exposure,
+            exposures: a.exposures,
+        },
+    };
+    let c = compare_hdr(&img_a, &img_b, &opts)?;
+    if let Some(path) = &a.flip_map {
+        tonegate::io::write_png8(path, &c.flip.magma_image())?;
+    }
+    if let Some(path) = &a.ssim_map {
+        tonegate::io::write_png8(path, &tonegate::metrics::ssim_map_image(&c.pu21.ssim))?;
+    }
+    let m = &c.metrics;
+    if a.json {
+        write_json(Path::new("-"), "the HDR metrics", m)?;
+    } else {
+        println!(
+            "PU21-PSNR {:.4} dB  PU21-SSIM {:.6}  delta E ITP mean {:.4} max {:.4}  (1.0 = {} cd/m2)",
+            m.pu21_psnr, m.pu21_ssim, m.delta_e_itp_mean, m.delta_e_itp_max, m.peak
+        );
+        let r = &m.hdr_flip_exposures;
+        println!(
+            "HDR-FLIP mean {:.5}, median {:.5}, max {:.5} over {} exposures {:.3} .. {:.3} stops ({:?})",
+            m.hdr_flip.mean, m.hdr_flip.median, m.hdr_flip.max, r.count, r.start, r.stop, r.tone_mapper
+        );
     }
     Ok(ExitCode::SUCCESS)
 }

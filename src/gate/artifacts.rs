@@ -1,9 +1,10 @@
-//! Artifacts of failing frames (and of each scene's worst frame): actual, golden, diff heat map and SSIM map
-//! PNGs named `<scene>-<frame>-<adapter>-<kind>.png` (wgpu's test harness
+//! Artifacts of failing frames (and of each scene's worst frame): actual,
+//! golden, diff heat map, SSIM map and FLIP map (magma) PNGs named `<scene>-<frame>-<adapter>-<kind>.png` (wgpu's test harness
 //! names its images by adapter the same way).
 
 use super::CheckError;
 use crate::check::KeptFrame;
+use crate::metrics::flip::{flip, DEFAULT_PPD};
 use crate::metrics::{diff_heatmap, ssim, ssim_map_image};
 use std::path::Path;
 
@@ -34,7 +35,7 @@ pub fn artifact_name(scene: &str, frame: u32, adapter_slug: &str, kind: &str) ->
     format!("{scene}-{frame:03}-{adapter_slug}-{kind}.png")
 }
 
-/// Writes the four images of one kept frame; returns their file names.
+/// Writes the five images of one kept frame; returns their file names.
 pub(super) fn write_frame(
     dir: &Path,
     scene: &str,
@@ -51,12 +52,16 @@ pub(super) fn write_frame(
     };
     let diff = diff_heatmap(f.actual.raster(), f.golden.raster()).map_err(metric)?;
     let map = ssim_map_image(&ssim(f.actual.raster(), f.golden.raster()).map_err(metric)?);
-    let mut names = Vec::with_capacity(4);
+    let flip = flip(f.actual.raster(), f.golden.raster(), DEFAULT_PPD)
+        .map_err(metric)?
+        .magma_image();
+    let mut names = Vec::with_capacity(5);
     for (kind, img) in [
         ("actual", &f.actual),
         ("golden", &f.golden),
         ("diff", &diff),
         ("ssim", &map),
+        ("flip", &flip),
     ] {
         let name = artifact_name(scene, f.frame, slug, kind);
         let path = dir.join(&name);

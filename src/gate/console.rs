@@ -154,5 +154,6 @@ pub fn render(r: &CheckReport) -> String {
         let _ = writeln!(out, "recorded as run {id} in {}", db.display());
     }
     let _ = writeln!(out, "SSIM: {}", r.ssim_definition);
+    let _ = writeln!(out, "FLIP: {}", r.flip_definition);
     out
 }

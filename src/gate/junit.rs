@@ -36,8 +36,8 @@ pub fn render(r: &CheckReport) -> Result<String, quick_junit::SerializeError> {
                     for f in s.frames.iter().filter(|f| f.failed_checks.contains(&i)) {
                         let m = &f.metrics;
                         description.push_str(&format!(
-                            "frame {}: PSNR {:.2} dB, SSIM {:.5}, MSE {:.4}, max abs diff {}",
-                            f.frame, m.psnr, m.ssim, m.mse, m.max_abs_diff
+                            "frame {}: PSNR {:.2} dB, SSIM {:.5}, MSE {:.4}, max abs diff {}, FLIP mean {:.5}",
+                            f.frame, m.psnr, m.ssim, m.mse, m.max_abs_diff, m.flip_mean
                         ));
                         if let Some(dir) = &r.artifacts_dir {
                             for a in &f.artifacts {

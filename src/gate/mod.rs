@@ -113,6 +113,7 @@ pub struct CheckReport {
     /// The renderer's knobs: intermediates, reduction, filter, spp.
     pub renderer: serde_json::Value,
     pub ssim_definition: String,
+    pub flip_definition: String,
     pub scenes: Vec<SceneResult>,
     pub performance: Performance,
     /// Slowdowns against the history on this adapter (failures only when
@@ -370,6 +371,7 @@ fn run_inner(
         adapter,
         renderer: renderer_json,
         ssim_definition: crate::metrics::SSIM_DEFINITION.into(),
+        flip_definition: crate::metrics::FLIP_DEFINITION.into(),
         scenes,
         performance: suite.performance,
         regressions,

@@ -65,9 +65,8 @@ fn metric_sql(metric: &str) -> Result<String, HistoryError> {
     };
     Ok(match metric {
         "psnr" | "ssim" | "snr" => frame("MIN", metric),
-        "mse" | "rmse" | "max_abs_diff" | "mean_abs_diff" | "fraction_over_1lsb" => {
-            frame("MAX", metric)
-        }
+        "mse" | "rmse" | "max_abs_diff" | "mean_abs_diff" | "fraction_over_1lsb"
+        | "flip_mean" => frame("MAX", metric),
         "fps" => "s.fps".into(),
         // A stage's median time; the metric name is bound as ?7.
         stage if stage.chars().all(|c| c.is_ascii_lowercase() || c == '_') && !stage.is_empty() => {
@@ -76,7 +75,7 @@ fn metric_sql(metric: &str) -> Result<String, HistoryError> {
         }
         other => {
             return Err(HistoryError::Invalid(format!(
-                "unknown metric {other:?}: use psnr, ssim, snr, mse, rmse, max_abs_diff, mean_abs_diff, fraction_over_1lsb, fps or a stage name"
+                "unknown metric {other:?}: use psnr, ssim, snr, mse, rmse, max_abs_diff, mean_abs_diff, fraction_over_1lsb, flip_mean, fps or a stage name"
             )))
         }
     })

@@ -145,8 +145,9 @@ impl History {
             let mut frame = tx
                 .prepare(
                     "INSERT INTO frame_metrics (run_id, scene, frame, mse, rmse, psnr, snr, ssim,
-                                                max_abs_diff, fraction_over_1lsb, mean_abs_diff)
-                     VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11)",
+                                                max_abs_diff, fraction_over_1lsb, mean_abs_diff,
+                                                flip_mean)
+                     VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12)",
                 )
                 .map_err(&err)?;
             for f in &r.frames {
@@ -163,7 +164,8 @@ impl History {
                         m.ssim,
                         m.max_abs_diff,
                         m.fraction_over_1lsb,
-                        m.mean_abs_diff
+                        m.mean_abs_diff,
+                        m.flip_mean
                     ])
                     .map_err(&err)?;
             }

@@ -99,6 +99,11 @@ pub(super) const MIGRATIONS: &[&str] = &[
     r#"
     ALTER TABLE frame_metrics ADD COLUMN mean_abs_diff REAL;
     "#,
+    // 3: the mean FLIP error per frame (NVIDIA's FLIP, the `max_flip_mean`
+    //    check's figure).
+    r#"
+    ALTER TABLE frame_metrics ADD COLUMN flip_mean REAL;
+    "#,
 ];
 
 /// The schema version this build writes.

@@ -12,7 +12,11 @@
 //! the same pair, so every report carries [`SSIM_DEFINITION`].
 
 pub mod basic;
+pub mod flip;
+pub mod hdr;
+pub mod itp;
 pub mod json;
+pub mod pu21;
 pub mod raster;
 pub mod ssim;
 #[cfg(target_arch = "x86_64")]
@@ -35,6 +39,12 @@ data_range=255, channel_axis=-1): per channel on 0..255 samples in float64, 11-t
 Gaussian window (sigma 1.5, truncate 3.5) with mirrored ('reflect') borders, K1=0.01, \
 K2=0.03, population covariance, mean over the map with a 5-pixel border cropped, \
 then averaged over channels";
+
+/// The FLIP definition every report states.
+pub const FLIP_DEFINITION: &str = "FLIP (Andersson et al. 2020), NVIDIA's C++ implementation \
+through the nv-flip crate, LDR, on the 8-bit sRGB frames at 67.02 pixels per degree (a 0.7 m \
+wide 4K display seen from 0.7 m): flip_mean is the mean of the per-pixel map, \
+max_flip_percentile the weighted percentile of FLIP's 100-bucket histogram";
 
 /// Why two images could not be compared.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
@@ -91,6 +101,12 @@ pub enum MetricsError {
          use MSE/PSNR for images this small"
     )]
     TooSmallForSsim { width: u32, height: u32 },
+    /// An HDR value that is NaN or infinite: no metric of it means anything.
+    #[error("{role} has a non-finite value (NaN or ±Inf) at ({x}, {y}); HDR metrics need finite values (load with --sanitize to zero them)")]
+    NonFinite { role: &'static str, x: u32, y: u32 },
+    /// A metric's parameter is out of its range.
+    #[error("{name}: {detail}")]
+    BadParameter { name: &'static str, detail: String },
 }
 
 /// Every metric of one comparison, as reported and gated on.
@@ -117,6 +133,9 @@ pub struct Metrics {
     pub mean_abs_diff: f64,
     /// Fraction of pixels with any channel off by more than 1 LSB.
     pub fraction_over_1lsb: f64,
+    /// Mean FLIP error ([`flip`], NVIDIA's implementation) at
+    /// [`flip::DEFAULT_PPD`]; 0 for identical images, 1 at most.
+    pub flip_mean: f64,
     /// Which SSIM this is; tools disagree, so the report says.
     pub ssim_definition: String,
 }
@@ -127,12 +146,22 @@ pub struct Metrics {
 /// report promises an SSIM; the individual pixel metrics ([`mse`], [`psnr`],
 /// ...) accept any non-empty size.
 pub fn compare(test: Raster, reference: Raster) -> Result<Metrics, MetricsError> {
-    // SSIM first: it refuses small images, and it is the expensive part, so a
-    // refusal costs nothing.
+    compare_with_flip(test, reference).map(|(m, _)| m)
+}
+
+/// [`compare`], and the FLIP map its `flip_mean` comes from (for
+/// percentiles and the error-map image).
+pub fn compare_with_flip(
+    test: Raster,
+    reference: Raster,
+) -> Result<(Metrics, flip::Flip), MetricsError> {
+    // SSIM first: it refuses small images, and it is expensive, so a refusal
+    // costs nothing.
     let ssim = mean_ssim(test, reference)?;
+    let flip = flip::flip(test, reference, flip::DEFAULT_PPD)?;
     let sums = basic::ErrorSums::of(&test, &reference)?;
     let mse = sums.mse();
-    Ok(Metrics {
+    let metrics = Metrics {
         mse,
         rmse: mse.sqrt(),
         psnr: sums.psnr(),
@@ -141,8 +170,10 @@ pub fn compare(test: Raster, reference: Raster) -> Result<Metrics, MetricsError>
         max_abs_diff: sums.max_abs_diff,
         mean_abs_diff: sums.mean_abs_diff(),
         fraction_over_1lsb: fraction_over(test, reference, 1)?,
+        flip_mean: flip.mean(),
         ssim_definition: SSIM_DEFINITION.to_owned(),
-    })
+    };
+    Ok((metrics, flip))
 }
 
 impl fmt::Display for Metrics {
@@ -151,7 +182,7 @@ impl fmt::Display for Metrics {
         write!(
             f,
             "MSE {:.6}  RMSE {:.6}  PSNR {:.4} dB  SNR {:.4} dB  SSIM {:.6}  \
-             max |diff| {}  mean |diff| {:.4}  >1 LSB {:.4}%",
+             max |diff| {}  mean |diff| {:.4}  >1 LSB {:.4}%  FLIP {:.5}",
             self.mse,
             self.rmse,
             self.psnr,
@@ -159,7 +190,8 @@ impl fmt::Display for Metrics {
             self.ssim,
             self.max_abs_diff,
             self.mean_abs_diff,
-            self.fraction_over_1lsb * 100.0
+            self.fraction_over_1lsb * 100.0,
+            self.flip_mean
         )
     }
 }
@@ -258,6 +290,7 @@ mod tests {
             "max_abs_diff",
             "mean_abs_diff",
             "fraction_over_1lsb",
+            "flip_mean",
         ] {
             assert!(text.contains(&format!("\"{field}\":")), "{field} in {text}");
         }

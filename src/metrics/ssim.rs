@@ -20,9 +20,12 @@
 //! Work is split into fixed bands of rows run in parallel; the band size does
 //! not depend on the thread count, and partial sums are added in band order,
 //! so the result is the same on any number of cores.
+//!
+//! The same kernels also take one float per pixel computed from a stored
+//! image a band at a time ([`ssim_mapped`]: PU21-SSIM's encoded luminance).
 
 use super::raster::{check_pair, Raster};
-use super::ssim_kernel::{self, kernel_weights, reflect_index, VerticalRows, RADIUS};
+use super::ssim_kernel::{self, kernel_weights, reflect_index, Sample, VerticalRows, RADIUS, TAPS};
 use super::MetricsError;
 use crate::image::Image;
 use rayon::prelude::*;
@@ -45,11 +48,152 @@ pub struct Ssim {
     pub map: Image<f64>,
 }
 
+/// Interleaved samples of one image, row-major.
+#[derive(Clone, Copy)]
+struct Plane<'a, T> {
+    width: usize,
+    height: usize,
+    channels: usize,
+    samples: &'a [T],
+}
+
+impl<'a> Plane<'a, u8> {
+    fn of(r: &Raster<'a>) -> Self {
+        Plane {
+            width: r.width as usize,
+            height: r.height as usize,
+            channels: r.channels,
+            samples: r.samples,
+        }
+    }
+}
+
+/// A sample type SSIM rows are computed for, on the fastest kernel it has.
+trait Rows: Sample {
+    fn row(
+        path: KernelPath,
+        w: &[f64; RADIUS + 1],
+        a: &[&[Self]; TAPS],
+        b: &[&[Self]; TAPS],
+        scratch: &mut VerticalRows,
+        channels: usize,
+        s: &mut [f64],
+    );
+}
+
+impl Rows for u8 {
+    fn row(
+        path: KernelPath,
+        w: &[f64; RADIUS + 1],
+        a: &[&[u8]; TAPS],
+        b: &[&[u8]; TAPS],
+        scratch: &mut VerticalRows,
+        channels: usize,
+        s: &mut [f64],
+    ) {
+        match path {
+            KernelPath::Portable => ssim_kernel::row_portable(w, a, b, scratch, channels, s),
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `KernelPath::Avx2Fma` is only chosen after
+            // `is_x86_feature_detected!` confirmed AVX2 and FMA.
+            KernelPath::Avx2Fma => unsafe { super::ssim_avx2::row(w, a, b, scratch, channels, s) },
+        }
+    }
+}
+
+impl Rows for f64 {
+    fn row(
+        path: KernelPath,
+        w: &[f64; RADIUS + 1],
+        a: &[&[f64]; TAPS],
+        b: &[&[f64]; TAPS],
+        scratch: &mut VerticalRows,
+        channels: usize,
+        s: &mut [f64],
+    ) {
+        match path {
+            KernelPath::Portable => ssim_kernel::row_portable(w, a, b, scratch, channels, s),
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: as for u8.
+            KernelPath::Avx2Fma => unsafe { super::ssim_avx2::row(w, a, b, scratch, channels, s) },
+        }
+    }
+}
+
 /// Mean SSIM (see the module documentation for the exact definition).
 ///
 /// Errors when the pair cannot be compared or either side is under 11 pixels.
 pub fn mean_ssim(test: Raster, reference: Raster) -> Result<f64, MetricsError> {
-    run(&test, &reference, None, KernelPath::best())
+    check_size(&test, &reference)?;
+    run(
+        Plane::of(&test),
+        Plane::of(&reference),
+        None,
+        KernelPath::best(),
+    )
+}
+
+/// SSIM of `f(test)` against `f(reference)` — one value per pixel, already
+/// on SSIM's 8-bit scale (0..255) — with its map, computed a band at a
+/// time: the mapped images are never stored whole, which on a large frame
+/// costs more (fresh memory) than the mapping itself.
+pub fn ssim_mapped<P: Sync>(
+    test: &[P],
+    reference: &[P],
+    width: u32,
+    height: u32,
+    f: &(impl Fn(&P) -> f64 + Sync),
+) -> Result<Ssim, MetricsError> {
+    let mut map = Image::filled(width, height, 0.0);
+    let mean = ssim_mapped_into(test, reference, width, height, f, Some(&mut map.pixels))?;
+    Ok(Ssim { mean, map })
+}
+
+/// [`ssim_mapped`]'s mean only.
+pub fn mean_ssim_mapped<P: Sync>(
+    test: &[P],
+    reference: &[P],
+    width: u32,
+    height: u32,
+    f: &(impl Fn(&P) -> f64 + Sync),
+) -> Result<f64, MetricsError> {
+    ssim_mapped_into(test, reference, width, height, f, None)
+}
+
+fn ssim_mapped_into<P: Sync>(
+    test: &[P],
+    reference: &[P],
+    width: u32,
+    height: u32,
+    f: &(impl Fn(&P) -> f64 + Sync),
+    map: Option<&mut [f64]>,
+) -> Result<f64, MetricsError> {
+    let n = width as usize * height as usize;
+    for (role, len) in [
+        ("image under test", test.len()),
+        ("reference", reference.len()),
+    ] {
+        if len != n || n == 0 {
+            return Err(MetricsError::BadSampleLength {
+                role,
+                width,
+                height,
+                channels: 1,
+                expected: n as u128,
+                actual: len,
+            });
+        }
+    }
+    if width < SSIM_WINDOW || height < SSIM_WINDOW {
+        return Err(MetricsError::TooSmallForSsim { width, height });
+    }
+    let source = |pixels| Mapped {
+        width: width as usize,
+        height: height as usize,
+        pixels,
+        f,
+    };
+    run(source(test), source(reference), map, KernelPath::best())
 }
 
 /// Mean SSIM together with the per-pixel map.
@@ -83,7 +227,12 @@ pub(crate) fn ssim_on(
 ) -> Result<Ssim, MetricsError> {
     check_size(test, reference)?;
     let mut map = Image::filled(test.width, test.height, 0.0);
-    let mean = run(test, reference, Some(&mut map.pixels), path)?;
+    let mean = run(
+        Plane::of(test),
+        Plane::of(reference),
+        Some(&mut map.pixels),
+        path,
+    )?;
     Ok(Ssim { mean, map })
 }
 
@@ -98,31 +247,109 @@ fn check_size(test: &Raster, reference: &Raster) -> Result<(), MetricsError> {
     Ok(())
 }
 
+/// Where SSIM's rows come from: a stored plane, or values computed a band
+/// at a time so no whole transformed copy of an image is ever stored.
+trait Source: Sync {
+    type Sample: Rows;
+    fn width(&self) -> usize;
+    fn height(&self) -> usize;
+    fn channels(&self) -> usize;
+    /// Prepares in `window` what the band of output rows `rows` reads.
+    fn prepare(&self, rows: std::ops::Range<usize>, window: &mut Vec<Self::Sample>);
+    /// The 11 rows around output row `y` (reflected at the image's edges);
+    /// `first` is the band's first row, `window` what `prepare` made for it.
+    fn rows<'a>(
+        &'a self,
+        window: &'a [Self::Sample],
+        first: usize,
+        y: usize,
+    ) -> [&'a [Self::Sample]; TAPS];
+}
+
+impl<T: Rows> Source for Plane<'_, T> {
+    type Sample = T;
+    fn width(&self) -> usize {
+        self.width
+    }
+    fn height(&self) -> usize {
+        self.height
+    }
+    fn channels(&self) -> usize {
+        self.channels
+    }
+    fn prepare(&self, _: std::ops::Range<usize>, _: &mut Vec<T>) {}
+    fn rows<'a>(&'a self, _: &'a [T], _: usize, y: usize) -> [&'a [T]; TAPS] {
+        let n = self.width * self.channels;
+        std::array::from_fn(|k| {
+            let r = reflect_index(y as isize + k as isize - RADIUS as isize, self.height);
+            &self.samples[r * n..(r + 1) * n]
+        })
+    }
+}
+
+/// One value per pixel, `f` of the stored pixel, made a band at a time.
+struct Mapped<'a, P, F> {
+    width: usize,
+    height: usize,
+    pixels: &'a [P],
+    f: &'a F,
+}
+
+impl<P: Sync, F: Fn(&P) -> f64 + Sync> Source for Mapped<'_, P, F> {
+    type Sample = f64;
+    fn width(&self) -> usize {
+        self.width
+    }
+    fn height(&self) -> usize {
+        self.height
+    }
+    fn channels(&self) -> usize {
+        1
+    }
+    fn prepare(&self, rows: std::ops::Range<usize>, window: &mut Vec<f64>) {
+        window.clear();
+        // The band's rows and RADIUS more on each side, already reflected.
+        for k in rows.start as isize - RADIUS as isize..(rows.end + RADIUS) as isize {
+            let r = reflect_index(k, self.height);
+            let line = &self.pixels[r * self.width..(r + 1) * self.width];
+            window.extend(line.iter().map(self.f));
+        }
+    }
+    fn rows<'a>(&'a self, window: &'a [f64], first: usize, y: usize) -> [&'a [f64]; TAPS] {
+        let start = y - first;
+        std::array::from_fn(|k| &window[(start + k) * self.width..(start + k + 1) * self.width])
+    }
+}
+
 /// Per-worker buffers, reused across bands.
-struct Scratch {
+struct Scratch<T> {
     vertical: VerticalRows,
     s: Vec<f64>,
+    window_a: Vec<T>,
+    window_b: Vec<T>,
 }
 
 /// Computes the mean and, when `map` is given, fills it (width × height).
-fn run(
-    test: &Raster,
-    reference: &Raster,
+/// The sizes are checked by the callers.
+fn run<S: Source>(
+    test: S,
+    reference: S,
     map: Option<&mut [f64]>,
     path: KernelPath,
 ) -> Result<f64, MetricsError> {
-    check_size(test, reference)?;
-    let width = test.width as usize;
-    let height = test.height as usize;
-    let channels = test.channels;
+    let width = test.width();
+    let height = test.height();
+    let channels = test.channels();
     let weights = kernel_weights();
     let new_scratch = || Scratch {
         vertical: VerticalRows::new((width + 2 * RADIUS) * channels),
         s: vec![0.0; width * channels],
+        window_a: Vec::new(),
+        window_b: Vec::new(),
     };
-    let band = |scratch: &mut Scratch, index: usize, map_rows: Option<&mut [f64]>| {
+    let band = |scratch: &mut Scratch<S::Sample>, index: usize, map_rows: Option<&mut [f64]>| {
         let rows = index * BAND_ROWS..((index + 1) * BAND_ROWS).min(height);
-        band_sum(test, reference, &weights, path, scratch, rows, map_rows)
+        band_sum(&test, &reference, &weights, path, scratch, rows, map_rows)
     };
     let bands = height.div_ceil(BAND_ROWS);
     let sums: Vec<f64> = match map {
@@ -145,44 +372,28 @@ fn run(
 
 /// SSIM rows `rows`; returns Σ S over the cropped part of those rows and, when
 /// `map_rows` is given, writes their channel-averaged S.
-fn band_sum(
-    test: &Raster,
-    reference: &Raster,
+fn band_sum<S: Source>(
+    test: &S,
+    reference: &S,
     weights: &[f64; RADIUS + 1],
     path: KernelPath,
-    scratch: &mut Scratch,
+    scratch: &mut Scratch<S::Sample>,
     rows: std::ops::Range<usize>,
     mut map_rows: Option<&mut [f64]>,
 ) -> f64 {
-    let height = test.height as usize;
-    let width = test.width as usize;
-    let channels = test.channels;
+    let height = test.height();
+    let width = test.width();
+    let channels = test.channels();
     let n = width * channels;
-    fn row_of<'a>(raster: &Raster<'a>, y: usize) -> [&'a [u8]; 2 * RADIUS + 1] {
-        let height = raster.height as usize;
-        let n = raster.row_len();
-        std::array::from_fn(|k| {
-            let r = reflect_index(y as isize + k as isize - RADIUS as isize, height);
-            &raster.samples[r * n..(r + 1) * n]
-        })
-    }
+    test.prepare(rows.clone(), &mut scratch.window_a);
+    reference.prepare(rows.clone(), &mut scratch.window_b);
     let first = rows.start;
     let mut sum = 0.0;
     for y in rows {
-        let a = row_of(test, y);
-        let b = row_of(reference, y);
+        let a = test.rows(&scratch.window_a, first, y);
+        let b = reference.rows(&scratch.window_b, first, y);
         let s = &mut scratch.s;
-        match path {
-            KernelPath::Portable => {
-                ssim_kernel::row_portable(weights, &a, &b, &mut scratch.vertical, channels, s)
-            }
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: `KernelPath::Avx2Fma` is only chosen after
-            // `is_x86_feature_detected!` confirmed AVX2 and FMA.
-            KernelPath::Avx2Fma => unsafe {
-                super::ssim_avx2::row(weights, &a, &b, &mut scratch.vertical, channels, s)
-            },
-        }
+        S::Sample::row(path, weights, &a, &b, &mut scratch.vertical, channels, s);
         if (RADIUS..height - RADIUS).contains(&y) {
             sum += sum_in_lanes(&s[RADIUS * channels..n - RADIUS * channels]);
         }
@@ -225,6 +436,32 @@ mod tests {
                 (v >> 24) as u8
             })
             .collect()
+    }
+
+    #[test]
+    fn mapped_values_give_the_ssim_of_the_stored_image() {
+        // Heights that are not a multiple of the band, so windows reflect at
+        // both edges; the mapping is the identity on grey levels.
+        for (w, h) in [(23, 11), (17, 29), (40, 8 * 3 + 5)] {
+            let a = pattern(w, h, 1, 3);
+            let b = pattern(w, h, 1, 4);
+            let stored = mean_ssim(
+                Raster::new(w, h, 1, &a).unwrap(),
+                Raster::new(w, h, 1, &b).unwrap(),
+            )
+            .unwrap();
+            let f = |v: &u8| f64::from(*v);
+            let mapped = mean_ssim_mapped(&a, &b, w, h, &f).unwrap();
+            // The same arithmetic, but the AVX2 u8 loads and the f64 loads feed
+            // the same FMAs: equal to the last bits.
+            assert!(
+                (mapped - stored).abs() < 1e-12,
+                "{w}x{h}: {mapped} vs {stored}"
+            );
+            let with_map = ssim_mapped(&a, &b, w, h, &f).unwrap();
+            assert_eq!(with_map.mean, mapped);
+            assert_eq!(with_map.map.pixels.len(), (w * h) as usize);
+        }
     }
 
     #[test]

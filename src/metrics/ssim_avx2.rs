@@ -16,20 +16,45 @@
 use super::ssim_kernel::{reflect_padding, ssim_formula, VerticalRows, C1, C2, RADIUS, TAPS};
 use std::arch::x86_64::*;
 
-/// Eight u8 samples at `p` as two vectors of four f64.
-///
-/// # Safety
-/// `p..p + 8` must be readable; AVX2 must be available.
-#[inline]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn load8(p: *const u8) -> (__m256d, __m256d) {
-    // SAFETY: the caller guarantees 8 readable bytes; the load is unaligned.
-    let bytes = unsafe { _mm_loadl_epi64(p.cast()) };
-    let ints = _mm256_cvtepu8_epi32(bytes);
-    (
-        _mm256_cvtepi32_pd(_mm256_castsi256_si128(ints)),
-        _mm256_cvtepi32_pd(_mm256_extracti128_si256::<1>(ints)),
-    )
+/// A sample type this kernel reads: 8-bit levels, or floats.
+pub(crate) trait Avx2Sample: Copy {
+    /// Eight samples at `p` as two vectors of four f64.
+    ///
+    /// # Safety
+    /// `p..p + 8` must be readable; AVX2 must be available.
+    unsafe fn load8(p: *const Self) -> (__m256d, __m256d);
+    fn value(self) -> f64;
+}
+
+impl Avx2Sample for u8 {
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn load8(p: *const u8) -> (__m256d, __m256d) {
+        // SAFETY: the caller guarantees 8 readable bytes; the load is unaligned.
+        let bytes = unsafe { _mm_loadl_epi64(p.cast()) };
+        let ints = _mm256_cvtepu8_epi32(bytes);
+        (
+            _mm256_cvtepi32_pd(_mm256_castsi256_si128(ints)),
+            _mm256_cvtepi32_pd(_mm256_extracti128_si256::<1>(ints)),
+        )
+    }
+
+    fn value(self) -> f64 {
+        f64::from(self)
+    }
+}
+
+impl Avx2Sample for f64 {
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn load8(p: *const f64) -> (__m256d, __m256d) {
+        // SAFETY: the caller guarantees 8 readable samples; unaligned loads.
+        unsafe { (_mm256_loadu_pd(p), _mm256_loadu_pd(p.add(4))) }
+    }
+
+    fn value(self) -> f64 {
+        self
+    }
 }
 
 /// The five moments of four samples under accumulation.
@@ -93,10 +118,10 @@ impl Moments {
 /// # Safety
 /// AVX2 and FMA must be available.
 #[target_feature(enable = "avx2,fma")]
-pub(crate) unsafe fn vertical(
+pub(crate) unsafe fn vertical<T: Avx2Sample>(
     w: &[f64; RADIUS + 1],
-    a: &[&[u8]; TAPS],
-    b: &[&[u8]; TAPS],
+    a: &[&[T]; TAPS],
+    b: &[&[T]; TAPS],
     out: &mut VerticalRows,
     start: usize,
 ) {
@@ -110,15 +135,15 @@ pub(crate) unsafe fn vertical(
     while i + 8 <= n {
         // SAFETY (all loads and stores below): i + 8 <= n, every source row
         // has length n, and every output row is at least start + n long.
-        let (xl, xh) = unsafe { load8(a[RADIUS].as_ptr().add(i)) };
-        let (yl, yh) = unsafe { load8(b[RADIUS].as_ptr().add(i)) };
+        let (xl, xh) = unsafe { T::load8(a[RADIUS].as_ptr().add(i)) };
+        let (yl, yh) = unsafe { T::load8(b[RADIUS].as_ptr().add(i)) };
         let mut lo = Moments::centre(wv[0], xl, yl);
         let mut hi = Moments::centre(wv[0], xh, yh);
         for k in 1..=RADIUS {
-            let (x_up_lo, x_up_hi) = unsafe { load8(a[RADIUS - k].as_ptr().add(i)) };
-            let (x_dn_lo, x_dn_hi) = unsafe { load8(a[RADIUS + k].as_ptr().add(i)) };
-            let (y_up_lo, y_up_hi) = unsafe { load8(b[RADIUS - k].as_ptr().add(i)) };
-            let (y_dn_lo, y_dn_hi) = unsafe { load8(b[RADIUS + k].as_ptr().add(i)) };
+            let (x_up_lo, x_up_hi) = unsafe { T::load8(a[RADIUS - k].as_ptr().add(i)) };
+            let (x_dn_lo, x_dn_hi) = unsafe { T::load8(a[RADIUS + k].as_ptr().add(i)) };
+            let (y_up_lo, y_up_hi) = unsafe { T::load8(b[RADIUS - k].as_ptr().add(i)) };
+            let (y_dn_lo, y_dn_hi) = unsafe { T::load8(b[RADIUS + k].as_ptr().add(i)) };
             lo.add_pair(wv[k], x_up_lo, x_dn_lo, y_up_lo, y_dn_lo);
             hi.add_pair(wv[k], x_up_hi, x_dn_hi, y_up_hi, y_dn_hi);
         }
@@ -130,8 +155,8 @@ pub(crate) unsafe fn vertical(
     }
     // The ragged end, one sample at a time with the same operations.
     for i in i..n {
-        let x0 = f64::from(a[RADIUS][i]);
-        let y0 = f64::from(b[RADIUS][i]);
+        let x0 = a[RADIUS][i].value();
+        let y0 = b[RADIUS][i].value();
         let mut m = [
             w[0] * x0,
             w[0] * y0,
@@ -140,8 +165,8 @@ pub(crate) unsafe fn vertical(
             w[0] * (x0 * y0),
         ];
         for k in 1..=RADIUS {
-            let (xl, xh) = (f64::from(a[RADIUS - k][i]), f64::from(a[RADIUS + k][i]));
-            let (yl, yh) = (f64::from(b[RADIUS - k][i]), f64::from(b[RADIUS + k][i]));
+            let (xl, xh) = (a[RADIUS - k][i].value(), a[RADIUS + k][i].value());
+            let (yl, yh) = (b[RADIUS - k][i].value(), b[RADIUS + k][i].value());
             m[0] = w[k].mul_add(xl + xh, m[0]);
             m[1] = w[k].mul_add(yl + yh, m[1]);
             m[2] = w[k].mul_add(xl.mul_add(xl, xh * xh), m[2]);
@@ -249,10 +274,10 @@ pub(crate) unsafe fn horizontal_ssim(
 /// # Safety
 /// The CPU must support AVX2 and FMA (checked with `is_x86_feature_detected!`).
 #[target_feature(enable = "avx2,fma")]
-pub(crate) unsafe fn row(
+pub(crate) unsafe fn row<T: Avx2Sample>(
     w: &[f64; RADIUS + 1],
-    a: &[&[u8]; TAPS],
-    b: &[&[u8]; TAPS],
+    a: &[&[T]; TAPS],
+    b: &[&[T]; TAPS],
     scratch: &mut VerticalRows,
     channels: usize,
     s: &mut [f64],

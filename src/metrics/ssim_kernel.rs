@@ -55,11 +55,27 @@ const LANES: usize = 8;
 /// Taps of the 1-D kernel.
 pub(crate) const TAPS: usize = 2 * RADIUS + 1;
 
-#[inline(always)]
-fn load_u8<const L: usize>(row: &[u8], i: usize) -> [f64; L] {
-    // One bounds check for the whole chunk, so LLVM emits a vector load.
-    let chunk: &[u8; L] = row[i..i + L].try_into().expect("slice of length L");
-    chunk.map(f64::from)
+/// A sample type the kernels read: 8-bit levels (the frames) or floats
+/// (perceptually encoded HDR values).
+pub(crate) trait Sample: Copy + Send + Sync + 'static {
+    /// Samples `i..i + L` of `row` as f64.
+    fn load<const L: usize>(row: &[Self], i: usize) -> [f64; L];
+}
+
+impl Sample for u8 {
+    #[inline(always)]
+    fn load<const L: usize>(row: &[u8], i: usize) -> [f64; L] {
+        // One bounds check for the whole chunk, so LLVM emits a vector load.
+        let chunk: &[u8; L] = row[i..i + L].try_into().expect("slice of length L");
+        chunk.map(f64::from)
+    }
+}
+
+impl Sample for f64 {
+    #[inline(always)]
+    fn load<const L: usize>(row: &[f64], i: usize) -> [f64; L] {
+        load_f64::<L>(row, i)
+    }
 }
 
 #[inline(always)]
@@ -70,14 +86,14 @@ fn load_f64<const L: usize>(row: &[f64], i: usize) -> [f64; L] {
 
 /// The five vertically filtered moments of samples `i..i + L`.
 #[inline(always)]
-fn vertical_lanes<const L: usize>(
+fn vertical_lanes<T: Sample, const L: usize>(
     w: &[f64; RADIUS + 1],
-    a: &[&[u8]; TAPS],
-    b: &[&[u8]; TAPS],
+    a: &[&[T]; TAPS],
+    b: &[&[T]; TAPS],
     i: usize,
 ) -> [[f64; L]; 5] {
-    let x0 = load_u8::<L>(a[RADIUS], i);
-    let y0 = load_u8::<L>(b[RADIUS], i);
+    let x0 = T::load::<L>(a[RADIUS], i);
+    let y0 = T::load::<L>(b[RADIUS], i);
     let mut sx = [0.0; L];
     let mut sy = [0.0; L];
     let mut sxx = [0.0; L];
@@ -91,13 +107,14 @@ fn vertical_lanes<const L: usize>(
         sxy[l] = w[0] * (x0[l] * y0[l]);
     }
     for k in 1..=RADIUS {
-        let xl = load_u8::<L>(a[RADIUS - k], i);
-        let xh = load_u8::<L>(a[RADIUS + k], i);
-        let yl = load_u8::<L>(b[RADIUS - k], i);
-        let yh = load_u8::<L>(b[RADIUS + k], i);
+        let xl = T::load::<L>(a[RADIUS - k], i);
+        let xh = T::load::<L>(a[RADIUS + k], i);
+        let yl = T::load::<L>(b[RADIUS - k], i);
+        let yh = T::load::<L>(b[RADIUS + k], i);
         for l in 0..L {
             // Sums and products of 8-bit values are exact in f64, so only the
-            // weighting rounds, and x·x and x·y round identically when x = y.
+            // weighting rounds, and x·x and x·y round identically when x = y
+            // (for floats as well: the same operations on the same values).
             sx[l] += w[k] * (xl[l] + xh[l]);
             sy[l] += w[k] * (yl[l] + yh[l]);
             sxx[l] += w[k] * (xl[l] * xl[l] + xh[l] * xh[l]);
@@ -112,10 +129,10 @@ fn vertical_lanes<const L: usize>(
 /// vertical offset k − RADIUS (already reflected), each `n` samples long;
 /// results go to `out.*[start..start + n]`.
 #[inline(always)]
-pub(crate) fn vertical(
+pub(crate) fn vertical<T: Sample>(
     w: &[f64; RADIUS + 1],
-    a: &[&[u8]; TAPS],
-    b: &[&[u8]; TAPS],
+    a: &[&[T]; TAPS],
+    b: &[&[T]; TAPS],
     out: &mut VerticalRows,
     start: usize,
 ) {
@@ -137,12 +154,12 @@ pub(crate) fn vertical(
     };
     let mut i = 0;
     while i + LANES <= n {
-        let [x, y, xx, yy, xy] = vertical_lanes::<LANES>(w, a, b, i);
+        let [x, y, xx, yy, xy] = vertical_lanes::<T, LANES>(w, a, b, i);
         store(i, &[&x, &y, &xx, &yy, &xy]);
         i += LANES;
     }
     while i < n {
-        let [x, y, xx, yy, xy] = vertical_lanes::<1>(w, a, b, i);
+        let [x, y, xx, yy, xy] = vertical_lanes::<T, 1>(w, a, b, i);
         store(i, &[&x, &y, &xx, &yy, &xy]);
         i += 1;
     }
@@ -230,10 +247,10 @@ pub(crate) fn ssim_formula(ux: f64, uy: f64, uxx: f64, uyy: f64, uxy: f64) -> f6
 }
 
 /// Both passes for one row on the portable path.
-pub(crate) fn row_portable(
+pub(crate) fn row_portable<T: Sample>(
     w: &[f64; RADIUS + 1],
-    a: &[&[u8]; TAPS],
-    b: &[&[u8]; TAPS],
+    a: &[&[T]; TAPS],
+    b: &[&[T]; TAPS],
     scratch: &mut VerticalRows,
     channels: usize,
     s: &mut [f64],

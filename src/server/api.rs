@@ -266,7 +266,7 @@ pub async fn get_artifact(
 pub struct TrendsQuery {
     /// One scene (default: every scene).
     scene: Option<String>,
-    /// psnr (default), ssim, snr, mse, rmse, max_abs_diff, mean_abs_diff, fraction_over_1lsb, fps, or a stage name (median ms).
+    /// psnr (default), ssim, snr, mse, rmse, max_abs_diff, mean_abs_diff, fraction_over_1lsb, flip_mean, fps, or a stage name (median ms).
     metric: Option<String>,
     /// Exact adapter name.
     adapter: Option<String>,

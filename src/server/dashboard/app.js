@@ -208,12 +208,12 @@ function scenePanel(id, run, report, scene, params) {
     const m = f.metrics;
     return h("tr", { class: (f.failed_checks && f.failed_checks.length ? "bad " : "") + (f.frame === frameNo ? "selected" : ""), "data-frame": f.frame },
       h("td", {}, String(f.frame)), h("td", {}, num(m.psnr)), h("td", {}, num(m.ssim, 6)), h("td", {}, num(m.mse, 4)), h("td", {}, num(m.rmse, 4)),
-      h("td", {}, num(m.snr)), h("td", {}, String(m.max_abs_diff)), h("td", {}, num(m.fraction_over_1lsb * 100, 3) + " %"),
+      h("td", {}, num(m.snr)), h("td", {}, String(m.max_abs_diff)), h("td", {}, num(m.fraction_over_1lsb * 100, 3) + " %"), h("td", {}, num(m.flip_mean, 5)),
       h("td", {}, (f.failed_checks || []).map((i) => checkText(scene.checks[i].spec)).join("; ")),
       h("td", {}, f.artifacts && f.artifacts.length ? h("a", { href: `#/runs/${id}?scene=${encodeURIComponent(scene.scene)}&frame=${f.frame}` }, "compare") : ""));
   });
   out.push(h("h3", {}, "Per-frame metrics against the golden"),
-    h("table", { class: "frames" }, h("thead", {}, h("tr", {}, ["Frame", "PSNR dB", "SSIM", "MSE", "RMSE", "SNR dB", "Max diff", "> 1 LSB", "Failed checks", ""].map((t) => h("th", {}, t)))), h("tbody", {}, frameRows)));
+    h("table", { class: "frames" }, h("thead", {}, h("tr", {}, ["Frame", "PSNR dB", "SSIM", "MSE", "RMSE", "SNR dB", "Max diff", "> 1 LSB", "FLIP", "Failed checks", ""].map((t) => h("th", {}, t)))), h("tbody", {}, frameRows)));
   if (scene.timings && scene.timings.length) {
     out.push(h("h3", {}, `GPU time per stage (${num(scene.fps, 1)} FPS with readback)`),
       h("table", { class: "timings" }, h("thead", {}, h("tr", {}, ["Stage", "Median ms", "p95 ms"].map((t) => h("th", {}, t)))),
@@ -237,7 +237,7 @@ function comparer(id, scene, f) {
     return i;
   };
   const side = h("div", { class: "side-by-side" },
-    ["golden", "actual", "diff", "ssim"].map((k) => h("figure", {}, img(k), h("figcaption", {}, { golden: "golden (CPU reference)", actual: "actual (this run)", diff: "|difference|: black 0, dark blue 1, blue 4, green 16, yellow 64, red 255 LSB", ssim: "SSIM map (dark = low)" }[k]))));
+    ["golden", "actual", "diff", "ssim", "flip"].map((k) => h("figure", {}, img(k), h("figcaption", {}, { golden: "golden (CPU reference)", actual: "actual (this run)", diff: "|difference|: black 0, dark blue 1, blue 4, green 16, yellow 64, red 255 LSB", ssim: "SSIM map (dark = low)", flip: "FLIP error (magma: black 0, purple, orange, pale yellow 1)" }[k]))));
   const top = img("actual", { class: "top" });
   const wrap = h("div", { class: "slider-wrap" }, img("golden", { class: "bottom" }), top);
   const range = h("input", { type: "range", min: 0, max: 100, value: 50, "aria-label": "golden / actual split" });
@@ -245,7 +245,7 @@ function comparer(id, scene, f) {
   range.addEventListener("input", apply);
   apply();
   return h("section", { class: "comparer", "data-frame": f.frame },
-    h("h3", {}, `Frame ${f.frame}: PSNR ${num(f.metrics.psnr)} dB, SSIM ${num(f.metrics.ssim, 6)}, max diff ${f.metrics.max_abs_diff}`),
+    h("h3", {}, `Frame ${f.frame}: PSNR ${num(f.metrics.psnr)} dB, SSIM ${num(f.metrics.ssim, 6)}, FLIP ${num(f.metrics.flip_mean, 5)}, max diff ${f.metrics.max_abs_diff}`),
     side,
     h("h3", {}, "Slider: golden (left) | actual (right)"),
     wrap, range);
@@ -264,7 +264,7 @@ async function trendsPage(params) {
       h("option", { value: "" }, "any adapter"), adapters.map((a) => h("option", { value: a, selected: a === adapter }, a))));
   if (!scene) return show(h("h1", {}, "Trends"), h("p", { class: "empty" }, "No check runs yet."));
   const q = (metric) => api(`/trends?metric=${metric}&scene=${encodeURIComponent(scene)}${adapter ? "&adapter=" + encodeURIComponent(adapter) : ""}&limit=500`);
-  const [fps, psnr, ssim, ...stages] = await Promise.all([q("fps"), q("psnr"), q("ssim"), ...STAGES.map(q)]);
+  const [fps, psnr, ssim, flip, ...stages] = await Promise.all([q("fps"), q("psnr"), q("ssim"), q("flip_mean"), ...STAGES.map(q)]);
   // One line per adapter: runs on different hardware are not one series.
   const byAdapter = (points) => {
     const groups = new Map();
@@ -284,6 +284,7 @@ async function trendsPage(params) {
       chart("FPS (with readback)", fps, "FPS", { zero: true }),
       chart("Worst-frame PSNR against the golden (dB)", psnr, "dB"),
       chart("Worst-frame SSIM", ssim, "SSIM"),
+      chart("Worst-frame FLIP mean", flip, "FLIP", { zero: true }),
       h("figure", { class: "chart-box" }, h("figcaption", {}, "GPU median ms per stage"), lineChart(stageSeries, { title: "stage ms", yLabel: "ms", xLabel: "run", zero: true, legend: true }))),
     regressions.length ? h("p", { class: "bad" }, `${regressions.length} regression point(s): runs ${[...new Set(regressions.map((p) => p.run_id))].join(", ")}`) : h("p", { class: "muted" }, "No regressions flagged for this scene."));
 }
