@@ -8,7 +8,8 @@
 use serde::Deserialize;
 use serde_json::value::RawValue;
 use tonegate::image::{HdrImage, Image};
-use tonegate::metrics::flip::{flip, hdr_flip, HdrFlipOptions, DEFAULT_PPD};
+use tonegate::metrics::flip::{flip, DEFAULT_PPD};
+use tonegate::metrics::hdr_flip::{hdr_flip, HdrFlipOptions};
 use tonegate::metrics::itp::delta_e_itp;
 use tonegate::metrics::pu21::{encode, pu21};
 use tonegate::metrics::{MetricsError, Raster};

@@ -9,7 +9,7 @@ use std::process::ExitCode;
 use tonegate::error::{Error, Result};
 use tonegate::golden::frame_file;
 use tonegate::gpu::GpuContext;
-use tonegate::metrics::flip::ToneMapper;
+use tonegate::metrics::hdr_flip::ToneMapper;
 use tonegate::progress::Progress;
 use tonegate::render::{scene_environment, FrameDetail, SceneRenderer};
 use tonegate::scene::{Scene, Size, MAX_SPP};
@@ -287,8 +287,8 @@ fn compare_ldr(a: &CompareArgs) -> Result<ExitCode> {
 }
 
 fn compare_hdr(a: &CompareArgs) -> Result<ExitCode> {
-    use tonegate::metrics::flip::HdrFlipOptions;
     use tonegate::metrics::hdr::{compare_hdr, HdrOptions};
+    use tonegate::metrics::hdr_flip::HdrFlipOptions;
     if a.diff.is_some() {
         return Err(invalid(
             "--diff is the 8-bit difference heat map; for HDR inputs use --flip-map or --ssim-map",

@@ -5,7 +5,8 @@
 //! Values are linear with BT.709 primaries; 1.0 is `peak` cd/m² where a
 //! metric needs absolute units (PU21, ΔE_ITP).
 
-use super::flip::{hdr_flip, ExposureRange, Flip, FlipStats, HdrFlipOptions};
+use super::flip::{Flip, FlipStats};
+use super::hdr_flip::{hdr_flip, ExposureRange, HdrFlipOptions};
 use super::itp::{delta_e_itp, Itp};
 use super::pu21::{pu21, Pu21};
 use super::MetricsError;

@@ -14,6 +14,7 @@
 pub mod basic;
 pub mod flip;
 pub mod hdr;
+pub mod hdr_flip;
 pub mod itp;
 pub mod json;
 pub mod pu21;
