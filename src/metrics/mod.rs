@@ -22,6 +22,7 @@ pub mod raster;
 pub mod ssim;
 #[cfg(target_arch = "x86_64")]
 mod ssim_avx2;
+mod ssim_bands;
 mod ssim_kernel;
 pub mod visual;
 
