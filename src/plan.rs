@@ -66,6 +66,20 @@ pub enum Stage {
 }
 
 impl Stage {
+    /// Every stage's name, in plan order.
+    pub const NAMES: [&'static str; 10] = [
+        "sphere",
+        "luminance_stats",
+        "tonemap",
+        "bloom_bright",
+        "bloom_downsample",
+        "bloom_blur",
+        "bloom_composite",
+        "grade_stats",
+        "grade",
+        "encode",
+    ];
+
     pub fn name(&self) -> &'static str {
         match self {
             Stage::Sphere { .. } => "sphere",

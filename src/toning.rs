@@ -23,6 +23,14 @@ pub enum Preset {
     Reinhard02,
 }
 
+impl Preset {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Preset::Reinhard02 => "reinhard02",
+        }
+    }
+}
+
 /// The operator, bloom, grade and encoding of a flat tone-map. As flags
 /// (`--white-fraction`, with the `cli` feature the binary builds with) and as
 /// API parameters (`white_fraction`); unknown API parameters are refused.
@@ -170,36 +178,75 @@ impl ToneSettings {
                 Some(Key::Auto) => Err(invalid("key auto applies to operator seed001 only")),
             }
         };
+        // Every value is checked whether or not it applies, and one that
+        // does not apply to the operator is refused rather than ignored.
         let log_average = self
             .log_average
             .map(|v| positive("log_average", v))
             .transpose()?;
+        let white = self.white.map(|w| positive("white", w)).transpose()?;
+        let white_fraction = self
+            .white_fraction
+            .map(|w| {
+                if w > 0.0 && w <= 1.0 {
+                    positive("white_fraction", w)
+                } else {
+                    Err(invalid(format!(
+                        "white_fraction: must be in (0, 1], got {w}"
+                    )))
+                }
+            })
+            .transpose()?;
+        let applies = |name: &str, given: bool, to: &[OperatorKind]| -> Result<()> {
+            let op = self.operator;
+            match self.preset {
+                Some(p) if given => Err(invalid(format!(
+                    "{name}: the preset {} fixes the operator's parameters; give only key",
+                    p.as_str()
+                ))),
+                None if given && !to.contains(&op) => Err(invalid(format!(
+                    "{name}: applies to operator {} only, not {}",
+                    to.iter()
+                        .map(|k| k.as_str())
+                        .collect::<Vec<_>>()
+                        .join(" and "),
+                    op.as_str()
+                ))),
+                _ => Ok(()),
+            }
+        };
+        applies("white", white.is_some(), &[OperatorKind::Reinhard02])?;
+        applies(
+            "white_fraction",
+            white_fraction.is_some(),
+            &[OperatorKind::Seed000],
+        )?;
+        applies(
+            "log_average",
+            log_average.is_some(),
+            &[OperatorKind::Seed000, OperatorKind::Reinhard02],
+        )?;
         if let Some(Preset::Reinhard02) = self.preset {
             return Operator::reinhard02_preset(fixed_key(key)?.get()).map_err(invalid);
         }
         Ok(match self.operator {
-            OperatorKind::Seed000 => {
-                let w = self.white_fraction.unwrap_or(0.8);
-                if !(w > 0.0 && w <= 1.0) {
-                    return Err(invalid(format!(
-                        "white_fraction: must be in (0, 1], got {w}"
-                    )));
-                }
-                Operator::Seed000 {
-                    key: fixed_key(key)?,
-                    white_fraction: positive("white_fraction", w)?,
-                    log_average,
-                    max_luminance: None,
-                    colour,
-                }
-            }
+            OperatorKind::Seed000 => Operator::Seed000 {
+                key: fixed_key(key)?,
+                white_fraction: match white_fraction {
+                    Some(w) => w,
+                    None => positive("white_fraction", 0.8)?,
+                },
+                log_average,
+                max_luminance: None,
+                colour,
+            },
             OperatorKind::Seed001 => Operator::Seed001 {
                 key: key.unwrap_or(Key::Auto),
                 colour,
             },
             OperatorKind::Reinhard02 => Operator::Reinhard02 {
                 key: fixed_key(key)?,
-                white: self.white.map(|w| positive("white", w)).transpose()?,
+                white,
                 log_average,
                 colour,
                 pfs_compatible: false,
@@ -245,18 +292,39 @@ pub fn tone_map(
     gpu: Option<(&GpuContext, GpuConfig)>,
     want_display: bool,
 ) -> Result<Toned> {
+    tone_map_until(img, pipeline, gpu, want_display, &|| false)?
+        .ok_or_else(|| invalid("the tone-map stopped before its end"))
+}
+
+/// [`tone_map`], asking `stop` between stages (the CPU reference) or before
+/// and after the device's work (the GPU, which runs the plan in one
+/// submission): `None` when it said stop.
+pub fn tone_map_until(
+    img: &HdrImage,
+    pipeline: &Pipeline,
+    gpu: Option<(&GpuContext, GpuConfig)>,
+    want_display: bool,
+    stop: &dyn Fn() -> bool,
+) -> Result<Option<Toned>> {
     match gpu {
         None => {
-            let (plan, out) = crate::reference::render_flat(img, pipeline)?;
-            Ok(Toned {
+            let Some((plan, out)) = crate::reference::render_flat_until(img, pipeline, stop)?
+            else {
+                return Ok(None);
+            };
+            Ok(Some(Toned {
                 plan,
                 stats: out.stats,
                 tone: out.tone,
                 display: want_display.then_some(out.display),
                 frame: out.frame,
-            })
+            }))
         }
-        Some((ctx, config)) => gpu_flat(img, pipeline, ctx, config, want_display),
+        Some(_) if stop() => Ok(None),
+        Some((ctx, config)) => {
+            let toned = gpu_flat(img, pipeline, ctx, config, want_display)?;
+            Ok((!stop()).then_some(toned))
+        }
     }
 }
 
@@ -356,5 +424,54 @@ mod tests {
             ..Default::default()
         };
         assert!(s.resolve().unwrap_err().to_string().contains("gamma"));
+    }
+
+    /// Found by a hostile client: `white=-1` was ignored under the default
+    /// operator but refused under reinhard02.
+    #[test]
+    fn a_value_is_checked_and_applies_to_its_operator_whatever_the_operator() {
+        fn with(
+            op: OperatorKind,
+            f: impl FnOnce(&mut ToneSettings),
+        ) -> std::result::Result<(), String> {
+            let mut s = ToneSettings {
+                operator: op,
+                ..Default::default()
+            };
+            f(&mut s);
+            s.resolve().map(|_| ()).map_err(|e| e.to_string())
+        }
+        for op in [
+            OperatorKind::Seed000,
+            OperatorKind::Seed001,
+            OperatorKind::Reinhard02,
+        ] {
+            for bad in [-1.0, 0.0, f64::INFINITY, f64::NAN] {
+                let e = with(op, |s| s.white = Some(bad)).unwrap_err();
+                assert!(e.starts_with("white:"), "{op:?} {bad}: {e}");
+                let e = with(op, |s| s.log_average = Some(bad)).unwrap_err();
+                assert!(e.starts_with("log_average:"), "{op:?} {bad}: {e}");
+                let e = with(op, |s| s.white_fraction = Some(bad)).unwrap_err();
+                assert!(e.starts_with("white_fraction:"), "{op:?} {bad}: {e}");
+            }
+        }
+        let e = with(OperatorKind::Seed000, |s| s.white = Some(4.0)).unwrap_err();
+        assert!(
+            e.contains("applies to operator reinhard02 only, not seed000"),
+            "{e}"
+        );
+        let e = with(OperatorKind::Reinhard02, |s| s.white_fraction = Some(0.5)).unwrap_err();
+        assert!(e.contains("applies to operator seed000 only"), "{e}");
+        let e = with(OperatorKind::Seed001, |s| s.log_average = Some(0.2)).unwrap_err();
+        assert!(e.contains("seed000 and reinhard02"), "{e}");
+        let e = with(OperatorKind::Seed000, |s| {
+            s.preset = Some(Preset::Reinhard02);
+            s.white = Some(4.0);
+        })
+        .unwrap_err();
+        assert!(e.contains("preset reinhard02"), "{e}");
+        with(OperatorKind::Reinhard02, |s| s.white = Some(4.0)).unwrap();
+        with(OperatorKind::Seed000, |s| s.white_fraction = Some(0.5)).unwrap();
+        with(OperatorKind::Seed000, |s| s.log_average = Some(0.2)).unwrap();
     }
 }

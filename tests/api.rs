@@ -3,115 +3,13 @@
 //! full queue's 503 and the timeout.
 
 mod common;
+#[path = "common/server.rs"]
+mod harness;
 
+use harness::{expect_error, hold_workers, start, TOKEN};
 use reqwest::StatusCode;
 use std::sync::{Arc, RwLock};
 use std::time::Duration;
-use tonegate::server::{Limits, ServeOptions, Server};
-
-const TOKEN: &str = "test-token-0123456789";
-
-struct Running {
-    base: String,
-    client: reqwest::Client,
-    _stop: tokio::sync::oneshot::Sender<()>,
-}
-
-async fn start(seeded: &common::Seeded, tweak: impl FnOnce(&mut ServeOptions)) -> Running {
-    let mut opts = ServeOptions {
-        bind: "127.0.0.1:0".parse().unwrap(),
-        db: seeded.db.clone(),
-        token: TOKEN.into(),
-        private_reads: false,
-        suite: seeded.suite.clone(),
-        adapter: Default::default(),
-        gpu_config: Default::default(),
-        limits: Limits::default(),
-        hold_workers: None,
-    };
-    tweak(&mut opts);
-    let server = Server::bind(opts).await.expect("server binds");
-    let addr = server.local_addr().unwrap();
-    let (tx, rx) = tokio::sync::oneshot::channel::<()>();
-    tokio::spawn(server.run(async move {
-        let _ = rx.await;
-    }));
-    Running {
-        base: format!("http://{addr}"),
-        client: reqwest::Client::new(),
-        _stop: tx,
-    }
-}
-
-impl Running {
-    async fn get(&self, path: &str) -> reqwest::Response {
-        self.client
-            .get(format!("{}{path}", self.base))
-            .send()
-            .await
-            .unwrap()
-    }
-    async fn json(&self, path: &str) -> (StatusCode, serde_json::Value) {
-        let r = self.get(path).await;
-        let status = r.status();
-        let text = r.text().await.unwrap();
-        // +inf PSNR is the literal 1e999, which serde_json's Value cannot hold.
-        let v = serde_json::from_str(&text.replace("1e999", "1e308"))
-            .unwrap_or_else(|e| panic!("{path}: {e}: {text}"));
-        (status, v)
-    }
-    async fn tonemap(&self, query: &str, body: Vec<u8>) -> reqwest::Response {
-        self.client
-            .post(format!("{}/api/v1/tonemap?{query}", self.base))
-            .body(body)
-            .send()
-            .await
-            .unwrap()
-    }
-}
-
-/// Write-holds the workers' lock on a thread of its own (the workers are
-/// plain threads) until dropped: jobs queue up but none finishes.
-struct Held(
-    Option<std::sync::mpsc::Sender<()>>,
-    Option<std::thread::JoinHandle<()>>,
-);
-
-fn hold_workers(lock: &Arc<RwLock<()>>) -> Held {
-    let (release, released) = std::sync::mpsc::channel::<()>();
-    let (ready, is_ready) = std::sync::mpsc::channel();
-    let lock = lock.clone();
-    let t = std::thread::spawn(move || {
-        let _guard = lock.write().unwrap();
-        ready.send(()).unwrap();
-        let _ = released.recv();
-    });
-    is_ready.recv().unwrap();
-    Held(Some(release), Some(t))
-}
-
-impl Drop for Held {
-    fn drop(&mut self) {
-        drop(self.0.take());
-        if let Some(t) = self.1.take() {
-            t.join().unwrap();
-        }
-    }
-}
-
-/// An error answer: the status, JSON with the code, and the detail.
-async fn expect_error(r: reqwest::Response, status: StatusCode, code: &str) -> String {
-    assert_eq!(r.status(), status, "{:?}", r.headers());
-    assert_eq!(
-        r.headers()["content-type"].to_str().unwrap(),
-        "application/json"
-    );
-    let v: serde_json::Value = r.json().await.unwrap();
-    assert_eq!(v["error"], code, "{v}");
-    let detail = v["detail"].as_str().unwrap().to_owned();
-    assert!(!detail.is_empty());
-    detail
-}
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn every_read_endpoint_answers_on_a_seeded_history() {

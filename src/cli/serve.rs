@@ -41,6 +41,15 @@ pub struct ServeArgs {
     /// POST /tonemap: seconds a request may take, upload and waiting included.
     #[arg(long, default_value_t = 60)]
     pub timeout: u64,
+    /// Connections served at once (default 1024, lowered to fit the
+    /// open-file limit); past it, health checks are answered and the rest
+    /// get 503 with `Connection: close`.
+    #[arg(long)]
+    pub max_connections: Option<usize>,
+    /// Seconds a client has to send a request's head, from connect or from
+    /// its previous answer (keep-alive idle time included).
+    #[arg(long, default_value_t = 10)]
+    pub header_timeout: u64,
     #[command(flatten)]
     pub gpu: GpuArgs,
 }
@@ -51,6 +60,11 @@ pub fn serve(a: ServeArgs) -> Result<ExitCode> {
             "--max-body-mib: must be 1 to 4096, got {}",
             a.max_body_mib
         )));
+    }
+    if a.header_timeout == 0 {
+        return Err(Error::Invalid(
+            "--header-timeout: must be at least 1 second".into(),
+        ));
     }
     if a.timeout == 0 {
         return Err(Error::Invalid(
@@ -77,6 +91,10 @@ pub fn serve(a: ServeArgs) -> Result<ExitCode> {
             max_pixels: a.max_pixels,
             queue: a.queue,
             timeout: std::time::Duration::from_secs(a.timeout),
+        },
+        conn: tonegate::server::listen::ConnLimits {
+            max_connections: a.max_connections,
+            header_timeout: std::time::Duration::from_secs(a.header_timeout),
         },
         hold_workers: None,
     };

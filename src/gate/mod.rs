@@ -412,3 +412,17 @@ pub fn scene_record(r: &SceneResult) -> Result<SceneRecord, HistoryError> {
         result_json,
     })
 }
+
+/// The metrics the gate records per scene and the history can trend: every
+/// per-frame figure, FPS, and each stage's median time.
+pub fn recorded_metrics() -> Vec<&'static str> {
+    let mut all: Vec<&'static str> = crate::check::FRAME_METRICS.iter().map(|m| m.name).collect();
+    all.push("fps");
+    all.extend(crate::plan::Stage::NAMES);
+    all
+}
+
+/// Whether `name` is one of [`recorded_metrics`].
+pub fn is_recorded_metric(name: &str) -> bool {
+    recorded_metrics().contains(&name)
+}

@@ -201,6 +201,39 @@ pub(super) fn sqlite_error(path: PathBuf) -> impl Fn(rusqlite::Error) -> History
     }
 }
 
+/// Why a run cannot be recorded in the history at `path`, if it cannot: the
+/// file, or the folder SQLite writes its `-wal` and `-shm` files in, is not
+/// writable. Takes (and at once releases) the write lock, writing nothing.
+pub fn write_problem(path: &Path) -> Option<String> {
+    let dir = path
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let advice = format!(
+        "check the permissions of {} and of its folder {} (SQLite writes -wal and -shm files there)",
+        path.display(),
+        dir.display()
+    );
+    let conn = match Connection::open_with_flags(path, rusqlite::OpenFlags::SQLITE_OPEN_READ_WRITE)
+    {
+        Ok(c) => c,
+        Err(e) => {
+            return Some(format!(
+                "history database {} cannot be opened for writing ({e}): {advice}",
+                path.display()
+            ))
+        }
+    };
+    let _ = conn.busy_timeout(Duration::from_secs(5));
+    match conn.execute_batch("BEGIN IMMEDIATE; ROLLBACK;") {
+        Ok(()) => None,
+        Err(e) => Some(format!(
+            "history database {} is not writable ({e}): {advice}",
+            path.display()
+        )),
+    }
+}
+
 impl History {
     /// Opens (creating when absent) the history at `path`, migrates it to
     /// this build's schema and marks dead runs `aborted`.
@@ -211,9 +244,24 @@ impl History {
                 source,
             })?;
         }
-        let conn = Connection::open(path).map_err(|source| HistoryError::Sqlite {
-            path: path.to_owned(),
-            source,
+        let existed = path.exists();
+        let conn = Connection::open(path).map_err(|source| {
+            if existed {
+                HistoryError::Sqlite {
+                    path: path.to_owned(),
+                    source,
+                }
+            } else {
+                // A file SQLite cannot create: the folder is the problem.
+                let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+                HistoryError::Folder {
+                    path: dir.to_owned(),
+                    source: std::io::Error::other(format!(
+                        "cannot create the history database {} in this folder ({source}); is it writable?",
+                        path.display()
+                    )),
+                }
+            }
         })?;
         let mut h = History {
             conn,
@@ -228,11 +276,40 @@ impl History {
     /// Opens an existing history for reading only (no migration, no abort
     /// marking): `history` and the API must not change what they show.
     pub fn open_read_only(path: &Path) -> Result<History, HistoryError> {
-        let conn = Connection::open_with_flags(path, rusqlite::OpenFlags::SQLITE_OPEN_READ_ONLY)
-            .map_err(|source| HistoryError::Sqlite {
-                path: path.to_owned(),
-                source,
-            })?;
+        match Self::open_read_only_with(path, false) {
+            // A WAL database whose folder this process cannot write (so
+            // SQLite cannot make the -shm file) and that no writer has open
+            // (else the -shm file would be there): read it as immutable.
+            Err(HistoryError::Sqlite { source, .. })
+                if source.sqlite_error_code() == Some(rusqlite::ErrorCode::ReadOnly) =>
+            {
+                Self::open_read_only_with(path, true)
+            }
+            other => other,
+        }
+    }
+
+    fn open_read_only_with(path: &Path, immutable: bool) -> Result<History, HistoryError> {
+        use rusqlite::OpenFlags;
+        let conn = if immutable {
+            let uri = format!(
+                "file:{}?immutable=1",
+                path.to_string_lossy()
+                    .replace('%', "%25")
+                    .replace('?', "%3f")
+                    .replace('#', "%23")
+            );
+            Connection::open_with_flags(
+                uri,
+                OpenFlags::SQLITE_OPEN_READ_ONLY | OpenFlags::SQLITE_OPEN_URI,
+            )
+        } else {
+            Connection::open_with_flags(path, OpenFlags::SQLITE_OPEN_READ_ONLY)
+        }
+        .map_err(|source| HistoryError::Sqlite {
+            path: path.to_owned(),
+            source,
+        })?;
         let h = History {
             conn,
             path: path.to_owned(),

@@ -79,6 +79,17 @@ pub fn run_plan(
     hdr: LinearImage,
     p: &Pipeline,
 ) -> Result<FrameOutputs, PlanError> {
+    run_plan_until(plan, hdr, p, &|| false)?.ok_or(PlanError::Incomplete { missing: "encode" })
+}
+
+/// [`run_plan`], asking `stop` before every stage: `None` when it said stop
+/// (the work's requester is gone), with what was made so far dropped.
+pub fn run_plan_until(
+    plan: &StagePlan,
+    hdr: LinearImage,
+    p: &Pipeline,
+    stop: &dyn Fn() -> bool,
+) -> Result<Option<FrameOutputs>, PlanError> {
     let (weights, delta) = tonemap::operator_constants(p.operator);
     let bloom_of = |stage| {
         p.bloom.ok_or(PlanError::NoParameters {
@@ -96,6 +107,9 @@ pub fn run_plan(
     let mut grade_mean = None;
     let mut frame = None;
     for stage in plan.stages() {
+        if stop() {
+            return Ok(None);
+        }
         let name = stage.name();
         let tonemap_first = || PlanError::order(name, "tonemap");
         match stage {
@@ -173,7 +187,7 @@ pub fn run_plan(
     let (Some(toned), Some(tone)) = (toned, tone) else {
         return Err(PlanError::Incomplete { missing: "tonemap" });
     };
-    Ok(FrameOutputs {
+    Ok(Some(FrameOutputs {
         tone,
         display: display.unwrap_or_else(|| toned.clone()),
         frame: frame.ok_or(PlanError::Incomplete { missing: "encode" })?,
@@ -182,7 +196,7 @@ pub fn run_plan(
         toned,
         bloom,
         grade_mean,
-    })
+    }))
 }
 
 /// The camera of a scene.
@@ -209,7 +223,19 @@ pub fn render_frame(
 
 /// Tone-maps a flat HDR image (no sphere stage).
 pub fn render_flat(img: &HdrImage, p: &Pipeline) -> Result<(StagePlan, FrameOutputs), PlanError> {
+    render_flat_until(img, p, &|| false)?.ok_or(PlanError::Incomplete { missing: "encode" })
+}
+
+/// [`render_flat`], stopping between stages when `stop` says so (`None`).
+pub fn render_flat_until(
+    img: &HdrImage,
+    p: &Pipeline,
+    stop: &dyn Fn() -> bool,
+) -> Result<Option<(StagePlan, FrameOutputs)>, PlanError> {
     let plan = StagePlan::build(crate::plan::Input::Flat, p.operator, p.bloom, p.grade);
-    let out = run_plan(&plan, img.to_linear(), p)?;
-    Ok((plan, out))
+    if stop() {
+        return Ok(None);
+    }
+    let out = run_plan_until(&plan, img.to_linear(), p, stop)?;
+    Ok(out.map(|out| (plan, out)))
 }

@@ -129,6 +129,17 @@ pub enum OperatorKind {
     Reinhard02,
 }
 
+impl OperatorKind {
+    /// The name a scene file and the API use.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            OperatorKind::Seed000 => "seed000",
+            OperatorKind::Seed001 => "seed001",
+            OperatorKind::Reinhard02 => "reinhard02",
+        }
+    }
+}
+
 impl TryFrom<OperatorTable> for Operator {
     type Error = String;
     fn try_from(t: OperatorTable) -> Result<Self, String> {

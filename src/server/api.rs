@@ -1,6 +1,7 @@
 //! The read and run endpoints under `/api/v1`: runs, artifacts, trends,
 //! tradeoff points, health.
 
+use super::edge::ApiPath as Path;
 use super::error::{ApiError, ErrorBody};
 use super::{AppState, RunSlot};
 use crate::gate::StoredArtifacts;
@@ -8,7 +9,7 @@ use crate::history::{
     History, HistoryError, RunKind, RunRow, RunStatus, TradeoffRow, TrendFilter, TrendPoint,
 };
 use axum::body::Bytes;
-use axum::extract::{Path, RawQuery, State};
+use axum::extract::{RawQuery, State};
 use axum::http::{header, HeaderMap, HeaderValue, StatusCode};
 use axum::response::{IntoResponse, Response};
 use serde::de::DeserializeOwned;
@@ -23,6 +24,7 @@ pub fn query<T: DeserializeOwned>(q: Option<String>) -> Result<T, ApiError> {
 
 /// Deserialises urlencoded pairs; a bad value's error names its parameter.
 pub fn from_pairs<T: DeserializeOwned>(encoded: &[u8]) -> Result<T, ApiError> {
+    check_names(form_urlencoded::parse(encoded).map(|(k, _)| k))?;
     let de = serde_urlencoded::Deserializer::new(form_urlencoded::parse(encoded));
     serde_path_to_error::deserialize(de).map_err(|e| {
         let path = e.path().to_string();
@@ -34,11 +36,31 @@ pub fn from_pairs<T: DeserializeOwned>(encoded: &[u8]) -> Result<T, ApiError> {
     })
 }
 
+/// The longest parameter name anyone means: longer ones are refused without
+/// being echoed back whole.
+pub const MAX_NAME: usize = 64;
+
+/// Refuses parameter names longer than [`MAX_NAME`].
+pub fn check_names<S: AsRef<str>>(names: impl IntoIterator<Item = S>) -> Result<(), ApiError> {
+    for name in names {
+        let name = name.as_ref();
+        if name.chars().count() > MAX_NAME {
+            return Err(ApiError::bad(format!(
+                "a parameter name of {}; names are at most {MAX_NAME} characters",
+                super::error::clip(name)
+            )));
+        }
+    }
+    Ok(())
+}
+
 fn run_id(s: &str) -> Result<i64, ApiError> {
-    s.parse::<i64>()
-        .ok()
-        .filter(|&v| v > 0)
-        .ok_or_else(|| ApiError::bad(format!("run id: expected a positive integer, got {s:?}")))
+    s.parse::<i64>().ok().filter(|&v| v > 0).ok_or_else(|| {
+        ApiError::bad(format!(
+            "run id: expected a positive integer, got {}",
+            super::error::clip(s)
+        ))
+    })
 }
 
 /// Runs `f` on the history, opened read-only, off the async threads.
@@ -161,7 +183,8 @@ pub struct RunStarted {
     security(("bearer" = [])),
     responses((status = 202, description = "Started", body = RunStarted), (status = 400, description = "Unknown or bad parameter", body = ErrorBody),
         (status = 401, description = "No bearer token", body = ErrorBody), (status = 403, description = "Wrong bearer token", body = ErrorBody),
-        (status = 409, description = "A run is already going", body = ErrorBody)))]
+        (status = 409, description = "A run is already going", body = ErrorBody),
+        (status = 503, description = "The history cannot be written (the detail names the file and folder)", body = ErrorBody)))]
 pub async fn post_run(
     State(st): State<Arc<AppState>>,
     headers: HeaderMap,
@@ -187,10 +210,14 @@ pub async fn post_run(
         Some("cpu") => crate::gate::Renderer::Cpu { spp },
         Some(other) => {
             return Err(ApiError::bad(format!(
-                "renderer: expected gpu or cpu, got {other:?}"
+                "renderer: expected gpu or cpu, got {}",
+                super::error::clip(other)
             )))
         }
     };
+    if let Some(problem) = st.history_problem().await {
+        return Err(ApiError::unavailable("history_read_only", problem, 60));
+    }
     let id = super::start_run(st.clone(), renderer).await?;
     let body = RunStarted {
         id,
@@ -230,7 +257,8 @@ pub async fn get_artifact(
     let id = run_id(&id)?;
     if !valid_artifact_name(&name) {
         return Err(ApiError::bad(format!(
-            "artifact name {name:?} is not a file name of this run (letters, digits, '-', '_', '.', ending .png)"
+            "artifact name {} is not a file name of this run (letters, digits, '-', '_', '.', ending .png)",
+            super::error::clip(&name)
         )));
     }
     let report = read(&st, move |h| h.report(id)).await?;
@@ -291,6 +319,12 @@ pub async fn trends(
         )));
     }
     let metric = q.metric.unwrap_or_else(|| "psnr".into());
+    if !crate::gate::is_recorded_metric(&metric) {
+        return Err(ApiError::bad(format!(
+            "metric: unknown metric {metric:?}; use {}",
+            crate::gate::recorded_metrics().join(", ")
+        )));
+    }
     let points = read(&st, move |h| {
         h.trend(
             &metric,
@@ -347,14 +381,27 @@ pub struct QueueHealth {
     pub capacity: usize,
 }
 
+/// What `healthz` says. Under `--private-reads`, a request without the
+/// token sees `status` and `version` only: a liveness probe needs no token,
+/// and learns nothing about the runs.
 #[derive(Serialize, ToSchema)]
 pub struct Health {
     pub status: String,
     pub version: String,
+    #[serde(flatten)]
+    pub detail: Option<HealthDetail>,
+}
+
+#[derive(Serialize, ToSchema)]
+pub struct HealthDetail {
     pub schema_version: i64,
     pub runs: i64,
     /// The run going now, if any.
     pub active_run: Option<i64>,
+    /// Whether runs can be recorded; when not, why (and `POST /runs` says so too).
+    pub history_writable: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub history_problem: Option<String>,
     pub gpu_queue: QueueHealth,
     pub cpu_queue: QueueHealth,
 }
@@ -362,7 +409,10 @@ pub struct Health {
 /// Liveness and readiness: the history answers, the queues' depths.
 #[utoipa::path(get, path = "/api/v1/healthz", tag = "service",
     responses((status = 200, description = "OK", body = Health), (status = 503, description = "Unavailable", body = ErrorBody)))]
-pub async fn healthz(State(st): State<Arc<AppState>>) -> Result<Response, ApiError> {
+pub async fn healthz(
+    State(st): State<Arc<AppState>>,
+    headers: HeaderMap,
+) -> Result<Response, ApiError> {
     let (schema, runs) = read(&st, |h| {
         Ok((
             h.schema_version()?,
@@ -375,12 +425,13 @@ pub async fn healthz(State(st): State<Arc<AppState>>) -> Result<Response, ApiErr
         RunSlot::Running(id) => Some(id),
         _ => None,
     };
-    Ok(axum::Json(Health {
-        status: "ok".into(),
-        version: env!("CARGO_PKG_VERSION").into(),
+    let problem = st.history_problem().await;
+    let detail = st.may_read(&headers).then(|| HealthDetail {
         schema_version: schema,
         runs,
         active_run: active,
+        history_writable: problem.is_none(),
+        history_problem: problem,
         gpu_queue: QueueHealth {
             depth: st.gpu.depth(),
             capacity: st.gpu.capacity(),
@@ -389,6 +440,11 @@ pub async fn healthz(State(st): State<Arc<AppState>>) -> Result<Response, ApiErr
             depth: st.cpu.depth(),
             capacity: st.cpu.capacity(),
         },
+    });
+    Ok(axum::Json(Health {
+        status: "ok".into(),
+        version: env!("CARGO_PKG_VERSION").into(),
+        detail,
     })
     .into_response())
 }
@@ -409,7 +465,8 @@ pub async fn sample(
         .and_then(crate::env::BuiltinEnv::from_name)
         .ok_or_else(|| {
             ApiError::not_found(format!(
-                "no sample {name:?}: sky.hdr, interior.hdr, night.hdr or grid.hdr"
+                "no sample {}: sky.hdr, interior.hdr, night.hdr or grid.hdr",
+                super::error::clip(&name)
             ))
         })?;
     let bytes = tokio::task::spawn_blocking(move || {

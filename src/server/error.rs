@@ -6,12 +6,26 @@ use axum::response::{IntoResponse, Response};
 use serde::Serialize;
 use utoipa::ToSchema;
 
+/// What a client sent, cut to a length fit to quote in an error: the first
+/// 48 characters and how long it was.
+pub fn clip(s: &str) -> String {
+    const KEEP: usize = 48;
+    let n = s.chars().count();
+    if n <= KEEP {
+        format!("{s:?}")
+    } else {
+        let start: String = s.chars().take(KEEP).collect();
+        format!("{start:?}… ({n} characters)")
+    }
+}
+
 /// The body of every error answer.
 #[derive(Serialize, ToSchema)]
 pub struct ErrorBody {
-    /// Stable code: bad_parameter, unauthorized, forbidden, not_found, conflict,
-    /// too_large, unsupported_media_type, bad_image, busy, timeout,
-    /// no_adapter, gpu_error, internal.
+    /// Stable code: bad_parameter, unauthorized, forbidden, not_found,
+    /// method_not_allowed, conflict, too_large, uri_too_long,
+    /// headers_too_large, unsupported_media_type, bad_image, busy, timeout,
+    /// history_read_only, no_adapter, gpu_error, internal.
     pub error: String,
     /// What was wrong and where, for a person.
     pub detail: String,
@@ -24,6 +38,9 @@ pub struct ApiError {
     pub detail: String,
     /// Seconds for `Retry-After` (503 answers).
     pub retry_after: Option<u64>,
+    /// Answered before the request's body was read: the connection cannot be
+    /// reused (its unread body is still coming), so it says `Connection: close`.
+    pub close: bool,
 }
 
 impl ApiError {
@@ -33,6 +50,15 @@ impl ApiError {
             code,
             detail: detail.into(),
             retry_after: None,
+            close: false,
+        }
+    }
+
+    /// The same error, answered with `Connection: close`.
+    pub fn closing(self) -> Self {
+        ApiError {
+            close: true,
+            ..self
         }
     }
     pub fn bad(detail: impl Into<String>) -> Self {
@@ -110,6 +136,10 @@ impl IntoResponse for ApiError {
         if let Some(s) = self.retry_after {
             r.headers_mut()
                 .insert(header::RETRY_AFTER, HeaderValue::from(s));
+        }
+        if self.close {
+            r.headers_mut()
+                .insert(header::CONNECTION, HeaderValue::from_static("close"));
         }
         if self.status == StatusCode::UNAUTHORIZED {
             r.headers_mut().insert(

@@ -8,7 +8,9 @@
 
 pub mod api;
 mod assets;
+mod edge;
 pub mod error;
+pub mod listen;
 mod prom;
 pub mod queue;
 mod tonemap;
@@ -62,6 +64,7 @@ pub struct ServeOptions {
     pub adapter: AdapterChoice,
     pub gpu_config: GpuConfig,
     pub limits: Limits,
+    pub conn: listen::ConnLimits,
     /// Tests only: the tone-map workers read-lock this around every job.
     pub hold_workers: Option<Arc<RwLock<()>>>,
 }
@@ -84,7 +87,18 @@ pub struct AppState {
     pub gpu: Queue,
     pub cpu: Queue,
     pub slot: Mutex<RunSlot>,
-    requests: prom::Requests,
+    pub(crate) requests: prom::Requests,
+}
+
+/// The token of an `Authorization: Bearer <token>` value. The scheme is
+/// case-insensitive and separated from the token by spaces or tabs (RFC 7235).
+fn bearer_token(value: &str) -> Option<&str> {
+    let value = value.trim_matches([' ', '\t']);
+    let (scheme, token) = value.split_once([' ', '\t'])?;
+    scheme
+        .eq_ignore_ascii_case("bearer")
+        .then(|| token.trim_matches([' ', '\t']))
+        .filter(|t| !t.is_empty())
 }
 
 /// Compares in time independent of where the strings differ.
@@ -97,7 +111,7 @@ impl AppState {
         let given = headers
             .get(header::AUTHORIZATION)
             .and_then(|v| v.to_str().ok())
-            .and_then(|v| v.strip_prefix("Bearer "));
+            .and_then(bearer_token);
         match given {
             None => Err(ApiError::new(
                 StatusCode::UNAUTHORIZED,
@@ -111,6 +125,21 @@ impl AppState {
                 "the bearer token is not this server's",
             )),
         }
+    }
+
+    /// Why runs cannot be recorded now, if they cannot (a read-only history
+    /// file or folder); checked when asked, since permissions can change.
+    pub async fn history_problem(&self) -> Option<String> {
+        let db = self.db.clone();
+        tokio::task::spawn_blocking(move || crate::history::write_problem(&db))
+            .await
+            .unwrap_or_else(|e| Some(format!("checking the history: {e}")))
+    }
+
+    /// Whether the request may see results: always, unless reads are private
+    /// and it carries no valid token.
+    pub fn may_read(&self, headers: &HeaderMap) -> bool {
+        self.authorize_read(headers).is_ok()
     }
 
     pub fn authorize_read(&self, headers: &HeaderMap) -> Result<(), ApiError> {
@@ -215,21 +244,6 @@ async fn openapi() -> axum::response::Response {
     axum::Json(ApiDoc::openapi()).into_response()
 }
 
-async fn api_not_found(uri: axum::http::Uri) -> ApiError {
-    ApiError::not_found(format!(
-        "no endpoint {}; see /api/v1/openapi.json",
-        uri.path()
-    ))
-}
-
-async fn method_not_allowed() -> ApiError {
-    ApiError::new(
-        StatusCode::METHOD_NOT_ALLOWED,
-        "method_not_allowed",
-        "this endpoint does not take that method",
-    )
-}
-
 /// The whole application.
 pub fn router(st: Arc<AppState>) -> Router {
     let api = Router::new()
@@ -247,13 +261,16 @@ pub fn router(st: Arc<AppState>) -> Router {
                 // The handler reads the body itself against this limit.
                 .layer(axum::extract::DefaultBodyLimit::max(st.limits.max_body)),
         )
-        .fallback(api_not_found)
-        .method_not_allowed_fallback(method_not_allowed);
+        .fallback(edge::not_found)
+        .method_not_allowed_fallback(edge::method_not_allowed);
     Router::new()
         .nest("/api/v1", api)
         .route("/metrics", get(prom::metrics))
         .route("/healthz", get(api::healthz))
         .merge(assets::routes())
+        .fallback(edge::not_found)
+        .method_not_allowed_fallback(edge::method_not_allowed)
+        .layer(axum::middleware::from_fn(edge::head_limits))
         .layer(axum::middleware::from_fn_with_state(
             st.clone(),
             prom::track,
@@ -265,13 +282,31 @@ pub fn router(st: Arc<AppState>) -> Router {
 pub struct Server {
     listener: tokio::net::TcpListener,
     state: Arc<AppState>,
+    conn: listen::ConnLimits,
 }
 
 impl Server {
     /// Opens (and migrates) the history, starts the tone-map workers and
     /// binds the address; port 0 picks a free port (see `local_addr`).
     pub async fn bind(opts: ServeOptions) -> Result<Server, crate::Error> {
-        crate::history::History::open(&opts.db)?;
+        // A history that exists but cannot be written is served read-only
+        // (a copied history, a read-only mount): reads work, runs are
+        // refused with the reason, and healthz says so. One that cannot be
+        // created, or read, stops the server here with its path.
+        if let Err(e) = crate::history::History::open(&opts.db) {
+            let problem = opts
+                .db
+                .exists()
+                .then(|| crate::history::write_problem(&opts.db))
+                .flatten();
+            let Some(problem) = problem else {
+                return Err(e.into());
+            };
+            crate::history::History::open_read_only(&opts.db)?;
+            tracing::warn!("{problem}; serving it read-only, runs are refused");
+        } else if let Some(problem) = crate::history::write_problem(&opts.db) {
+            tracing::warn!("{problem}; runs are refused until it is writable");
+        }
         let file = |source| crate::Error::Service {
             what: "starting a tone-map worker".into(),
             source,
@@ -299,8 +334,12 @@ impl Server {
                 what: format!("binding {}", opts.bind),
                 source,
             })?;
+        // Refuse at start a file limit that leaves no room for clients.
+        listen::connection_cap(opts.conn.max_connections, listen::open_file_limit())
+            .map_err(crate::Error::Invalid)?;
         Ok(Server {
             listener,
+            conn: opts.conn,
             state: Arc::new(AppState {
                 db: opts.db,
                 token: opts.token,
@@ -330,10 +369,8 @@ impl Server {
         self,
         shutdown: impl std::future::Future<Output = ()> + Send + 'static,
     ) -> std::io::Result<()> {
-        let app = router(self.state);
-        axum::serve(self.listener, app)
-            .with_graceful_shutdown(shutdown)
-            .await
+        let app = router(self.state.clone());
+        listen::serve(self.listener, app, self.state, &self.conn, shutdown).await
     }
 }
 
@@ -374,4 +411,26 @@ pub fn load_or_make_token(path: &std::path::Path) -> Result<String, crate::Error
         .map_err(err)?;
     writeln!(f, "{token}").map_err(err)?;
     Ok(token)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_bearer_scheme_is_case_insensitive_and_spaces_or_tabs_separate() {
+        for v in [
+            "Bearer abc",
+            "bearer abc",
+            "BEARER abc",
+            "Bearer\tabc",
+            "Bearer   abc ",
+            " bEaReR abc",
+        ] {
+            assert_eq!(bearer_token(v), Some("abc"), "{v:?}");
+        }
+        for v in ["Basic abc", "Bearer", "Bearer ", "Bearerabc", "abc"] {
+            assert_eq!(bearer_token(v), None, "{v:?}");
+        }
+    }
 }

@@ -19,6 +19,14 @@ pub struct Requests {
     counts: Mutex<BTreeMap<(String, String, u16), u64>>,
     /// route → (seconds summed, count).
     seconds: Mutex<BTreeMap<String, (f64, u64)>>,
+    /// Connections accepted past the cap (answered briefly or closed).
+    over_capacity: std::sync::atomic::AtomicU64,
+}
+
+impl Requests {
+    pub fn note_over_capacity(&self) {
+        self.over_capacity.fetch_add(1, Ordering::Relaxed);
+    }
 }
 
 /// Middleware: counts every answer by route template, method and status.
@@ -28,7 +36,7 @@ pub async fn track(State(st): State<Arc<AppState>>, req: Request, next: Next) ->
         .get::<MatchedPath>()
         .map(|p| p.as_str().to_owned())
         .unwrap_or_else(|| "unmatched".into());
-    let method = req.method().as_str().to_owned();
+    let method = method_label(req.method()).to_owned();
     let start = std::time::Instant::now();
     let r = next.run(req).await;
     let secs = start.elapsed().as_secs_f64();
@@ -42,6 +50,24 @@ pub async fn track(State(st): State<Arc<AppState>>, req: Request, next: Next) ->
         e.1 += 1;
     }
     r
+}
+
+/// The method as a label: the standard ones by name, anything a client made
+/// up as `other`, so a label set can never grow with what clients send.
+fn method_label(m: &axum::http::Method) -> &'static str {
+    use axum::http::Method;
+    match *m {
+        Method::GET => "GET",
+        Method::POST => "POST",
+        Method::PUT => "PUT",
+        Method::DELETE => "DELETE",
+        Method::HEAD => "HEAD",
+        Method::OPTIONS => "OPTIONS",
+        Method::PATCH => "PATCH",
+        Method::CONNECT => "CONNECT",
+        Method::TRACE => "TRACE",
+        _ => "other",
+    }
 }
 
 fn esc(v: &str) -> String {
@@ -62,7 +88,12 @@ pub fn resident_bytes() -> Option<u64> {
     Some(pages * 4096)
 }
 
-pub async fn metrics(State(st): State<Arc<AppState>>) -> Response {
+/// The metrics hold run results, so under `--private-reads` they need the token.
+pub async fn metrics(
+    State(st): State<Arc<AppState>>,
+    headers: axum::http::HeaderMap,
+) -> Result<Response, super::error::ApiError> {
+    st.authorize_read(&headers)?;
     let mut out = String::new();
     head(
         &mut out,
@@ -79,6 +110,17 @@ pub async fn metrics(State(st): State<Arc<AppState>>) -> Response {
             );
         }
     }
+    head(
+        &mut out,
+        "connections_over_capacity_total",
+        "counter",
+        "Connections accepted past serve --max-connections (health checks and 503s only).",
+    );
+    let _ = writeln!(
+        out,
+        "tonegate_connections_over_capacity_total {}",
+        st.requests.over_capacity.load(Ordering::Relaxed)
+    );
     head(
         &mut out,
         "http_request_duration_seconds",
@@ -179,14 +221,14 @@ pub async fn metrics(State(st): State<Arc<AppState>>) -> Response {
             let _ = writeln!(out, "# history unreadable: {}", esc(&e.detail));
         }
     }
-    (
+    Ok((
         [(
             header::CONTENT_TYPE,
             "text/plain; version=0.0.4; charset=utf-8",
         )],
         out,
     )
-        .into_response()
+        .into_response())
 }
 
 /// Run counts, and the latest finished check run's scene figures.

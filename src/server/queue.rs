@@ -48,7 +48,8 @@ pub struct QueueStats {
     pub rejected: AtomicU64,
     pub succeeded: AtomicU64,
     pub failed: AtomicU64,
-    /// Jobs whose client had gone (timed out) before the worker reached them.
+    /// Jobs whose client had gone (timed out or disconnected): stopped
+    /// before they started or between stages, their memory freed.
     pub abandoned: AtomicU64,
     pub busy_us: AtomicU64,
 }
@@ -176,8 +177,9 @@ fn worker(
         }
         let queue_ms = job.queued_at.elapsed().as_secs_f64() * 1e3;
         let start = Instant::now();
+        let gone = || job.reply.is_closed();
         let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            run_job(&job.bytes, &job.params, &engine, &mut ctx)
+            run_job(&job.bytes, &job.params, &engine, &mut ctx, &gone)
         }))
         .unwrap_or_else(|_| {
             // A panic may leave the device in any state: start a fresh one.
@@ -188,11 +190,18 @@ fn worker(
         stats
             .busy_us
             .fetch_add(elapsed.as_micros() as u64, Ordering::Relaxed);
-        let result = result.map(|mut out| {
-            out.render_ms = elapsed.as_secs_f64() * 1e3;
-            out.queue_ms = queue_ms;
-            out
-        });
+        let result = match result {
+            Ok(Some(mut out)) => {
+                out.render_ms = elapsed.as_secs_f64() * 1e3;
+                out.queue_ms = queue_ms;
+                Ok(out)
+            }
+            Ok(None) => {
+                stats.abandoned.fetch_add(1, Ordering::Relaxed);
+                continue;
+            }
+            Err(e) => Err(e),
+        };
         let counter = if result.is_ok() {
             &stats.succeeded
         } else {
@@ -203,14 +212,20 @@ fn worker(
     }
 }
 
+/// One job; `Ok(None)` when `gone` said its client left (checked after
+/// decoding, between the stages, and before encoding the PNG).
 fn run_job(
     bytes: &[u8],
     p: &JobParams,
     engine: &Engine,
     ctx: &mut Option<GpuContext>,
-) -> Result<ToneOutput, ApiError> {
+    gone: &dyn Fn() -> bool,
+) -> Result<Option<ToneOutput>, ApiError> {
     let (img, load_report) = crate::io::decode_hdr(bytes, &p.source_name, &p.load)
         .map_err(|e| ApiError::of_image(&e))?;
+    if gone() {
+        return Ok(None);
+    }
     let (gpu, adapter) = match engine {
         Engine::Cpu => (None, "cpu-reference".to_string()),
         Engine::Gpu { adapter, config } => {
@@ -221,7 +236,7 @@ fn run_job(
             (Some((c, *config)), c.adapter.name.clone())
         }
     };
-    let result = crate::toning::tone_map(&img, &p.resolved.pipeline(), gpu, false);
+    let result = crate::toning::tone_map_until(&img, &p.resolved.pipeline(), gpu, false, gone);
     drop(img);
     if let Err(crate::Error::Gpu(e)) = &result {
         if !matches!(e, crate::gpu::GpuError::TooLarge { .. }) {
@@ -229,9 +244,14 @@ fn run_job(
             *ctx = None;
         }
     }
-    let out = result.map_err(|e| ApiError::of_crate(&e))?;
+    let Some(out) = result.map_err(|e| ApiError::of_crate(&e))? else {
+        return Ok(None);
+    };
+    if gone() {
+        return Ok(None);
+    }
     let png = crate::io::encode_png8(&out.frame).map_err(|e| ApiError::internal(e.to_string()))?;
-    Ok(ToneOutput {
+    Ok(Some(ToneOutput {
         png,
         width: out.frame.width,
         height: out.frame.height,
@@ -244,5 +264,5 @@ fn run_job(
         }),
         render_ms: 0.0,
         queue_ms: 0.0,
-    })
+    }))
 }

@@ -25,6 +25,7 @@ fn parse_params(
     pairs: Vec<(String, String)>,
     headers: &HeaderMap,
 ) -> Result<(Extra, ToneSettings), ApiError> {
+    super::api::check_names(pairs.iter().map(|(k, _)| k))?;
     let mut extra = Extra {
         gpu: true,
         json: headers
@@ -37,14 +38,18 @@ fn parse_params(
         "true" | "1" | "yes" | "" => Ok(true),
         "false" | "0" | "no" => Ok(false),
         other => Err(ApiError::bad(format!(
-            "{name}: expected true or false, got {other:?}"
+            "{name}: expected true or false, got {}",
+            super::error::clip(other)
         ))),
     };
     let mut seen = std::collections::BTreeSet::new();
     let mut rest = Vec::new();
     for (k, v) in pairs {
         if !seen.insert(k.clone()) {
-            return Err(ApiError::bad(format!("parameter {k:?} is given twice")));
+            return Err(ApiError::bad(format!(
+                "parameter {} is given twice",
+                super::error::clip(&k)
+            )));
         }
         match k.as_str() {
             "gpu" => extra.gpu = flag("gpu", &v)?,
@@ -55,7 +60,8 @@ fn parse_params(
                     "png" => false,
                     other => {
                         return Err(ApiError::bad(format!(
-                            "format: expected png or json, got {other:?}"
+                            "format: expected png or json, got {}",
+                            super::error::clip(other)
                         )))
                     }
                 }
@@ -108,37 +114,43 @@ pub async fn tonemap(
     RawQuery(q): RawQuery,
     req: Request,
 ) -> Result<Response, ApiError> {
-    st.authorize_read(req.headers())?;
     let started = std::time::Instant::now();
     let headers = req.headers().clone();
-    let mut pairs = query_pairs(q.as_deref())?;
+    let mut pairs = query_pairs(q.as_deref()).map_err(ApiError::closing)?;
     let is_multipart = headers
         .get(header::CONTENT_TYPE)
         .and_then(|v| v.to_str().ok())
         .is_some_and(|v| v.starts_with("multipart/form-data"));
     // Refuse early what cannot be accepted anyway: the query's parameters
     // (all of them for a raw body), the declared length, and a full queue,
-    // before reading a byte of the body.
-    let (extra, settings) = parse_params(pairs.clone(), &headers)?;
-    // A multipart form may add the parameters that make these valid
-    // (`key=auto` in the query, `operator=seed001` in the form).
-    let resolved = if is_multipart {
-        None
-    } else {
-        Some(settings.resolve().map_err(|e| ApiError::of_crate(&e))?)
-    };
+    // before reading a byte of the body. Such an answer leaves the body
+    // unread on the connection, so it closes the connection.
     let limit = st.limits.max_body;
-    if let Some(len) = headers
-        .get(header::CONTENT_LENGTH)
-        .and_then(|v| v.to_str().ok())
-        .and_then(|v| v.parse::<u64>().ok())
-    {
-        if len > limit as u64 {
-            return Err(too_large_body(len, limit));
+    let (extra, settings, resolved, permit) = (|| {
+        st.authorize_read(&headers)?;
+        let (extra, settings) = parse_params(pairs.clone(), &headers)?;
+        // A multipart form may add the parameters that make these valid
+        // (`key=auto` in the query, `operator=seed001` in the form).
+        let resolved = if is_multipart {
+            None
+        } else {
+            Some(settings.resolve().map_err(|e| ApiError::of_crate(&e))?)
+        };
+        if let Some(len) = headers
+            .get(header::CONTENT_LENGTH)
+            .and_then(|v| v.to_str().ok())
+            .and_then(|v| v.parse::<u64>().ok())
+        {
+            if len > limit as u64 {
+                return Err(too_large_body(len, limit));
+            }
         }
-    }
+        let queue = if extra.gpu { &st.gpu } else { &st.cpu };
+        let permit = queue.reserve()?;
+        Ok((extra, settings, resolved, permit))
+    })()
+    .map_err(ApiError::closing)?;
     let queue = if extra.gpu { &st.gpu } else { &st.cpu };
-    let permit = queue.reserve()?;
     let timeout = st.limits.timeout;
     let body = tokio::time::timeout(timeout, async {
         if is_multipart {
@@ -150,7 +162,9 @@ pub async fn tonemap(
         }
     })
     .await
-    .map_err(|_| timed_out(timeout))??;
+    .map_err(|_| timed_out(timeout))
+    .and_then(|r| r)
+    .map_err(ApiError::closing)?;
     if body.is_empty() {
         return Err(ApiError::bad(
             "the body is empty: POST the .hdr or .exr file, raw or as a multipart file field",

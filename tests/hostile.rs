@@ -1,0 +1,661 @@
+//! The server against a hostile but fair client: each test here is one of
+//! the defects such a client found on a4e9bd9 (issue 17), and fails without
+//! its fix. Servers run in-process on loopback, or as the real binary where
+//! the process's own limits (open files, user) are the point.
+
+mod common;
+#[path = "common/server.rs"]
+mod harness;
+
+use harness::{expect_error, hold_workers, start, TOKEN};
+use reqwest::StatusCode;
+use std::io::{BufRead, Read, Write};
+use std::net::{SocketAddr, TcpStream};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::{Arc, RwLock};
+use std::time::{Duration, Instant};
+
+/// `tonegate serve` as a child process, killed on drop.
+struct Served {
+    child: Child,
+    addr: SocketAddr,
+    log: PathBuf,
+}
+
+impl Drop for Served {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// How to start the binary.
+#[derive(Default)]
+struct Launch<'a> {
+    args: Vec<&'a str>,
+    /// Soft and hard limit on open files.
+    nofile: Option<u64>,
+    /// Run as `nobody` (when the tests run as root, where permissions bind nobody).
+    as_nobody: bool,
+}
+
+fn command(launch: &Launch<'_>, dir: &Path) -> Command {
+    let bin = env!("CARGO_BIN_EXE_tonegate");
+    let mut cmd = if launch.as_nobody {
+        let mut c = Command::new("setpriv");
+        c.args(["--reuid=65534", "--regid=65534", "--clear-groups", bin]);
+        c
+    } else {
+        Command::new(bin)
+    };
+    cmd.arg("serve")
+        .args(["--bind", "127.0.0.1:0"])
+        .args(&launch.args)
+        .current_dir(dir)
+        .env_remove("TONEGATE_DB")
+        .env("RUST_LOG", "warn");
+    if let Some(n) = launch.nofile {
+        use std::os::unix::process::CommandExt;
+        // SAFETY: only setrlimit, which is async-signal-safe, runs between
+        // fork and exec.
+        unsafe {
+            cmd.pre_exec(move || {
+                let lim = libc::rlimit {
+                    rlim_cur: n,
+                    rlim_max: n,
+                };
+                if libc::setrlimit(libc::RLIMIT_NOFILE, &lim) != 0 {
+                    return Err(std::io::Error::last_os_error());
+                }
+                Ok(())
+            });
+        }
+    }
+    cmd
+}
+
+/// Starts the binary and waits for its "serving http://ADDR/" line; the
+/// error is the exit status and the log when it stops instead.
+fn serve(launch: &Launch<'_>, dir: &Path) -> Result<Served, (i32, String)> {
+    let log = dir.join(format!("serve-{}.log", std::process::id()));
+    let mut child = command(launch, dir)
+        .stdout(Stdio::piped())
+        .stderr(std::fs::File::create(&log).unwrap())
+        .spawn()
+        .expect("tonegate serve starts");
+    let stdout = child.stdout.take().unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let mut line = String::new();
+        let _ = std::io::BufReader::new(stdout).read_line(&mut line);
+        let _ = tx.send(line);
+    });
+    let line = rx.recv_timeout(Duration::from_secs(60)).unwrap_or_default();
+    let addr = line
+        .split("http://")
+        .nth(1)
+        .and_then(|s| s.split('/').next())
+        .and_then(|s| s.parse().ok());
+    match addr {
+        Some(addr) => Ok(Served { child, addr, log }),
+        None => {
+            let _ = child.kill();
+            let status = child.wait().unwrap();
+            Err((
+                status.code().unwrap_or(-1),
+                std::fs::read_to_string(&log).unwrap_or_default(),
+            ))
+        }
+    }
+}
+
+/// One request on a fresh connection; the status line, the headers (lower
+/// case) and the body, or the I/O error.
+fn raw(addr: SocketAddr, request: &str) -> std::io::Result<(String, String, String)> {
+    let mut s = TcpStream::connect(addr)?;
+    s.set_read_timeout(Some(Duration::from_secs(10)))?;
+    s.write_all(request.as_bytes())?;
+    let mut text = Vec::new();
+    s.read_to_end(&mut text)?;
+    let text = String::from_utf8_lossy(&text).into_owned();
+    let (head, body) = text.split_once("\r\n\r\n").unwrap_or((&text, ""));
+    let (status, headers) = head.split_once("\r\n").unwrap_or((head, ""));
+    Ok((status.into(), headers.to_lowercase(), body.into()))
+}
+
+fn get(addr: SocketAddr, path: &str) -> std::io::Result<(String, String, String)> {
+    raw(
+        addr,
+        &format!("GET {path} HTTP/1.1\r\nHost: t\r\nConnection: close\r\n\r\n"),
+    )
+}
+
+fn running_as_root() -> bool {
+    // SAFETY: geteuid has no preconditions.
+    unsafe { libc::geteuid() == 0 }
+}
+
+fn chmod(path: &Path, mode: u32) {
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(path, std::fs::Permissions::from_mode(mode)).unwrap();
+}
+
+/// Defect 1: with `ulimit -n 256`, 300 idle sockets made accept fail with
+/// EMFILE and health checks time out. Now the cap stays under the file
+/// limit, health checks are answered past it, and idle sockets are closed
+/// after the header timeout.
+#[test]
+fn idle_sockets_past_the_file_limit_do_not_stop_health_checks() {
+    let dir = tempfile::tempdir().unwrap();
+    let seeded = common::seed_empty(dir.path());
+    let launch = Launch {
+        args: vec![
+            "--db",
+            seeded.db.to_str().unwrap(),
+            "--suite",
+            seeded.suite.to_str().unwrap(),
+            "--header-timeout",
+            "4",
+        ],
+        nofile: Some(256),
+        ..Default::default()
+    };
+    let s = serve(&launch, dir.path()).unwrap_or_else(|e| panic!("{e:?}"));
+    let idle: Vec<TcpStream> = (0..300)
+        .map(|_| TcpStream::connect(s.addr).unwrap())
+        .collect();
+    // The overflow lane holds a silent socket at most 2 s.
+    std::thread::sleep(Duration::from_millis(2500));
+    let started = Instant::now();
+    let (status, _, body) = get(s.addr, "/healthz").expect("healthz answers at the cap");
+    assert!(status.contains(" 200 "), "{status} {body}");
+    assert!(started.elapsed() < Duration::from_secs(2));
+    let (status, headers, body) = get(s.addr, "/api/v1/runs").unwrap();
+    assert!(status.contains(" 503 "), "{status} {body}");
+    assert!(headers.contains("connection: close"), "{headers}");
+    assert!(
+        body.contains("\"busy\"") && body.contains("max-connections"),
+        "{body}"
+    );
+    // Past the header timeout the idle sockets are closed by the server ...
+    std::thread::sleep(Duration::from_secs(3));
+    let mut closed = 0;
+    for mut sock in idle {
+        sock.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+        let mut b = [0u8; 64];
+        if matches!(sock.read(&mut b), Ok(0) | Err(_)) {
+            closed += 1;
+        }
+    }
+    assert_eq!(closed, 300);
+    // ... and the API is back.
+    let (status, _, body) = get(s.addr, "/api/v1/runs").unwrap();
+    assert!(status.contains(" 200 "), "{status} {body}");
+    let log = std::fs::read_to_string(&s.log).unwrap();
+    assert!(!log.contains("Too many open files"), "{log}");
+}
+
+/// Defect 1, the in-process half: a connection that sends nothing is closed
+/// after the header timeout, and the cap asked for is the cap in effect.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_silent_connection_is_closed_and_the_cap_holds() {
+    let dir = tempfile::tempdir().unwrap();
+    let seeded = common::seed_empty(dir.path());
+    let s = start(&seeded, |o| {
+        o.conn.max_connections = Some(4);
+        o.conn.header_timeout = Duration::from_secs(1);
+    })
+    .await;
+    let addr: SocketAddr = s.base.trim_start_matches("http://").parse().unwrap();
+    let outcome = tokio::task::spawn_blocking(move || {
+        let held: Vec<TcpStream> = (0..4).map(|_| TcpStream::connect(addr).unwrap()).collect();
+        std::thread::sleep(Duration::from_millis(200));
+        let (over, headers, _) = get(addr, "/api/v1/runs").unwrap();
+        let (health, _, _) = get(addr, "/api/v1/healthz").unwrap();
+        let started = Instant::now();
+        let mut first = &held[0];
+        first
+            .set_read_timeout(Some(Duration::from_secs(5)))
+            .unwrap();
+        let n = first.read(&mut [0u8; 8]).unwrap_or(0);
+        let closed_after = started.elapsed();
+        drop(held);
+        std::thread::sleep(Duration::from_millis(1200));
+        let (after, _, _) = get(addr, "/api/v1/runs").unwrap();
+        (over, headers, health, n, closed_after, after)
+    })
+    .await
+    .unwrap();
+    let (over, headers, health, n, closed_after, after) = outcome;
+    assert!(over.contains(" 503 "), "{over}");
+    assert!(headers.contains("connection: close"), "{headers}");
+    assert!(health.contains(" 200 "), "{health}");
+    assert_eq!(n, 0, "the silent connection got bytes");
+    assert!(closed_after < Duration::from_secs(3), "{closed_after:?}");
+    assert!(after.contains(" 200 "), "{after}");
+    let metrics = s.get("/metrics").await.text().await.unwrap();
+    assert!(
+        metrics.contains("tonegate_connections_over_capacity_total 2"),
+        "{metrics}"
+    );
+}
+
+/// Defect 2: every made-up method became a label of its own.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn made_up_methods_and_paths_do_not_grow_the_metrics() {
+    let dir = tempfile::tempdir().unwrap();
+    let seeded = common::seed_empty(dir.path());
+    let s = start(&seeded, |_| {}).await;
+    let before = s.get("/metrics").await.text().await.unwrap().len();
+    for i in 0..200 {
+        let method =
+            reqwest::Method::from_bytes(format!("MADEUP{i:04}{}", "X".repeat(200)).as_bytes())
+                .unwrap();
+        let r = s
+            .client
+            .request(method, format!("{}/api/v1/runs/no-such-{i}", s.base))
+            .send()
+            .await
+            .unwrap();
+        assert!(r.status().is_client_error(), "{}", r.status());
+    }
+    let metrics = s.get("/metrics").await.text().await.unwrap();
+    assert!(
+        !metrics.contains("MADEUP"),
+        "a client's method became a label"
+    );
+    assert!(
+        !metrics.contains("no-such"),
+        "a client's path became a label"
+    );
+    assert!(metrics.contains("method=\"other\""), "{metrics}");
+    // One new series for the made-up requests, a few for the scrapes.
+    assert!(
+        metrics.len() < before + 1024,
+        "{before} -> {}",
+        metrics.len()
+    );
+}
+
+/// Defect 3: a read-only history file was only found when a run failed
+/// with a 500; a read-only folder gave an error not naming it.
+#[test]
+fn a_read_only_history_is_reported_and_runs_are_refused_with_the_path() {
+    let root = running_as_root();
+    let dir = tempfile::tempdir().unwrap();
+    chmod(dir.path(), 0o755);
+    let seeded = common::seed_empty(dir.path());
+    // Make the history (an empty one) as the owner, then serve it as
+    // someone who may only read it.
+    tonegate::history::History::open(&seeded.db).unwrap();
+    assert!(seeded.db.exists());
+    let token = dir.path().join("token");
+    std::fs::write(&token, TOKEN).unwrap();
+    chmod(&token, 0o644);
+    if !root {
+        chmod(&seeded.db, 0o444);
+        chmod(dir.path(), 0o555);
+    }
+    let launch = Launch {
+        args: vec![
+            "--db",
+            seeded.db.to_str().unwrap(),
+            "--suite",
+            seeded.suite.to_str().unwrap(),
+            "--token-file",
+            token.to_str().unwrap(),
+        ],
+        as_nobody: root,
+        ..Default::default()
+    };
+    let s = serve(&launch, dir.path()).unwrap_or_else(|e| panic!("{e:?}"));
+    let (status, _, body) = get(s.addr, "/api/v1/healthz").unwrap();
+    assert!(status.contains(" 200 "), "{status} {body}");
+    let health: serde_json::Value = serde_json::from_str(&body).unwrap();
+    assert_eq!(health["history_writable"], false, "{health}");
+    let db = seeded.db.display().to_string();
+    assert!(
+        health["history_problem"].as_str().unwrap().contains(&db),
+        "{health}"
+    );
+    let (status, _, body) = raw(
+        s.addr,
+        &format!(
+            "POST /api/v1/runs HTTP/1.1\r\nHost: t\r\nAuthorization: Bearer {TOKEN}\r\n\
+             Content-Type: application/json\r\nContent-Length: 2\r\nConnection: close\r\n\r\n{{}}"
+        ),
+    )
+    .unwrap();
+    assert!(status.contains(" 503 "), "{status} {body}");
+    assert!(
+        body.contains("history_read_only") && body.contains(&db),
+        "{body}"
+    );
+    drop(s);
+
+    // A folder the history cannot be created in: the message names it.
+    let locked = dir.path().join("locked");
+    std::fs::create_dir(&locked).unwrap();
+    chmod(&locked, 0o555);
+    let fresh = locked.join("history.sqlite");
+    let launch = Launch {
+        args: vec![
+            "--db",
+            fresh.to_str().unwrap(),
+            "--suite",
+            seeded.suite.to_str().unwrap(),
+            "--token-file",
+            token.to_str().unwrap(),
+        ],
+        as_nobody: root,
+        ..Default::default()
+    };
+    let Err((code, log)) = serve(&launch, dir.path()) else {
+        panic!("serve started on a history it cannot create");
+    };
+    assert_eq!(code, 2, "{log}");
+    assert!(log.contains(&locked.display().to_string()), "{log}");
+    chmod(&locked, 0o755);
+    chmod(dir.path(), 0o755);
+}
+
+/// Defect 4: under private reads, /metrics (which holds run results) and
+/// the health details were open. Now: /metrics needs the token; health
+/// answers everyone (a liveness probe) but its details only with the token;
+/// the OpenAPI document describes the API and holds no results, so it stays
+/// open.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn private_reads_cover_metrics_and_health_details() {
+    let dir = tempfile::tempdir().unwrap();
+    let seeded = common::seed_empty(dir.path());
+    let s = start(&seeded, |o| o.private_reads = true).await;
+    expect_error(
+        s.get("/metrics").await,
+        StatusCode::UNAUTHORIZED,
+        "unauthorized",
+    )
+    .await;
+    let with_token = |path: &str| {
+        s.client
+            .get(format!("{}{path}", s.base))
+            .header("authorization", format!("Bearer {TOKEN}"))
+            .send()
+    };
+    let r = with_token("/metrics").await.unwrap();
+    assert_eq!(r.status(), StatusCode::OK);
+    assert!(r
+        .text()
+        .await
+        .unwrap()
+        .contains("tonegate_http_requests_total"));
+    for path in ["/healthz", "/api/v1/healthz"] {
+        let (status, open) = s.json(path).await;
+        assert_eq!(status, StatusCode::OK);
+        let keys: Vec<&String> = open.as_object().unwrap().keys().collect();
+        assert_eq!(keys, ["status", "version"], "{open}");
+        let full: serde_json::Value = with_token(path).await.unwrap().json().await.unwrap();
+        assert!(
+            full["runs"].is_number() && full["cpu_queue"].is_object(),
+            "{full}"
+        );
+    }
+    let (status, doc) = s.json("/api/v1/openapi.json").await;
+    assert_eq!(status, StatusCode::OK);
+    assert!(doc["paths"].is_object());
+    expect_error(
+        s.get("/api/v1/runs").await,
+        StatusCode::UNAUTHORIZED,
+        "unauthorized",
+    )
+    .await;
+}
+
+/// Defect 5: `bearer`, `BEARER` and a tab were refused.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_auth_scheme_is_case_insensitive() {
+    let dir = tempfile::tempdir().unwrap();
+    let seeded = common::seed_empty(dir.path());
+    let s = start(&seeded, |o| o.private_reads = true).await;
+    for value in [
+        format!("Bearer {TOKEN}"),
+        format!("bearer {TOKEN}"),
+        format!("BEARER {TOKEN}"),
+        format!("Bearer\t{TOKEN}"),
+        format!("bEaReR   {TOKEN} "),
+    ] {
+        let r = s
+            .client
+            .get(format!("{}/api/v1/runs", s.base))
+            .header("authorization", &value)
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status(), StatusCode::OK, "{value:?}");
+    }
+    for value in [
+        format!("Basic {TOKEN}"),
+        "Bearer".into(),
+        format!("Bearer{TOKEN}"),
+    ] {
+        let r = s
+            .client
+            .get(format!("{}/api/v1/runs", s.base))
+            .header("authorization", &value)
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status(), StatusCode::UNAUTHORIZED, "{value:?}");
+    }
+}
+
+/// Defect 6: an answer given before the body was read (queue full, bad
+/// parameter, declared length over the limit) closed the keep-alive
+/// connection without saying so, and the client's next request hit EPIPE.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn early_answers_say_connection_close() {
+    let dir = tempfile::tempdir().unwrap();
+    let seeded = common::seed_empty(dir.path());
+    let hold = Arc::new(RwLock::new(()));
+    let s = Arc::new(
+        start(&seeded, |o| {
+            o.limits.queue = 0;
+            o.limits.max_body = 1 << 20;
+            o.hold_workers = Some(hold.clone());
+        })
+        .await,
+    );
+    let hdr = common::hdr_bytes(dir.path(), 32, 16);
+    let addr: SocketAddr = s.base.trim_start_matches("http://").parse().unwrap();
+    let guard = hold_workers(&hold);
+    let s2 = s.clone();
+    let body = hdr.clone();
+    let occupying = tokio::spawn(async move { s2.tonemap("gpu=false", body).await });
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    let cases = [
+        ("gpu=false", hdr.len(), "503", "\"busy\""),
+        ("gpu=false&kee=1", hdr.len(), "400", "kee"),
+        ("gpu=true", 5 << 20, "413", "too_large"),
+    ];
+    let answers = tokio::task::spawn_blocking(move || {
+        cases
+            .iter()
+            .map(|&(query, len, _, _)| {
+                // Keep-alive: the head, then as much body as fits in one write.
+                let mut sock = TcpStream::connect(addr).unwrap();
+                sock.set_read_timeout(Some(Duration::from_secs(10)))
+                    .unwrap();
+                let head = format!(
+                    "POST /api/v1/tonemap?{query} HTTP/1.1\r\nHost: t\r\nContent-Length: {len}\r\n\r\n"
+                );
+                sock.write_all(head.as_bytes()).unwrap();
+                let _ = sock.write_all(&vec![0u8; len.min(4096)]);
+                let mut text = Vec::new();
+                // The answer, then EOF: the server closes the connection.
+                let _ = sock.read_to_end(&mut text);
+                String::from_utf8_lossy(&text).to_lowercase()
+            })
+            .collect::<Vec<_>>()
+    })
+    .await
+    .unwrap();
+    for ((query, _, status, code), text) in cases.iter().zip(&answers) {
+        assert!(
+            text.starts_with(&format!("http/1.1 {status}")),
+            "{query}: {text}"
+        );
+        assert!(text.contains("connection: close"), "{query}: {text}");
+        assert!(text.contains(code), "{query}: {text}");
+    }
+    drop(guard);
+    assert_eq!(occupying.await.unwrap().status(), StatusCode::OK);
+}
+
+/// Defect 7: a job whose request timed out ran to its end and counted as
+/// succeeded. Now it stops between stages, counts as abandoned, and the
+/// worker is free for the next job.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_timed_out_job_stops_and_counts_as_abandoned() {
+    let dir = tempfile::tempdir().unwrap();
+    let seeded = common::seed_empty(dir.path());
+    let s = start(&seeded, |o| o.limits.timeout = Duration::from_secs(1)).await;
+    // Big enough that the CPU reference with bloom takes well over a second
+    // in a test build; the first stage check after the timeout stops it.
+    let big = common::hdr_bytes(dir.path(), 2048, 2048);
+    let r = s.tonemap("gpu=false&bloom=0.5", big).await;
+    expect_error(r, StatusCode::SERVICE_UNAVAILABLE, "timeout").await;
+    let deadline = Instant::now() + Duration::from_secs(120);
+    let metrics = loop {
+        let m = s.get("/metrics").await.text().await.unwrap();
+        if m.contains("tonegate_tonemap_queue_depth{queue=\"cpu\"} 0") || Instant::now() > deadline
+        {
+            break m;
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    };
+    assert!(
+        metrics.contains("tonegate_tonemap_abandoned_total{queue=\"cpu\"} 1"),
+        "{metrics}"
+    );
+    assert!(
+        metrics.contains("tonegate_tonemap_succeeded_total{queue=\"cpu\"} 0"),
+        "{metrics}"
+    );
+    let small = common::hdr_bytes(dir.path(), 32, 16);
+    assert_eq!(s.tonemap("gpu=false", small).await.status(), StatusCode::OK);
+}
+
+/// Defect 8: answers from outside the handlers were empty or plain text.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn every_error_is_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let seeded = common::seed_empty(dir.path());
+    let s = start(&seeded, |_| {}).await;
+    expect_error(
+        s.get("/no/such/page").await,
+        StatusCode::NOT_FOUND,
+        "not_found",
+    )
+    .await;
+    let r = s
+        .client
+        .delete(format!("{}/metrics", s.base))
+        .send()
+        .await
+        .unwrap();
+    expect_error(r, StatusCode::METHOD_NOT_ALLOWED, "method_not_allowed").await;
+    let r = s.client.put(format!("{}/", s.base)).send().await.unwrap();
+    expect_error(r, StatusCode::METHOD_NOT_ALLOWED, "method_not_allowed").await;
+    let d = expect_error(
+        s.get("/api/v1/runs/%FF%FE").await,
+        StatusCode::BAD_REQUEST,
+        "bad_parameter",
+    )
+    .await;
+    assert!(d.contains("UTF-8") || d.contains("utf-8"), "{d}");
+    let long = "a".repeat(20_000);
+    let d = expect_error(
+        s.get(&format!("/api/v1/runs?{long}=1")).await,
+        StatusCode::URI_TOO_LONG,
+        "uri_too_long",
+    )
+    .await;
+    assert!(d.len() < 200, "{d}");
+    let mut req = s.client.get(format!("{}/api/v1/runs", s.base));
+    for i in 0..150 {
+        req = req.header(format!("x-h{i}"), "v");
+    }
+    expect_error(
+        req.send().await.unwrap(),
+        StatusCode::REQUEST_HEADER_FIELDS_TOO_LARGE,
+        "headers_too_large",
+    )
+    .await;
+    let r = s
+        .client
+        .get(format!("{}/api/v1/runs", s.base))
+        .header("x-big", "v".repeat(40_000))
+        .send()
+        .await
+        .unwrap();
+    expect_error(
+        r,
+        StatusCode::REQUEST_HEADER_FIELDS_TOO_LARGE,
+        "headers_too_large",
+    )
+    .await;
+}
+
+/// Defect 10: validation that depended on the route or the operator, and a
+/// 60,000-character parameter name echoed whole.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn validation_is_the_same_everywhere_and_echoes_are_short() {
+    let dir = tempfile::tempdir().unwrap();
+    let seeded = common::seed_empty(dir.path());
+    let s = start(&seeded, |_| {}).await;
+    for q in ["metric=bogus", "metric="] {
+        let d = expect_error(
+            s.get(&format!("/api/v1/trends?{q}")).await,
+            StatusCode::BAD_REQUEST,
+            "bad_parameter",
+        )
+        .await;
+        assert!(d.contains("metric"), "{q}: {d}");
+    }
+    let hdr = common::hdr_bytes(dir.path(), 32, 16);
+    for q in [
+        "white=-1",
+        "white=inf",
+        "operator=reinhard02&white=-1",
+        "white_fraction=0",
+    ] {
+        let d = expect_error(
+            s.tonemap(&format!("gpu=false&{q}"), hdr.clone()).await,
+            StatusCode::BAD_REQUEST,
+            "bad_parameter",
+        )
+        .await;
+        assert!(d.starts_with("white"), "{q}: {d}");
+    }
+    let name = "n".repeat(60_000);
+    let r = s
+        .client
+        .post(format!("{}/api/v1/tonemap?gpu=false", s.base))
+        .header("content-type", "application/x-www-form-urlencoded")
+        .body(format!("{name}=1"))
+        .send()
+        .await
+        .unwrap();
+    // As a raw body this is not an image; as a query it is too long; either
+    // way the answer is short.
+    assert!(r.status().is_client_error());
+    assert!(r.text().await.unwrap().len() < 400);
+    let d = expect_error(
+        s.tonemap(&format!("gpu=false&{}=1", "n".repeat(6000)), hdr)
+            .await,
+        StatusCode::BAD_REQUEST,
+        "bad_parameter",
+    )
+    .await;
+    assert!(d.len() < 200, "{d}");
+}
