@@ -640,3 +640,38 @@ fn a_dwa_block_declaring_a_huge_section_is_refused_not_allocated() {
         matches!(e, HdrIoError::Corrupt { .. })
     });
 }
+
+/// Found by a hostile client (issue 17): `exr` swaps an inverted window's
+/// corners, so an empty window said "compressed ZIP16 data" and an inverted
+/// one "decompressed data"; a Radiance file cut in its header said "format
+/// `32` is not supported".
+#[test]
+fn empty_or_inverted_windows_and_cut_headers_say_what_is_wrong() {
+    let good = exr_with_our_writer(&Image::filled(4, 4, [1.0f32; 3]));
+    for (x_max, y_max, expect) in [
+        (-1, 3, "empty 0×4 image"),
+        (3, -1, "empty 4×0 image"),
+        (-5, 3, "data window of part 0 is inverted: (xMin, yMin) = (0, 0) lies past (xMax, yMax) = (-5, 3)"),
+        (3, -7, "(xMax, yMax) = (3, -7)"),
+    ] {
+        let e = decode(&patch_data_window(good.clone(), x_max, y_max), "w.exr")
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("w.exr: ") && e.contains(expect), "{x_max} {y_max}: {e}");
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("a.hdr");
+    write_image_hdr(&path, &Image::filled(8, 8, [1.0f32; 3])).unwrap();
+    let whole = fs::read(&path).unwrap();
+    let blank = whole.windows(2).position(|w| w == b"\n\n").unwrap();
+    for (cut, expect) in [
+        (20, "ends inside the header, after 20 bytes"),
+        (blank + 1, "ends inside the header"),
+        (blank + 5, "ends inside the dimensions line"),
+        (whole.len() - 3, "the data ends early"),
+    ] {
+        let e = decode(&whole[..cut], "c.hdr").unwrap_err();
+        assert!(matches!(e, HdrIoError::Truncated { .. }), "{cut}: {e:?}");
+        assert!(e.to_string().contains(expect), "{cut}: {e}");
+    }
+}

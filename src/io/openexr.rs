@@ -26,7 +26,7 @@
 //! writes reference images that must read back bit for bit), supported by
 //! every OpenEXR reader, and compact on rendered images.
 
-use std::io::{BufRead, Seek, Write};
+use std::io::{BufRead, Read, Seek, SeekFrom, Write};
 
 use exr::block::chunk::{Chunk, CompressedBlock};
 use exr::block::UncompressedBlock;
@@ -74,12 +74,21 @@ impl ChannelSource {
 }
 
 pub(crate) fn decode<R: BufRead + Seek>(
-    reader: R,
+    mut reader: R,
     len: u64,
     file: &str,
     opts: &LoadOptions,
 ) -> Result<Decoded, HdrIoError> {
     let exr_error = |e| from_exr(file, e);
+    let mut head = Vec::new();
+    let io_error = |e: std::io::Error| from_exr(file, exr::error::Error::from(e));
+    reader
+        .by_ref()
+        .take(HEADER_SCAN_BYTES)
+        .read_to_end(&mut head)
+        .map_err(io_error)?;
+    reader.seek(SeekFrom::Start(0)).map_err(io_error)?;
+    check_data_windows(&head, file)?;
     // Reads and validates only the magic number and the headers.
     let reader = exr::block::read(reader, false).map_err(exr_error)?;
     // A copy (headers are small) so that `reader` can be consumed below.
@@ -173,6 +182,87 @@ pub(crate) fn decode<R: BufRead + Seek>(
             pixels,
         },
         channels,
+    })
+}
+
+/// How much of the file's start is scanned for the headers' data windows.
+const HEADER_SCAN_BYTES: u64 = 64 << 10;
+
+/// Checks the data window of every header in `head` (the file's first
+/// bytes) as written. `exr` swaps the corners of an inverted window
+/// silently, so an empty or inverted window would otherwise surface as a
+/// size that the blocks then contradict ("decompressed data", "chunk count").
+/// Headers cut off by the scan's end, or malformed, are left to `exr`.
+fn check_data_windows(head: &[u8], file: &str) -> Result<(), HdrIoError> {
+    let Some(flags) = head.get(4..8) else {
+        return Ok(());
+    };
+    let multipart = u32::from_le_bytes([flags[0], flags[1], flags[2], flags[3]]) & 0x1000 != 0;
+    let cstr = |at: usize| -> Option<(&[u8], usize)> {
+        let end = at + head.get(at..)?.iter().position(|&b| b == 0)?;
+        Some((&head[at..end], end + 1))
+    };
+    let i32_at = |at: usize| -> Option<i32> {
+        Some(i32::from_le_bytes(head.get(at..at + 4)?.try_into().ok()?))
+    };
+    let mut at = 8;
+    for part in 0.. {
+        loop {
+            let Some((name, next)) = cstr(at) else {
+                return Ok(());
+            };
+            if name.is_empty() {
+                at = next;
+                break;
+            }
+            let Some((_, next)) = cstr(next) else {
+                return Ok(());
+            };
+            let Some(size) = i32_at(next).and_then(|n| usize::try_from(n).ok()) else {
+                return Ok(());
+            };
+            let value = next + 4;
+            if name == b"dataWindow" && size == 16 {
+                let corners = (
+                    i32_at(value),
+                    i32_at(value + 4),
+                    i32_at(value + 8),
+                    i32_at(value + 12),
+                );
+                if let (Some(x0), Some(y0), Some(x1), Some(y1)) = corners {
+                    check_window(file, part, [x0, y0, x1, y1])?;
+                }
+            }
+            at = value + size;
+        }
+        if !multipart || head.get(at).is_none_or(|&b| b == 0) {
+            break;
+        }
+    }
+    Ok(())
+}
+
+fn check_window(file: &str, part: usize, [x0, y0, x1, y1]: [i32; 4]) -> Result<(), HdrIoError> {
+    let (w, h) = (
+        i64::from(x1) - i64::from(x0) + 1,
+        i64::from(y1) - i64::from(y0) + 1,
+    );
+    if w >= 1 && h >= 1 {
+        return Ok(());
+    }
+    if w >= 0 && h >= 0 {
+        return Err(HdrIoError::EmptyImage {
+            file: file.to_string(),
+            width: w as u64,
+            height: h as u64,
+        });
+    }
+    Err(HdrIoError::Corrupt {
+        file: file.to_string(),
+        format: FORMAT,
+        detail: format!(
+            "the data window of part {part} is inverted: (xMin, yMin) = ({x0}, {y0}) lies past (xMax, yMax) = ({x1}, {y1})"
+        ),
     })
 }
 

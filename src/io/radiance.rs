@@ -17,7 +17,7 @@
 //! half of it is m / 255.5 at most. Scan lines are run-length encoded ("new"
 //! RLE) where the format allows it (8 ≤ width ≤ 32767), flat otherwise.
 
-use std::io::{BufRead, Write};
+use std::io::{BufRead, Read, Seek, SeekFrom, Write};
 
 use image::codecs::hdr::HdrDecoder;
 use image::ImageDecoder;
@@ -35,11 +35,24 @@ pub(crate) const MAX_RGBE: f64 = 255.0 / 256.0 * 1.7014118346046923e38;
 /// Reads an RGBE file; `strict` requires the `#?RADIANCE` signature (files
 /// starting `#?RGBE` need the decoder's non-strict mode).
 pub(crate) fn decode(
-    reader: impl BufRead,
+    mut reader: impl BufRead + Seek,
     strict: bool,
     file: &str,
     opts: &LoadOptions,
 ) -> Result<Decoded, HdrIoError> {
+    let mut head = Vec::new();
+    let io_error = |source| HdrIoError::Io {
+        file: file.to_string(),
+        action: "read",
+        source,
+    };
+    reader
+        .by_ref()
+        .take(HEADER_SCAN_BYTES)
+        .read_to_end(&mut head)
+        .map_err(io_error)?;
+    reader.seek(SeekFrom::Start(0)).map_err(io_error)?;
+    check_header_ends(&head, file)?;
     let decoder =
         HdrDecoder::with_strictness(reader, strict).map_err(|e| from_image(file, FORMAT, e))?;
     let (width, height) = decoder.dimensions();
@@ -57,6 +70,39 @@ pub(crate) fn decode(
         },
         channels: vec!["R".into(), "G".into(), "B".into()],
     })
+}
+
+/// How much of the file's start is scanned for the header's end.
+const HEADER_SCAN_BYTES: u64 = 64 << 10;
+
+/// A header cut short: the decoder reads whatever stands where the file
+/// ends as a value ("format `32` is not supported", "dimensions line too
+/// short"), so the end of the header and of the dimensions line are looked
+/// for first. A header longer than the scan is left to the decoder.
+fn check_header_ends(head: &[u8], file: &str) -> Result<(), HdrIoError> {
+    if head.len() as u64 >= HEADER_SCAN_BYTES {
+        return Ok(());
+    }
+    let truncated = |detail: String| HdrIoError::Truncated {
+        file: file.to_string(),
+        format: FORMAT,
+        detail,
+    };
+    let Some(blank) = head.windows(2).position(|w| w == b"\n\n") else {
+        return Err(truncated(format!(
+            "the file ends inside the header, after {} bytes, before the blank line that closes it",
+            head.len()
+        )));
+    };
+    let dims = &head[blank + 2..];
+    if !dims.contains(&b'\n') {
+        let text = String::from_utf8_lossy(&dims[..dims.len().min(40)]).into_owned();
+        return Err(truncated(format!(
+            "the file ends inside the dimensions line after the header ({text:?}, {} bytes in all)",
+            head.len()
+        )));
+    }
+    Ok(())
 }
 
 /// Components RGBE cannot hold, found while encoding.
