@@ -30,7 +30,7 @@ pub struct ServeArgs {
     #[arg(long)]
     pub run_suite: bool,
     /// POST /tonemap: largest body in MiB.
-    #[arg(long, default_value_t = 256)]
+    #[arg(long, default_value_t = Limits::default().max_body >> 20)]
     pub max_body_mib: usize,
     /// POST /tonemap: largest image in pixels, checked from the header before decoding.
     #[arg(long, default_value_t = Limits::default().max_pixels)]
@@ -39,7 +39,7 @@ pub struct ServeArgs {
     #[arg(long, default_value_t = Limits::default().queue)]
     pub queue: usize,
     /// POST /tonemap: seconds a request may take, upload and waiting included.
-    #[arg(long, default_value_t = 60)]
+    #[arg(long, default_value_t = Limits::default().timeout.as_secs())]
     pub timeout: u64,
     /// Connections served at once (default 1024, lowered to fit the
     /// open-file limit); past it, health checks are answered and the rest

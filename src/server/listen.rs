@@ -51,7 +51,7 @@ const DEFAULT_MAX_CONNECTIONS: u64 = 1024;
 /// Largest request head (request line and headers) read; past it the
 /// answer is 431 from the HTTP layer. The API's own limits (see
 /// `head_limits`) are far below it, so they answer first, in JSON.
-pub const MAX_HEAD_BYTES: usize = 256 << 10;
+pub const MAX_HEAD_BYTES: usize = 64 << 10;
 /// Most header fields parsed; past it the answer is 431 from the HTTP layer
 /// (the API answers 431 in JSON from `edge::MAX_HEADER_FIELDS` on).
 pub const MAX_HEAD_FIELDS: usize = 1000;

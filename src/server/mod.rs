@@ -42,10 +42,13 @@ pub struct Limits {
 
 impl Default for Limits {
     fn default() -> Self {
+        // Sized for a 2 GiB container (README, "Memory"): two jobs of 8 Mi
+        // pixels (4K UHD) running, one per queue, and one 128 MiB body
+        // waiting in each.
         Limits {
-            max_body: 256 << 20,
-            max_pixels: 32 << 20,
-            queue: 8,
+            max_body: 128 << 20,
+            max_pixels: 8 << 20,
+            queue: 1,
             timeout: Duration::from_secs(60),
         }
     }
