@@ -180,7 +180,7 @@ pub async fn metrics(
         (
             "tonemap_abandoned_total",
             "counter",
-            "Tone-map jobs skipped because the client had gone.",
+            "Tone-map jobs stopped (before they started or between stages) because the request timed out or the client left.",
             6,
         ),
         (
