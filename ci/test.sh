@@ -20,3 +20,10 @@ for lock in skimage perceptual; do
 done
 cargo test --locked --all-targets "$@"
 cargo test --locked --doc
+# The fuzz targets keep building and finding nothing: a short run of each
+# (ci/fuzz.sh, which the ten-minute runs use too). FUZZ_SMOKE_SECONDS=0 skips it.
+smoke=${FUZZ_SMOKE_SECONDS:-20}
+if [ "$smoke" != 0 ]; then
+  cargo fmt --manifest-path fuzz/Cargo.toml -- --check
+  bash ci/fuzz.sh "$smoke"
+fi

@@ -10,6 +10,7 @@ pub mod color;
 pub mod conventions;
 pub mod env;
 pub mod error;
+pub mod fuzzing;
 pub mod gate;
 pub mod golden;
 pub mod gpu;

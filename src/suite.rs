@@ -87,11 +87,12 @@ pub fn load_suite(path: &Path) -> Result<Vec<Scene>, SceneError> {
 
 /// Loads a suite file with its performance policy.
 pub fn load_suite_file(path: &Path) -> Result<Suite, SceneError> {
-    let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
-        path: path.to_owned(),
-        source,
-    })?;
-    let suite: SuiteFile = toml::from_str(&text).map_err(|e| SceneError::Parse {
+    parse_suite(&crate::scene::read_text(path)?, path)
+}
+
+/// Parses suite text and loads the scenes it lists, relative to `path`'s folder.
+pub fn parse_suite(text: &str, path: &Path) -> Result<Suite, SceneError> {
+    let suite: SuiteFile = toml::from_str(text).map_err(|e| SceneError::Parse {
         path: path.to_owned(),
         message: e.to_string().trim_end().to_owned(),
     })?;

@@ -204,6 +204,12 @@ pub fn read_png8(path: &Path) -> Result<Rgb8Image, HdrIoError> {
     png::read_png8(path)
 }
 
+/// [`read_png8`] on bytes in memory, as `compare` reads a PNG; `name`
+/// names them in errors.
+pub fn decode_png8(bytes: &[u8], name: &str) -> Result<Rgb8Image, HdrIoError> {
+    png::decode_png8(bytes, name)
+}
+
 /// Reads a 16-bit PNG (RGB, grey, or opaque RGBA/grey-alpha) as RGB.
 pub fn read_png16(path: &Path) -> Result<Rgb16Image, HdrIoError> {
     png::read_png16(path)

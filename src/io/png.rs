@@ -27,7 +27,21 @@ pub type Rgb16Image = Image<[u16; 3]>;
 
 pub(crate) fn read_png8(path: &Path) -> Result<Rgb8Image, HdrIoError> {
     let file = path.display().to_string();
-    match read_png(path, &file)? {
+    let (handle, len) = open(path, &file)?;
+    png8(read_png(handle, len, &file)?, &file)
+}
+
+/// [`read_png8`] on bytes in memory; `file` names them in errors.
+pub(crate) fn decode_png8(bytes: &[u8], file: &str) -> Result<Rgb8Image, HdrIoError> {
+    png8(
+        read_png(Cursor::new(bytes), bytes.len() as u64, file)?,
+        file,
+    )
+}
+
+fn png8(image: DynamicImage, file: &str) -> Result<Rgb8Image, HdrIoError> {
+    let file = file.to_string();
+    match image {
         DynamicImage::ImageRgb8(rgb) => Ok(from_raw(rgb.width(), rgb.height(), &rgb.into_raw())),
         DynamicImage::ImageLuma8(grey) => {
             Ok(grey_to_rgb(grey.width(), grey.height(), &grey.into_raw()))
@@ -48,7 +62,8 @@ pub(crate) fn read_png8(path: &Path) -> Result<Rgb8Image, HdrIoError> {
 
 pub(crate) fn read_png16(path: &Path) -> Result<Rgb16Image, HdrIoError> {
     let file = path.display().to_string();
-    match read_png(path, &file)? {
+    let (handle, len) = open(path, &file)?;
+    match read_png(handle, len, &file)? {
         DynamicImage::ImageRgb16(rgb) => Ok(from_raw(rgb.width(), rgb.height(), &rgb.into_raw())),
         DynamicImage::ImageLuma16(grey) => {
             Ok(grey_to_rgb(grey.width(), grey.height(), &grey.into_raw()))
@@ -76,7 +91,7 @@ const IEND: [u8; 12] = [0, 0, 0, 0, b'I', b'E', b'N', b'D', 0xae, 0x42, 0x60, 0x
 /// The IEND check is ours: the `png` decoder stops after the last image data
 /// and does not notice a file cut in its final chunks, but a golden that lost
 /// its tail was not written completely and must not be trusted.
-fn read_png(path: &Path, file: &str) -> Result<DynamicImage, HdrIoError> {
+fn open(path: &Path, file: &str) -> Result<(File, u64), HdrIoError> {
     let io_error = |action| {
         move |source| HdrIoError::Io {
             file: file.to_string(),
@@ -84,8 +99,23 @@ fn read_png(path: &Path, file: &str) -> Result<DynamicImage, HdrIoError> {
             source,
         }
     };
-    let mut handle = File::open(path).map_err(io_error("open"))?;
+    let handle = File::open(path).map_err(io_error("open"))?;
     let len = handle.metadata().map_err(io_error("read"))?.len();
+    Ok((handle, len))
+}
+
+fn read_png<R: Read + Seek>(
+    mut handle: R,
+    len: u64,
+    file: &str,
+) -> Result<DynamicImage, HdrIoError> {
+    let io_error = |action| {
+        move |source| HdrIoError::Io {
+            file: file.to_string(),
+            action,
+            source,
+        }
+    };
     let mut tail = [0u8; 12];
     let complete = len >= 12 && {
         handle.seek(SeekFrom::End(-12)).map_err(io_error("read"))?;

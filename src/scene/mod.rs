@@ -75,14 +75,48 @@ fn default_spp() -> u32 {
     16
 }
 
+/// The largest scene or suite file read, in bytes.
+pub const MAX_TEXT_BYTES: u64 = 1 << 20;
+
+/// Reads a scene or suite file: a regular file of at most
+/// [`MAX_TEXT_BYTES`] (a path naming `/dev/zero` or a FIFO would otherwise
+/// be read forever), in UTF-8.
+pub fn read_text(path: &Path) -> Result<String, SceneError> {
+    use std::io::Read;
+    let read_err = |source| SceneError::Read {
+        path: path.to_owned(),
+        source,
+    };
+    let invalid = |message: String| SceneError::Invalid {
+        path: path.to_owned(),
+        message,
+    };
+    let file = std::fs::File::open(path).map_err(read_err)?;
+    let meta = file.metadata().map_err(read_err)?;
+    if !meta.is_file() {
+        return Err(invalid("is not a regular file".into()));
+    }
+    let mut bytes = Vec::new();
+    file.take(MAX_TEXT_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(read_err)?;
+    if bytes.len() as u64 > MAX_TEXT_BYTES {
+        return Err(invalid(format!(
+            "is larger than {MAX_TEXT_BYTES} bytes; scene and suite files are small TOML"
+        )));
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        invalid(format!(
+            "is not UTF-8 text (byte {} is not valid)",
+            e.utf8_error().valid_up_to()
+        ))
+    })
+}
+
 impl Scene {
     /// Reads and validates a scene file.
     pub fn load(path: &Path) -> Result<Scene, SceneError> {
-        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
-            path: path.to_owned(),
-            source,
-        })?;
-        Scene::parse(&text, path)
+        Scene::parse(&read_text(path)?, path)
     }
 
     /// Parses and validates scene text; `path` names it in errors and anchors

@@ -169,6 +169,38 @@ pub struct RunRequest {
     pub spp: Option<u32>,
 }
 
+/// What a `POST /runs` body asks for, checked: empty means the defaults.
+pub fn run_request(
+    body: &[u8],
+    adapter: &crate::gpu::AdapterChoice,
+    config: crate::gpu::GpuConfig,
+) -> Result<crate::gate::Renderer, ApiError> {
+    let req: RunRequest = if body.iter().all(|b| b.is_ascii_whitespace()) {
+        RunRequest::default()
+    } else {
+        serde_json::from_slice(body).map_err(|e| ApiError::bad(format!("body: {e}")))?
+    };
+    let spp = match req.spp {
+        None => None,
+        Some(n @ 1..=256) => Some(n),
+        Some(n) => return Err(ApiError::bad(format!("spp: must be 1 to 256, got {n}"))),
+    };
+    Ok(match req.renderer.as_deref() {
+        None | Some("gpu") => crate::gate::Renderer::Gpu {
+            adapter: adapter.clone(),
+            config,
+            spp,
+        },
+        Some("cpu") => crate::gate::Renderer::Cpu { spp },
+        Some(other) => {
+            return Err(ApiError::bad(format!(
+                "renderer: expected gpu or cpu, got {}",
+                super::error::clip(other)
+            )))
+        }
+    })
+}
+
 #[derive(Serialize, ToSchema)]
 pub struct RunStarted {
     pub id: i64,
@@ -191,30 +223,7 @@ pub async fn post_run(
     body: Bytes,
 ) -> Result<Response, ApiError> {
     st.authorize_write(&headers)?;
-    let req: RunRequest = if body.iter().all(|b| b.is_ascii_whitespace()) {
-        RunRequest::default()
-    } else {
-        serde_json::from_slice(&body).map_err(|e| ApiError::bad(format!("body: {e}")))?
-    };
-    let spp = match req.spp {
-        None => None,
-        Some(n @ 1..=256) => Some(n),
-        Some(n) => return Err(ApiError::bad(format!("spp: must be 1 to 256, got {n}"))),
-    };
-    let renderer = match req.renderer.as_deref() {
-        None | Some("gpu") => crate::gate::Renderer::Gpu {
-            adapter: st.adapter.clone(),
-            config: st.gpu_config,
-            spp,
-        },
-        Some("cpu") => crate::gate::Renderer::Cpu { spp },
-        Some(other) => {
-            return Err(ApiError::bad(format!(
-                "renderer: expected gpu or cpu, got {}",
-                super::error::clip(other)
-            )))
-        }
-    };
+    let renderer = run_request(&body, &st.adapter, st.gpu_config)?;
     if let Some(problem) = st.history_problem().await {
         return Err(ApiError::unavailable("history_read_only", problem, 60));
     }

@@ -19,6 +19,9 @@ pub fn clip(s: &str) -> String {
     }
 }
 
+/// The longest detail an error answer carries, in characters.
+pub const MAX_DETAIL: usize = 400;
+
 /// The body of every error answer.
 #[derive(Serialize, ToSchema)]
 pub struct ErrorBody {
@@ -44,11 +47,18 @@ pub struct ApiError {
 }
 
 impl ApiError {
+    /// An error answer; a detail over [`MAX_DETAIL`] characters (a message
+    /// of a library that quoted what the client sent) is cut there.
     pub fn new(status: StatusCode, code: &'static str, detail: impl Into<String>) -> Self {
+        let mut detail = detail.into();
+        if let Some((cut, _)) = detail.char_indices().nth(MAX_DETAIL) {
+            detail.truncate(cut);
+            detail.push('…');
+        }
         ApiError {
             status,
             code,
-            detail: detail.into(),
+            detail,
             retry_after: None,
             close: false,
         }

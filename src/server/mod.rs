@@ -13,7 +13,7 @@ pub mod error;
 pub mod listen;
 mod prom;
 pub mod queue;
-mod tonemap;
+pub(crate) mod tonemap;
 
 use crate::gpu::{AdapterChoice, GpuConfig};
 use axum::http::{header, HeaderMap, StatusCode};

@@ -13,7 +13,7 @@ use base64::Engine as _;
 use std::sync::Arc;
 
 /// The parameters `POST /tonemap` takes besides the tone settings.
-struct Extra {
+pub(crate) struct Extra {
     gpu: bool,
     json: bool,
     sanitize: bool,
@@ -21,7 +21,7 @@ struct Extra {
 
 /// Splits the request's parameters into the renderer choice and the tone
 /// settings; unknown names and bad values are refused with their name.
-fn parse_params(
+pub(crate) fn parse_params(
     pairs: Vec<(String, String)>,
     headers: &HeaderMap,
 ) -> Result<(Extra, ToneSettings), ApiError> {
@@ -74,7 +74,7 @@ fn parse_params(
     Ok((extra, settings))
 }
 
-fn query_pairs(q: Option<&str>) -> Result<Vec<(String, String)>, ApiError> {
+pub(crate) fn query_pairs(q: Option<&str>) -> Result<Vec<(String, String)>, ApiError> {
     serde_urlencoded::from_str(q.unwrap_or("")).map_err(|e| ApiError::bad(format!("query: {e}")))
 }
 
@@ -233,7 +233,7 @@ fn timed_out(t: std::time::Duration) -> ApiError {
 }
 
 /// The file field of a multipart body; its text fields join the parameters.
-async fn read_multipart(
+pub(crate) async fn read_multipart(
     req: Request,
     pairs: &mut Vec<(String, String)>,
 ) -> Result<Bytes, ApiError> {
