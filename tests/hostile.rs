@@ -40,11 +40,34 @@ struct Launch<'a> {
     as_nobody: bool,
 }
 
+const AS_NOBODY: [&str; 3] = ["--reuid=65534", "--regid=65534", "--clear-groups"];
+
+/// The binary as `nobody` can run it: in place when every folder above it
+/// lets others through, else a copy in `dir`.
+fn binary_for_nobody(dir: &Path) -> PathBuf {
+    let bin = PathBuf::from(env!("CARGO_BIN_EXE_tonegate"));
+    let runs = Command::new("setpriv")
+        .args(AS_NOBODY)
+        .arg(&bin)
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if runs {
+        return bin;
+    }
+    let copy = dir.join("tonegate-for-nobody");
+    if !copy.exists() {
+        std::fs::copy(&bin, &copy).unwrap();
+        chmod(&copy, 0o755);
+    }
+    copy
+}
+
 fn command(launch: &Launch<'_>, dir: &Path) -> Command {
     let bin = env!("CARGO_BIN_EXE_tonegate");
     let mut cmd = if launch.as_nobody {
         let mut c = Command::new("setpriv");
-        c.args(["--reuid=65534", "--regid=65534", "--clear-groups", bin]);
+        c.args(AS_NOBODY).arg(binary_for_nobody(dir));
         c
     } else {
         Command::new(bin)
