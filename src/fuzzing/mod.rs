@@ -203,7 +203,13 @@ pub fn runs_json(data: &[u8]) {
 /// around them, so the decoder's checks past the magic and the header's
 /// syntax are reached on most inputs.
 pub fn exr_structured(data: &[u8]) {
-    hdr(&exr::build(data));
+    hdr(&exr_structured_file(data));
+}
+
+/// The OpenEXR file `exr_structured` builds from `data`: to keep what it
+/// found as a plain file, and to look at it with other readers.
+pub fn exr_structured_file(data: &[u8]) -> Vec<u8> {
+    exr::build(data)
 }
 
 /// What a fuzz target runs on one input.

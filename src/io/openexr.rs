@@ -16,11 +16,10 @@
 //! exr ≥ 1.74.1).
 //!
 //! Raw chunks are checked before `exr` decompresses them (see
-//! `check_dwa_counters`). One bound is not ours to enforce: `exr` zero-fills a
-//! buffer of each chunk's declared byte size (at most the part's largest
-//! block, and 2 GiB by the i32 size field) before reading it, so a hostile
-//! file can cause a transient allocation of that size before it is refused
-//! as truncated. Fixing that needs `exr` to cap reads by the stream length.
+//! `check_dwa_counters`), and every block's declared byte size is checked
+//! against the bytes left in the file before `exr` reads any block (see
+//! `check_block_sizes`): `exr` zero-fills a buffer of the declared size, up
+//! to the part's largest possible block, before reading into it.
 //!
 //! Writing: f32 RGB, scan lines, ZIP16 compression: lossless (the validator
 //! writes reference images that must read back bit for bit), supported by
@@ -80,19 +79,12 @@ pub(crate) fn decode<R: BufRead + Seek>(
     opts: &LoadOptions,
 ) -> Result<Decoded, HdrIoError> {
     let exr_error = |e| from_exr(file, e);
-    let mut head = Vec::new();
     let io_error = |e: std::io::Error| from_exr(file, exr::error::Error::from(e));
-    reader
-        .by_ref()
-        .take(HEADER_SCAN_BYTES)
-        .read_to_end(&mut head)
-        .map_err(io_error)?;
+    // The headers as written: their data windows, and where they end.
+    let tables_at = scan_headers(&mut reader, file)?;
     reader.seek(SeekFrom::Start(0)).map_err(io_error)?;
-    check_data_windows(&head, file)?;
-    // Reads and validates only the magic number and the headers.
-    let reader = exr::block::read(reader, false).map_err(exr_error)?;
-    // A copy (headers are small) so that `reader` can be consumed below.
-    let meta = reader.meta_data().clone();
+    // The magic number and the headers, validated by exr.
+    let meta = exr::meta::MetaData::read_from_buffered(&mut reader, false).map_err(exr_error)?;
     let headers = &meta.headers;
     let (part, source) = choose_part(headers, file)?;
     let header = &headers[part];
@@ -117,6 +109,12 @@ pub(crate) fn decode<R: BufRead + Seek>(
             ),
         });
     }
+
+    if let Some(tables_at) = tables_at {
+        check_block_sizes(&mut reader, tables_at, len, &meta, part, file)?;
+    }
+    reader.seek(SeekFrom::Start(0)).map_err(io_error)?;
+    let reader = exr::block::read(reader, false).map_err(exr_error)?;
 
     let channels: Vec<String> = header
         .channels
@@ -185,58 +183,124 @@ pub(crate) fn decode<R: BufRead + Seek>(
     })
 }
 
-/// How much of the file's start is scanned for the headers' data windows.
-const HEADER_SCAN_BYTES: u64 = 64 << 10;
-
-/// Checks the data window of every header in `head` (the file's first
-/// bytes) as written. `exr` swaps the corners of an inverted window
+/// Walks the headers as written (not as `exr` corrects them), checking
+/// each part's data window: `exr` swaps the corners of an inverted window
 /// silently, so an empty or inverted window would otherwise surface as a
-/// size that the blocks then contradict ("decompressed data", "chunk count").
-/// Headers cut off by the scan's end, or malformed, are left to `exr`.
-fn check_data_windows(head: &[u8], file: &str) -> Result<(), HdrIoError> {
-    let Some(flags) = head.get(4..8) else {
-        return Ok(());
+/// size the blocks then contradict ("decompressed data", "chunk count").
+/// Returns where the headers end (the offset tables start), or `None` for
+/// headers too malformed to walk, which `exr` then names.
+fn scan_headers<R: BufRead + Seek>(r: &mut R, file: &str) -> Result<Option<u64>, HdrIoError> {
+    let mut start = [0u8; 8];
+    if r.read_exact(&mut start).is_err() {
+        return Ok(None);
+    }
+    let multipart = u32::from_le_bytes([start[4], start[5], start[6], start[7]]) & 0x1000 != 0;
+    // Names and type names are at most 255 bytes and a null.
+    let text = |r: &mut R| -> Option<Vec<u8>> {
+        let mut buf = Vec::new();
+        r.by_ref().take(256).read_until(0, &mut buf).ok()?;
+        (buf.last() == Some(&0)).then_some(buf)
     };
-    let multipart = u32::from_le_bytes([flags[0], flags[1], flags[2], flags[3]]) & 0x1000 != 0;
-    let cstr = |at: usize| -> Option<(&[u8], usize)> {
-        let end = at + head.get(at..)?.iter().position(|&b| b == 0)?;
-        Some((&head[at..end], end + 1))
-    };
-    let i32_at = |at: usize| -> Option<i32> {
-        Some(i32::from_le_bytes(head.get(at..at + 4)?.try_into().ok()?))
-    };
-    let mut at = 8;
     for part in 0.. {
         loop {
-            let Some((name, next)) = cstr(at) else {
-                return Ok(());
+            let Some(name) = text(r) else {
+                return Ok(None);
             };
-            if name.is_empty() {
-                at = next;
+            if name == [0] {
                 break;
             }
-            let Some((_, next)) = cstr(next) else {
-                return Ok(());
-            };
-            let Some(size) = i32_at(next).and_then(|n| usize::try_from(n).ok()) else {
-                return Ok(());
-            };
-            let value = next + 4;
-            if name == b"dataWindow" && size == 16 {
-                let corners = (
-                    i32_at(value),
-                    i32_at(value + 4),
-                    i32_at(value + 8),
-                    i32_at(value + 12),
-                );
-                if let (Some(x0), Some(y0), Some(x1), Some(y1)) = corners {
-                    check_window(file, part, [x0, y0, x1, y1])?;
-                }
+            if text(r).is_none() {
+                return Ok(None);
             }
-            at = value + size;
+            let mut size = [0u8; 4];
+            if r.read_exact(&mut size).is_err() {
+                return Ok(None);
+            }
+            let Ok(size) = u32::try_from(i32::from_le_bytes(size)) else {
+                return Ok(None);
+            };
+            if name == b"dataWindow\0" && size == 16 {
+                let mut v = [0u8; 16];
+                if r.read_exact(&mut v).is_err() {
+                    return Ok(None);
+                }
+                let at = |i: usize| i32::from_le_bytes([v[i], v[i + 1], v[i + 2], v[i + 3]]);
+                check_window(file, part, [at(0), at(4), at(8), at(12)])?;
+            } else if r.seek(SeekFrom::Current(i64::from(size))).is_err() {
+                return Ok(None);
+            }
         }
-        if !multipart || head.get(at).is_none_or(|&b| b == 0) {
+        if !multipart {
             break;
+        }
+        // A multi-part file ends its list of headers with a null byte.
+        match r.fill_buf() {
+            Ok([0, ..]) => {
+                r.consume(1);
+                break;
+            }
+            Ok([]) | Err(_) => return Ok(None),
+            Ok(_) => {}
+        }
+    }
+    Ok(r.stream_position().ok())
+}
+
+/// Checks that every block of the chosen part fits in the file before
+/// `exr` reads it: `exr` allocates a block's declared size up to the part's
+/// largest possible block, which hostile tile sizes make gigabytes (a
+/// 76-byte file asked for 1.49 GB; found by fuzzing). Offsets outside the
+/// file are left to `exr`, which refuses them.
+fn check_block_sizes<R: Read + Seek>(
+    r: &mut R,
+    tables_at: u64,
+    len: u64,
+    meta: &exr::meta::MetaData,
+    part: usize,
+    file: &str,
+) -> Result<(), HdrIoError> {
+    let io_error = |e: std::io::Error| from_exr(file, exr::error::Error::from(e));
+    let before: u64 = meta.headers[..part]
+        .iter()
+        .map(|h| h.chunk_count as u64 * 8)
+        .sum();
+    let header = &meta.headers[part];
+    let mut table = vec![0u8; header.chunk_count * 8];
+    r.seek(SeekFrom::Start(tables_at + before))
+        .map_err(io_error)?;
+    if r.read_exact(&mut table).is_err() {
+        return Ok(()); // a short table: exr says so
+    }
+    let prefix = if meta.requirements.has_multiple_layers {
+        4
+    } else {
+        0
+    } + match header.blocks {
+        exr::meta::BlockDescription::ScanLines => 4,
+        exr::meta::BlockDescription::Tiles(_) => 16,
+    };
+    for (index, offset) in table.chunks_exact(8).enumerate() {
+        let offset = u64::from_le_bytes(offset.try_into().unwrap_or([0xff; 8]));
+        let Some(size_at) = offset
+            .checked_add(prefix)
+            .filter(|&at| at.checked_add(4).is_some_and(|end| end <= len))
+        else {
+            continue;
+        };
+        r.seek(SeekFrom::Start(size_at)).map_err(io_error)?;
+        let mut size = [0u8; 4];
+        r.read_exact(&mut size).map_err(io_error)?;
+        let size = i64::from(i32::from_le_bytes(size));
+        let left = len - size_at - 4;
+        if size < 0 || size as u64 > left {
+            return Err(HdrIoError::Truncated {
+                file: file.to_string(),
+                format: FORMAT,
+                detail: format!(
+                    "block {index} of part {part} (at byte {offset}) declares {size} bytes of data, \
+                     but the file has {left} bytes after it"
+                ),
+            });
         }
     }
     Ok(())
