@@ -3,6 +3,8 @@
 //! One generic row-major container keeps sizes and indexing in one place; the
 //! aliases say which stage of the pipeline an image belongs to.
 
+use rayon::prelude::*;
+
 /// A row-major image, top row first.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Image<P> {
@@ -59,6 +61,19 @@ impl<P: Copy> Image<P> {
             pixels: self.pixels.iter().map(|&p| f(p)).collect(),
         }
     }
+
+    /// [`Image::map`] on every core: the same pixels, as each depends on
+    /// its own input only.
+    pub fn par_map<Q: Send>(&self, f: impl Fn(P) -> Q + Sync) -> Image<Q>
+    where
+        P: Sync,
+    {
+        Image {
+            width: self.width,
+            height: self.height,
+            pixels: self.pixels.par_iter().map(|&p| f(p)).collect(),
+        }
+    }
 }
 
 impl Rgb8Image {
@@ -83,13 +98,13 @@ impl Rgb8Image {
 impl HdrImage {
     /// Widens to the reference's f64 working precision (exact).
     pub fn to_linear(&self) -> LinearImage {
-        self.map(|p| [p[0] as f64, p[1] as f64, p[2] as f64])
+        self.par_map(|p| [p[0] as f64, p[1] as f64, p[2] as f64])
     }
 }
 
 impl LinearImage {
     /// Narrows to f32 for writing (rounds to nearest).
     pub fn to_hdr(&self) -> HdrImage {
-        self.map(|p| [p[0] as f32, p[1] as f32, p[2] as f32])
+        self.par_map(|p| [p[0] as f32, p[1] as f32, p[2] as f32])
     }
 }

@@ -231,6 +231,13 @@ impl StagePlan {
         &self.stages
     }
 
+    /// The plan up to the display-referred image: `encode` left out, for an
+    /// output that keeps linear values (an HDR file).
+    pub fn without_encode(mut self) -> StagePlan {
+        self.stages.retain(|s| !matches!(s, Stage::Encode));
+        self
+    }
+
     pub fn contains(&self, name: &str) -> bool {
         self.stages.iter().any(|s| s.name() == name)
     }

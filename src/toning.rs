@@ -279,8 +279,10 @@ pub struct Toned {
     /// The linear display-referred image entering `encode`, when asked for
     /// (an HDR output file); on the GPU it is one more full-size readback.
     pub display: Option<LinearImage>,
-    /// `encode`'s 8-bit frame.
-    pub frame: Rgb8Image,
+    /// `encode`'s 8-bit frame: always from the GPU; from the CPU reference
+    /// only when the display image was not asked for (an HDR output never
+    /// uses it, and the encode was 44 % of such a run).
+    pub frame: Option<Rgb8Image>,
 }
 
 /// Tone-maps a flat image with the CPU reference, or on the GPU when a
@@ -307,6 +309,16 @@ pub fn tone_map_until(
     stop: &dyn Fn() -> bool,
 ) -> Result<Option<Toned>> {
     match gpu {
+        None if want_display => {
+            let out = crate::reference::render_flat_display_until(img, pipeline, stop)?;
+            Ok(out.map(|out| Toned {
+                plan: out.plan,
+                stats: out.stats,
+                tone: out.tone,
+                display: Some(out.display),
+                frame: None,
+            }))
+        }
         None => {
             let Some((plan, out)) = crate::reference::render_flat_until(img, pipeline, stop)?
             else {
@@ -316,8 +328,8 @@ pub fn tone_map_until(
                 plan,
                 stats: out.stats,
                 tone: out.tone,
-                display: want_display.then_some(out.display),
-                frame: out.frame,
+                display: None,
+                frame: Some(out.frame),
             }))
         }
         Some(_) if stop() => Ok(None),
@@ -373,9 +385,10 @@ fn gpu_flat(
         weights,
         colour: pipeline.operator.colour(),
     };
-    let frame = out
-        .frame
-        .ok_or_else(|| invalid("GPU frame was not read back"))?;
+    let frame = Some(
+        out.frame
+            .ok_or_else(|| invalid("GPU frame was not read back"))?,
+    );
     Ok(Toned {
         plan,
         stats: s.luminance_stats(),

@@ -159,11 +159,16 @@ pub fn tonemap(a: TonemapArgs) -> Result<ExitCode> {
         ext != "png",
     )?;
     let plan = &out.plan;
-    match &out.display {
-        Some(display) if ext != "png" => {
+    match (&out.display, &out.frame) {
+        (Some(display), _) if ext != "png" => {
             tonegate::io::write_image_hdr(&a.output, &display.to_hdr())?
         }
-        _ => tonegate::io::write_png8(&a.output, &out.frame)?,
+        (_, Some(frame)) => tonegate::io::write_png8(&a.output, frame)?,
+        _ => {
+            return Err(invalid(
+                "the tone-map made no image for the output (a tonegate bug)",
+            ))
+        }
     }
     if a.json {
         let report = serde_json::json!({

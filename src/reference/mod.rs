@@ -90,6 +90,43 @@ pub fn run_plan_until(
     p: &Pipeline,
     stop: &dyn Fn() -> bool,
 ) -> Result<Option<FrameOutputs>, PlanError> {
+    let Some(made) = run_stages_until(plan, hdr, p, stop)? else {
+        return Ok(None);
+    };
+    Ok(Some(FrameOutputs {
+        frame: made
+            .frame
+            .ok_or(PlanError::Incomplete { missing: "encode" })?,
+        hdr: made.hdr,
+        stats: made.stats,
+        tone: made.tone,
+        bloom: made.bloom,
+        grade_mean: made.grade_mean,
+        display: made.display.unwrap_or_else(|| made.toned.clone()),
+        toned: made.toned,
+    }))
+}
+
+/// What [`run_stages_until`] made: [`FrameOutputs`], with the 8-bit frame
+/// only when the plan encodes.
+struct Made {
+    hdr: LinearImage,
+    stats: LuminanceStats,
+    tone: ToneParams,
+    toned: LinearImage,
+    bloom: Option<LinearImage>,
+    grade_mean: Option<f64>,
+    /// `None` when no stage after `tonemap` changed the image.
+    display: Option<LinearImage>,
+    frame: Option<Rgb8Image>,
+}
+
+fn run_stages_until(
+    plan: &StagePlan,
+    hdr: LinearImage,
+    p: &Pipeline,
+    stop: &dyn Fn() -> bool,
+) -> Result<Option<Made>, PlanError> {
     let (weights, delta) = tonemap::operator_constants(p.operator);
     let bloom_of = |stage| {
         p.bloom.ok_or(PlanError::NoParameters {
@@ -119,10 +156,10 @@ pub fn run_plan_until(
             }
             Stage::Tonemap { .. } => {
                 let params = tonemap::resolve(p.operator, &stats)?;
-                let out = tonemap::tonemap(&hdr, &params);
+                toned = Some(tonemap::tonemap(&hdr, &params));
                 tone = Some(params);
-                display = Some(out.clone());
-                toned = Some(out);
+                // The display image is `toned` until a stage replaces it.
+                display = None;
             }
             Stage::BloomBright { source } => {
                 let b = bloom_of(name)?;
@@ -154,7 +191,10 @@ pub fn run_plan_until(
             }
             Stage::BloomComposite => {
                 let b = bloom_of(name)?;
-                let base = display.as_ref().ok_or_else(tonemap_first)?;
+                let base = display
+                    .as_ref()
+                    .or(toned.as_ref())
+                    .ok_or_else(tonemap_first)?;
                 let blurred = bloom.as_ref().ok_or(PlanError::order(name, "bloom_blur"))?;
                 display = Some(bloom_composite::bloom_composite(
                     base,
@@ -164,7 +204,10 @@ pub fn run_plan_until(
             }
             Stage::GradeStats => {
                 grade_mean = Some(grade_stats::grade_stats(
-                    display.as_ref().ok_or_else(tonemap_first)?,
+                    display
+                        .as_ref()
+                        .or(toned.as_ref())
+                        .ok_or_else(tonemap_first)?,
                 ));
             }
             Stage::Grade => {
@@ -172,13 +215,19 @@ pub fn run_plan_until(
                     stage: name,
                     what: "grade",
                 })?;
-                let base = display.as_ref().ok_or_else(tonemap_first)?;
+                let base = display
+                    .as_ref()
+                    .or(toned.as_ref())
+                    .ok_or_else(tonemap_first)?;
                 // Without contrast the mean is not used, and not measured.
                 display = Some(grade::grade(base, g, grade_mean.unwrap_or(0.0)));
             }
             Stage::Encode => {
                 frame = Some(encode::encode(
-                    display.as_ref().ok_or_else(tonemap_first)?,
+                    display
+                        .as_ref()
+                        .or(toned.as_ref())
+                        .ok_or_else(tonemap_first)?,
                     p.encoding,
                 ));
             }
@@ -187,10 +236,10 @@ pub fn run_plan_until(
     let (Some(toned), Some(tone)) = (toned, tone) else {
         return Err(PlanError::Incomplete { missing: "tonemap" });
     };
-    Ok(Some(FrameOutputs {
+    Ok(Some(Made {
         tone,
-        display: display.unwrap_or_else(|| toned.clone()),
-        frame: frame.ok_or(PlanError::Incomplete { missing: "encode" })?,
+        display,
+        frame,
         hdr,
         stats,
         toned,
@@ -224,6 +273,37 @@ pub fn render_frame(
 /// Tone-maps a flat HDR image (no sphere stage).
 pub fn render_flat(img: &HdrImage, p: &Pipeline) -> Result<(StagePlan, FrameOutputs), PlanError> {
     render_flat_until(img, p, &|| false)?.ok_or(PlanError::Incomplete { missing: "encode" })
+}
+
+/// A flat image tone-mapped to the display-referred linear image that
+/// `encode` would take, without encoding it: what an HDR output file holds.
+pub struct FlatDisplay {
+    /// The plan that ran: [`render_flat`]'s without `encode`.
+    pub plan: StagePlan,
+    pub stats: LuminanceStats,
+    pub tone: ToneParams,
+    pub display: LinearImage,
+}
+
+/// [`render_flat`] up to `encode`, which is left out, stopping between
+/// stages when `stop` says so (`None`).
+pub fn render_flat_display_until(
+    img: &HdrImage,
+    p: &Pipeline,
+    stop: &dyn Fn() -> bool,
+) -> Result<Option<FlatDisplay>, PlanError> {
+    let plan =
+        StagePlan::build(crate::plan::Input::Flat, p.operator, p.bloom, p.grade).without_encode();
+    if stop() {
+        return Ok(None);
+    }
+    let made = run_stages_until(&plan, img.to_linear(), p, stop)?;
+    Ok(made.map(|m| FlatDisplay {
+        plan,
+        stats: m.stats,
+        tone: m.tone,
+        display: m.display.unwrap_or(m.toned),
+    }))
 }
 
 /// [`render_flat`], stopping between stages when `stop` says so (`None`).

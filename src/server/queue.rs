@@ -250,11 +250,15 @@ fn run_job(
     if gone() {
         return Ok(None);
     }
-    let png = crate::io::encode_png8(&out.frame).map_err(|e| ApiError::internal(e.to_string()))?;
+    let frame = out
+        .frame
+        .as_ref()
+        .ok_or_else(|| ApiError::internal("the tone-map made no 8-bit frame"))?;
+    let png = crate::io::encode_png8(frame).map_err(|e| ApiError::internal(e.to_string()))?;
     Ok(Some(ToneOutput {
         png,
-        width: out.frame.width,
-        height: out.frame.height,
+        width: frame.width,
+        height: frame.height,
         plan: out.plan.names(),
         adapter,
         report: serde_json::json!({

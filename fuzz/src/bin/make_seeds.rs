@@ -145,7 +145,7 @@ fn main() {
         put(
             "png",
             &format!("{n}.png"),
-            &tonegate::io::encode_png8(&ldr.frame).unwrap(),
+            &tonegate::io::encode_png8(ldr.frame.as_ref().unwrap()).unwrap(),
         );
     }
     let (_, sky) = &envs[0];
