@@ -307,7 +307,9 @@ async fn tonemap_returns_the_reference_image_and_refuses_bad_input() {
     let (img, _) = tonegate::io::decode_hdr(&hdr, "x", &Default::default()).unwrap();
     let resolved = settings.resolve().unwrap();
     let want = tonegate::toning::tone_map(&img, &resolved.pipeline(), None, false).unwrap();
-    let want_frame = want.frame.expect("a frame when no display image is asked for");
+    let want_frame = want
+        .frame
+        .expect("a frame when no display image is asked for");
     let got = image::load_from_memory(&cpu_png).unwrap().to_rgb8();
     assert_eq!(
         got.as_raw().as_slice(),

@@ -68,6 +68,14 @@ fn check_passes_on_main_writes_junit_json_and_records_the_run() {
     );
     let report = read_json(&json);
     assert_eq!(report["passed"], true);
+    // Which adapter and why, in the report, the JUnit and the console.
+    let chosen = report["adapter"]["chosen"].as_str().unwrap();
+    assert!(
+        chosen.starts_with("default: the software rasterizer"),
+        "{chosen}"
+    );
+    assert!(xml.contains("name=\"adapter_chosen\""), "{xml}");
+    assert!(text(&o).contains("adapter chosen: default"), "{}", text(&o));
     assert_eq!(report["stress"]["passed"], true);
     assert!(report["stress"]["cases"].as_array().unwrap().len() >= 32);
     let scenes = report["scenes"].as_array().unwrap();

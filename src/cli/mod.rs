@@ -70,7 +70,7 @@ fn by_name<T: DeserializeOwned>(s: &str) -> std::result::Result<T, String> {
 /// The GPU knobs shared by every GPU command.
 #[derive(Args, Clone)]
 pub struct GpuArgs {
-    /// Adapter: "default" (lavapipe/llvmpipe when present, else the first), "any", or a name substring.
+    /// Adapter: "default" (lavapipe/llvmpipe when present, for reproducible results, else the first), "hardware" (the best GPU: discrete, integrated, virtual), "any" (the first), or a name substring. Reports say which was chosen and why.
     #[arg(long, default_value = "default")]
     pub adapter: AdapterChoice,
     /// HDR intermediates: rgba32float (f32) or rgba16float (f16).

@@ -150,6 +150,7 @@ pub fn render(r: &CheckReport) -> String {
         r.adapter.driver_info,
         r.renderer
     );
+    let _ = writeln!(out, "adapter chosen: {}", r.adapter.chosen);
     if let (Some(id), Some(db)) = (r.run_id, &r.db) {
         let _ = writeln!(out, "recorded as run {id} in {}", db.display());
     }

@@ -10,6 +10,7 @@ pub fn render(r: &CheckReport) -> Result<String, quick_junit::SerializeError> {
     for s in &r.scenes {
         let mut suite = TestSuite::new(s.scene.clone());
         suite.add_property(("adapter", r.adapter.name.as_str()));
+        suite.add_property(("adapter_chosen", r.adapter.chosen.as_str()));
         suite.add_property(("test", s.test.name()));
         let classname = format!("tonegate.{}", s.scene);
         for p in &s.problems {

@@ -93,6 +93,8 @@ pub struct AdapterInfo {
     pub backend: String,
     pub driver: String,
     pub driver_info: String,
+    /// Why this adapter was tested (see `gpu::choose`).
+    pub chosen: String,
 }
 
 /// Everything a check run found; the console, the JSON and the JUnit are
@@ -269,10 +271,12 @@ fn run_inner(
                 backend: a.backend.clone(),
                 driver: a.driver.clone(),
                 driver_info: a.driver_info.clone(),
+                chosen: a.chosen.clone(),
             };
             let mut json = serde_json::to_value(config).unwrap_or_default();
             if let Some(o) = json.as_object_mut() {
                 o.insert("spp".into(), spp_json(*spp));
+                o.insert("adapter_chosen".into(), a.chosen.clone().into());
             }
             (Some((ctx, *config)), info, json)
         }
@@ -283,6 +287,7 @@ fn run_inner(
                 backend: "cpu".into(),
                 driver: "tonegate".into(),
                 driver_info: format!("reference version {}", crate::reference::REFERENCE_VERSION),
+                chosen: "--cpu: the f64 CPU reference, no adapter".into(),
             },
             serde_json::json!({ "spp": spp_json(*spp) }),
         ),

@@ -12,7 +12,7 @@ pub mod timing;
 mod wiring;
 
 pub use config::{EnvFilter, Execution, GpuConfig, HdrFormat, ReductionMethod, F16_MAX};
-pub use context::{AdapterChoice, AdapterReport, GpuContext};
+pub use context::{choose, AdapterChoice, AdapterReport, Candidate, GpuContext};
 pub use renderer::{GpuFrame, GpuInput, GpuRenderer, GpuStats};
 
 #[derive(Debug, thiserror::Error)]
