@@ -21,7 +21,7 @@ override AUTO_KEY: bool = false;
 // a = 0.18·2^(2(B − A)/(A + B)); A + B = Lmax − Lmin, 0 for a uniform frame.
 fn automatic_key(lmin: f32, lavg: f32, lmax: f32) -> f32 {
     let span = lmax - lmin;
-    if (!(span > 0.0)) {
+    if (!(span >= SMALLEST_NORMAL)) {
         return 0.18;
     }
     let ratio = clamp(((lavg - lmin) - (lmax - lavg)) / span, -1.0, 1.0);

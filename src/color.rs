@@ -7,6 +7,17 @@ pub const PFS: [f64; 3] = [0.212656, 0.715158, 0.072186];
 /// Seed 004's saturation weights.
 pub const SEED004_SATURATION: [f64; 3] = [0.2125, 0.7154, 0.0721];
 
+/// The smallest positive value both renderers divide by: f32's smallest
+/// normal. Below it an adapter may flush a value to 0 in arithmetic
+/// (Vulkan allows it; NVIDIA does) while a comparison still sees it as
+/// positive, so `y > 0 ? c / y : 0` can divide by a flushed 0 and write
+/// NaN. Both renderers treat a luminance or divisor under this bound as 0
+/// (the CPU reference in f64 as well, so the two agree on every adapter),
+/// and an f32 subnormal input therefore takes the same branch on llvmpipe,
+/// which keeps subnormals, as on an adapter that flushes them. The mirror
+/// in the shaders is `SMALLEST_NORMAL` in `shaders/shared/colour.wgsl`.
+pub const SMALLEST_NORMAL: f64 = f32::MIN_POSITIVE as f64;
+
 /// Y of a linear RGB triple with the given weights.
 #[inline]
 pub fn luminance_with(rgb: [f64; 3], w: [f64; 3]) -> f64 {

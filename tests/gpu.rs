@@ -719,3 +719,89 @@ fn fused_execution_renders_the_staged_frames() {
         "no scene fused a bright pass on the toned frame"
     );
 }
+
+/// The subnormal policy (`color::SMALLEST_NORMAL`): a pixel whose luminance
+/// is under f32's smallest normal is toned to exactly 0 by both renderers,
+/// in both colour paths, so the GPU never divides by a value an adapter may
+/// flush. llvmpipe keeps subnormals, so this branch is taken here only
+/// because the policy says so: without it the GPU would write c·curve/Y
+/// (about 1e-7 here) and this test fails.
+#[test]
+fn subnormal_luminance_is_toned_to_zero_on_both_renderers() {
+    use tonegate::color::{luminance_with, SMALLEST_NORMAL};
+    use tonegate::image::HdrImage;
+    use tonegate::scene::{ColourPath, OperatorKind};
+    use tonegate::toning::ToneSettings;
+
+    let ctx = context();
+    // Subnormal, tiny normal and ordinary pixels, and one bright one.
+    let img = HdrImage::from_fn(64, 32, |x, y| {
+        let i = x + 64 * y;
+        let v = match i % 4 {
+            0 | 1 => 1.0e-40 * (1 + i % 100) as f32,
+            2 => 1.0e-37 * (1 + i) as f32,
+            _ => 0.01 * (1 + i % 97) as f32,
+        };
+        if i == 2047 {
+            [40.0, 30.0, 20.0]
+        } else {
+            [v, v * 0.5, v * 0.25]
+        }
+    });
+    for (operator, colour) in [
+        (OperatorKind::Seed001, ColourPath::Ratio),
+        (OperatorKind::Seed000, ColourPath::Xyy),
+    ] {
+        let settings = ToneSettings {
+            operator,
+            colour,
+            bloom: 0.3,
+            contrast: 1.1,
+            ..Default::default()
+        };
+        let resolved = settings.resolve().unwrap();
+        let pipeline = resolved.pipeline();
+        let plan = StagePlan::build(
+            tonegate::plan::Input::Flat,
+            pipeline.operator,
+            pipeline.bloom,
+            pipeline.grade,
+        );
+        let r = GpuRenderer::new(
+            &ctx,
+            plan,
+            GpuInput::Flat(&img),
+            &pipeline,
+            GpuConfig::default(),
+        )
+        .unwrap();
+        let gpu = r.render(true).unwrap();
+        let toned = r.read_output("tonemap").unwrap().unwrap();
+        let (_, cpu) = reference::render_flat(&img, &pipeline).unwrap();
+        let (weights, _) = tonemap::operator_constants(pipeline.operator);
+        let mut zeroed = 0;
+        for (i, p) in img.pixels.iter().enumerate() {
+            let c = [f64::from(p[0]), f64::from(p[1]), f64::from(p[2])];
+            let g = toned.pixels[i];
+            assert!(
+                g.iter().all(|v| v.is_finite()),
+                "{operator:?}: pixel {i} {g:?}"
+            );
+            if luminance_with(c, weights) < SMALLEST_NORMAL {
+                assert_eq!(g, [0.0; 3], "{operator:?} GPU: pixel {i} of {p:?}");
+                assert_eq!(cpu.toned.pixels[i], [0.0; 3], "{operator:?} CPU: pixel {i}");
+                zeroed += 1;
+            }
+        }
+        assert!(zeroed > 500, "{operator:?}: only {zeroed} subnormal pixels");
+        let frame = gpu.frame.unwrap();
+        let worst = frame
+            .as_bytes()
+            .iter()
+            .zip(cpu.frame.as_bytes())
+            .map(|(a, b)| a.abs_diff(*b))
+            .max()
+            .unwrap();
+        assert!(worst <= 1, "{operator:?}: GPU vs CPU {worst} LSB");
+    }
+}

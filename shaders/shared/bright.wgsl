@@ -15,7 +15,7 @@ fn bright_pixel(c: vec3<f32>, max_y: f32) -> vec3<f32> {
     if (y > THRESHOLD) {
         if (PASS == 0u) {
             var inv_max = 0.0;
-            if (max_y > 0.0 && max_y < 3.0e38) {
+            if (max_y >= SMALLEST_NORMAL && max_y < 3.0e38) {
                 inv_max = 1.0 / max_y;
             }
             out = c * (y * inv_max);

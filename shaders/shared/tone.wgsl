@@ -33,14 +33,14 @@ struct ToneConfig {
 fn tonemap_pixel(c: vec3<f32>, scale: f32, white: f32) -> vec3<f32> {
     if (COLOUR == 0u) {
         let y = luminance_with(c, config.weights.xyz);
-        if (!(y > 0.0)) {
+        if (!(y >= SMALLEST_NORMAL)) {
             return vec3<f32>(0.0);
         }
         return c * (reinhard_curve(scale * y, white) / y);
     }
     let xyz = vec3<f32>(dot(config.to_xyz0.xyz, c), dot(config.to_xyz1.xyz, c), dot(config.to_xyz2.xyz, c));
     let sum = xyz.x + xyz.y + xyz.z;
-    if (!(xyz.y > 0.0) || !(sum > 0.0)) {
+    if (!(xyz.y >= SMALLEST_NORMAL) || !(sum >= SMALLEST_NORMAL)) {
         return vec3<f32>(0.0);
     }
     let x = xyz.x / sum;

@@ -1,6 +1,6 @@
 //! `bloom_bright`: which pixels feed the bloom.
 
-use crate::color::luminance_with;
+use crate::color::{luminance_with, SMALLEST_NORMAL};
 use crate::image::LinearImage;
 use crate::scene::BrightPass;
 use rayon::prelude::*;
@@ -16,7 +16,7 @@ pub fn bloom_bright(
     max_luminance: f64,
     weights: [f64; 3],
 ) -> LinearImage {
-    let inv_max = if max_luminance > 0.0 && max_luminance.is_finite() {
+    let inv_max = if max_luminance >= SMALLEST_NORMAL && max_luminance.is_finite() {
         1.0 / max_luminance
     } else {
         0.0

@@ -1,6 +1,6 @@
 //! `tonemap`: the global Reinhard 2002 family (SPEC §3) and both colour paths.
 
-use crate::color::{luminance_with, BT709, PFS};
+use crate::color::{luminance_with, BT709, PFS, SMALLEST_NORMAL};
 use crate::image::LinearImage;
 use crate::plan::PlanError;
 use crate::reference::luminance_stats::LuminanceStats;
@@ -60,7 +60,7 @@ pub fn automatic_key(min: f64, log_average: f64, max: f64) -> f64 {
     let a = max - log_average;
     let b = log_average - min;
     let span = max - min;
-    if !(span.is_finite() && span > 0.0) {
+    if !(span.is_finite() && span >= SMALLEST_NORMAL) {
         return 0.18;
     }
     let ratio = ((b - a) / span).clamp(-1.0, 1.0);
@@ -179,7 +179,7 @@ pub fn tonemap_pixel(
     match p.colour {
         ColourPath::Ratio => {
             let y = luminance_with(c, p.weights);
-            if y.is_nan() || y <= 0.0 {
+            if y.is_nan() || y < SMALLEST_NORMAL {
                 return [0.0; 3];
             }
             let ratio = reinhard_curve(p.scale * y, p.white_sq) / y;
@@ -188,7 +188,8 @@ pub fn tonemap_pixel(
         ColourPath::Xyy => {
             let xyz = mul3(to_xyz, c);
             let sum = xyz[0] + xyz[1] + xyz[2];
-            if xyz[1].is_nan() || xyz[1] <= 0.0 || sum.is_nan() || sum <= 0.0 {
+            if xyz[1].is_nan() || xyz[1] < SMALLEST_NORMAL || sum.is_nan() || sum < SMALLEST_NORMAL
+            {
                 return [0.0; 3];
             }
             let (x, y) = (xyz[0] / sum, xyz[1] / sum);

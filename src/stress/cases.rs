@@ -106,7 +106,7 @@ pub fn all(large: bool) -> Vec<Case> {
                 [v, v, v]
             })),
             f16: false,
-            behaviour: "f32 subnormal inputs (1e-40 ... 2e-37): ln(delta + Y) is ln(delta) to rounding, so the averages are unaffected; the frame is black",
+            behaviour: "f32 subnormal inputs (1e-40 ... 2e-37): ln(delta + Y) is ln(delta) to rounding, so the averages are unaffected; a pixel whose Y is under f32's smallest normal is toned to 0 by both renderers (color::SMALLEST_NORMAL), the branch an adapter that flushes subnormals takes too, so no division meets a flushed 0",
             exception: Some(("GPUs may flush subnormals to zero (Vulkan allows it): min and max then read 0 instead of ~1e-40; the relative error is taken against f32's smallest normal, 1.2e-38, so it stays under 2e-2 and has no effect on any output", 2e-2)),
             refused_by: &[],
         },
