@@ -59,8 +59,29 @@ pub struct Queue {
     /// Jobs that may wait besides the one running.
     pub waiting: usize,
     permits: Arc<Semaphore>,
-    tx: std::sync::mpsc::SyncSender<Job>,
+    /// `None` once the queue is shut down (see `Drop`).
+    tx: Option<std::sync::mpsc::SyncSender<Job>>,
+    worker: Option<std::thread::JoinHandle<()>>,
     pub stats: Arc<QueueStats>,
+}
+
+/// Shutting down: the worker finishes the jobs already queued (their
+/// clients are answered, or counted abandoned when gone), then drops its
+/// GPU context, and only then does the drop return. A process that exits
+/// while a worker thread still holds a Vulkan device can crash in the
+/// driver's exit handlers (`serve` on NVIDIA ended with SIGSEGV after GPU
+/// requests); joining here releases the device first.
+impl Drop for Queue {
+    fn drop(&mut self) {
+        drop(self.tx.take());
+        if let Some(worker) = self.worker.take() {
+            if worker.join().is_err() {
+                tracing::error!(queue = self.name, "the tone-map worker panicked");
+            } else {
+                tracing::info!(queue = self.name, "tone-map worker stopped");
+            }
+        }
+    }
 }
 
 /// What a worker renders with.
@@ -86,14 +107,15 @@ impl Queue {
         let (tx, rx) = std::sync::mpsc::sync_channel::<Job>(capacity);
         let stats = Arc::new(QueueStats::default());
         let s = stats.clone();
-        std::thread::Builder::new()
+        let worker = std::thread::Builder::new()
             .name(format!("tonemap-{name}"))
             .spawn(move || worker(rx, engine, s, hold))?;
         Ok(Queue {
             name,
             waiting,
             permits: Arc::new(Semaphore::new(capacity)),
-            tx,
+            tx: Some(tx),
+            worker: Some(worker),
             stats,
         })
     }
@@ -155,9 +177,12 @@ impl Queue {
         };
         // The channel holds as many jobs as there are permits, so with a
         // permit this never blocks; it fails only if the worker died.
-        self.tx.try_send(job).map_err(|_| {
-            ApiError::internal(format!("the {} tone-map worker stopped", self.name))
-        })?;
+        let stopped = || ApiError::internal(format!("the {} tone-map worker stopped", self.name));
+        self.tx
+            .as_ref()
+            .ok_or_else(stopped)?
+            .try_send(job)
+            .map_err(|_| stopped())?;
         Ok(rx)
     }
 }
@@ -209,6 +234,9 @@ fn worker(
         };
         counter.fetch_add(1, Ordering::Relaxed);
         let _ = job.reply.send(result);
+    }
+    if ctx.take().is_some() {
+        tracing::info!("GPU context released");
     }
 }
 
