@@ -90,14 +90,16 @@ pub fn run_plan_until(
     p: &Pipeline,
     stop: &dyn Fn() -> bool,
 ) -> Result<Option<FrameOutputs>, PlanError> {
-    let Some(made) = run_stages_until(plan, hdr, p, stop)? else {
+    let Some(made) = run_stages_until(plan, hdr, p, stop, true)? else {
         return Ok(None);
     };
     Ok(Some(FrameOutputs {
         frame: made
             .frame
             .ok_or(PlanError::Incomplete { missing: "encode" })?,
-        hdr: made.hdr,
+        hdr: made
+            .hdr
+            .ok_or(PlanError::Incomplete { missing: "sphere" })?,
         stats: made.stats,
         tone: made.tone,
         bloom: made.bloom,
@@ -110,7 +112,8 @@ pub fn run_plan_until(
 /// What [`run_stages_until`] made: [`FrameOutputs`], with the 8-bit frame
 /// only when the plan encodes.
 struct Made {
-    hdr: LinearImage,
+    /// The HDR input, when asked to keep it.
+    hdr: Option<LinearImage>,
     stats: LuminanceStats,
     tone: ToneParams,
     toned: LinearImage,
@@ -121,12 +124,26 @@ struct Made {
     frame: Option<Rgb8Image>,
 }
 
+/// Runs `plan`'s stages on `hdr`. Without `keep_hdr`, `tonemap` works in
+/// `hdr`'s buffer when no later stage reads the HDR input (one full-size f64
+/// image less to allocate and fault in).
 fn run_stages_until(
     plan: &StagePlan,
     hdr: LinearImage,
     p: &Pipeline,
     stop: &dyn Fn() -> bool,
+    keep_hdr: bool,
 ) -> Result<Option<Made>, PlanError> {
+    let hdr_read_after_tonemap = plan.stages().iter().any(|s| {
+        matches!(
+            s,
+            Stage::BloomBright {
+                source: BloomSource::Hdr
+            }
+        )
+    });
+    let mut hdr = Some(hdr);
+    let hdr_gone = || PlanError::Incomplete { missing: "sphere" };
     let (weights, delta) = tonemap::operator_constants(p.operator);
     let bloom_of = |stage| {
         p.bloom.ok_or(PlanError::NoParameters {
@@ -152,11 +169,16 @@ fn run_stages_until(
         match stage {
             Stage::Sphere { .. } => {}
             Stage::LuminanceStats(needs) => {
-                stats = luminance_stats::luminance_stats(&hdr, *needs, weights, delta);
+                let hdr = hdr.as_ref().ok_or_else(hdr_gone)?;
+                stats = luminance_stats::luminance_stats(hdr, *needs, weights, delta);
             }
             Stage::Tonemap { .. } => {
                 let params = tonemap::resolve(p.operator, &stats)?;
-                toned = Some(tonemap::tonemap(&hdr, &params));
+                toned = Some(if keep_hdr || hdr_read_after_tonemap {
+                    tonemap::tonemap(hdr.as_ref().ok_or_else(hdr_gone)?, &params)
+                } else {
+                    tonemap::tonemap_into(hdr.take().ok_or_else(hdr_gone)?, &params)
+                });
                 tone = Some(params);
                 // The display image is `toned` until a stage replaces it.
                 display = None;
@@ -164,7 +186,7 @@ fn run_stages_until(
             Stage::BloomBright { source } => {
                 let b = bloom_of(name)?;
                 let src = match source {
-                    BloomSource::Hdr => &hdr,
+                    BloomSource::Hdr => hdr.as_ref().ok_or_else(hdr_gone)?,
                     BloomSource::Toned => toned.as_ref().ok_or_else(tonemap_first)?,
                 };
                 let lmax = stats.max.unwrap_or(0.0);
@@ -297,7 +319,7 @@ pub fn render_flat_display_until(
     if stop() {
         return Ok(None);
     }
-    let made = run_stages_until(&plan, img.to_linear(), p, stop)?;
+    let made = run_stages_until(&plan, img.to_linear(), p, stop, false)?;
     Ok(made.map(|m| FlatDisplay {
         plan,
         stats: m.stats,

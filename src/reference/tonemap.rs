@@ -202,13 +202,17 @@ pub fn tonemap_pixel(
 
 /// Tone-maps a linear HDR frame.
 pub fn tonemap(img: &LinearImage, p: &ToneParams) -> LinearImage {
+    tonemap_into(img.clone(), p)
+}
+
+/// [`tonemap`] in the input's own buffer.
+pub fn tonemap_into(mut img: LinearImage, p: &ToneParams) -> LinearImage {
     let to_xyz = rgb_to_xyz(p.weights);
     let to_rgb = invert3(to_xyz);
-    let mut out = img.clone();
-    out.pixels
+    img.pixels
         .par_iter_mut()
         .for_each(|c| *c = tonemap_pixel(*c, p, &to_xyz, &to_rgb));
-    out
+    img
 }
 
 #[cfg(test)]
