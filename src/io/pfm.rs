@@ -136,8 +136,14 @@ pub(crate) fn encode(writer: &mut impl Write, image: &HdrImage) -> std::io::Resu
     let width = image.width as usize;
     let mut row = Vec::with_capacity(width * 12);
     for y in (0..image.height as usize).rev() {
+        let pixels = &image.pixels[y * width..(y + 1) * width];
+        if cfg!(target_endian = "little") {
+            // The scale -1.0 says little-endian: the samples as they are.
+            writer.write_all(bytemuck::cast_slice(pixels))?;
+            continue;
+        }
         row.clear();
-        for pixel in &image.pixels[y * width..(y + 1) * width] {
+        for pixel in pixels {
             for component in pixel {
                 row.extend_from_slice(&component.to_le_bytes());
             }

@@ -128,23 +128,35 @@ pub(crate) fn apply_policy(
         mut image,
         channels,
     } = decoded;
-    let mut clamped_negative = 0u64;
-    let mut nonfinite = 0u64;
-    let mut first_nonfinite: Option<usize> = None;
-    for (index, pixel) in image.pixels.iter_mut().enumerate() {
-        for component in pixel.iter_mut() {
-            if !component.is_finite() {
-                nonfinite += 1;
-                first_nonfinite.get_or_insert(index);
-                if opts.sanitize {
-                    *component = 0.0;
+    // Blocks on every core; counts add up and the first non-finite pixel is
+    // the least index, so the outcome does not depend on the split.
+    const BLOCK: usize = 1 << 16;
+    let blocks: Vec<(u64, u64, Option<usize>)> = image
+        .pixels
+        .par_chunks_mut(BLOCK)
+        .enumerate()
+        .map(|(b, block)| {
+            let (mut clamped, mut nonfinite, mut first) = (0u64, 0u64, None);
+            for (i, pixel) in block.iter_mut().enumerate() {
+                for component in pixel.iter_mut() {
+                    if !component.is_finite() {
+                        nonfinite += 1;
+                        first.get_or_insert(b * BLOCK + i);
+                        if opts.sanitize {
+                            *component = 0.0;
+                        }
+                    } else if *component < 0.0 {
+                        clamped += 1;
+                        *component = 0.0;
+                    }
                 }
-            } else if *component < 0.0 {
-                clamped_negative += 1;
-                *component = 0.0;
             }
-        }
-    }
+            (clamped, nonfinite, first)
+        })
+        .collect();
+    let clamped_negative: u64 = blocks.iter().map(|b| b.0).sum();
+    let nonfinite: u64 = blocks.iter().map(|b| b.1).sum();
+    let first_nonfinite = blocks.iter().find_map(|b| b.2);
     if let (Some(index), false) = (first_nonfinite, opts.sanitize) {
         let width = image.width.max(1) as usize;
         return Err(HdrIoError::NonFinite {
@@ -262,6 +274,43 @@ mod tests {
             Err(HdrIoError::TooLarge { .. })
         ));
         assert_eq!(check_dimensions("f", 10, 10, 100).unwrap(), (10, 10, 100));
+    }
+
+    /// The policy runs in blocks on every core: counts over several blocks,
+    /// and the first non-finite pixel is the first in the image, not in the
+    /// block that finished first.
+    #[test]
+    fn counts_and_the_first_non_finite_pixel_span_blocks() {
+        let width = 300u32;
+        let mut pixels = vec![[0.5f32; 3]; 300 * 400];
+        pixels[1][0] = -1.0;
+        pixels[119_999][2] = -2.0;
+        pixels[100_000][1] = f32::NAN;
+        pixels[70_001][0] = f32::INFINITY;
+        pixels[70_001][2] = f32::NAN;
+        let err = apply_policy(
+            decoded(pixels.clone(), width),
+            HdrFormat::Pfm,
+            "f",
+            &LoadOptions::default(),
+        )
+        .unwrap_err();
+        match err {
+            HdrIoError::NonFinite { count, x, y, .. } => {
+                assert_eq!((count, x, y), (3, 70_001 % 300, 70_001 / 300));
+            }
+            other => panic!("{other}"),
+        }
+        let opts = LoadOptions {
+            sanitize: true,
+            ..LoadOptions::default()
+        };
+        let (image, report) =
+            apply_policy(decoded(pixels, width), HdrFormat::Pfm, "f", &opts).unwrap();
+        assert_eq!(report.sanitized_nonfinite, 3);
+        assert_eq!(report.clamped_negative, 2);
+        assert_eq!(image.pixels[70_001], [0.0, 0.5, 0.0]);
+        assert_eq!(image.pixels[119_999], [0.5, 0.5, 0.0]);
     }
 
     #[test]
