@@ -46,6 +46,29 @@ fn renderer<'a>(
     .unwrap()
 }
 
+/// A renderer of `img` as a flat image (no sphere stage) with `pipeline`'s
+/// plan, at default settings.
+fn flat_renderer<'a>(
+    ctx: &'a GpuContext,
+    img: &tonegate::image::HdrImage,
+    pipeline: &Pipeline,
+) -> GpuRenderer<'a> {
+    let plan = StagePlan::build(
+        tonegate::plan::Input::Flat,
+        pipeline.operator,
+        pipeline.bloom,
+        pipeline.grade,
+    );
+    GpuRenderer::new(
+        ctx,
+        plan,
+        GpuInput::Flat(img),
+        pipeline,
+        GpuConfig::default(),
+    )
+    .unwrap()
+}
+
 /// Fraction of channel values with |a − b| > rel·|b| + abs, and the worst ratio.
 fn fraction_outside(a: &LinearImage, b: &LinearImage, rel: f64, abs: f64) -> (f64, f64) {
     assert_eq!((a.width, a.height), (b.width, b.height));
@@ -577,22 +600,10 @@ fn bloom_blur_matches_at_odd_sizes_and_every_radius() {
         .unwrap();
         let pipeline = Pipeline {
             bloom: Some(&bloom),
+            grade: None,
             ..Pipeline::of_scene(&scene)
         };
-        let plan = StagePlan::build(
-            tonegate::plan::Input::Flat,
-            pipeline.operator,
-            pipeline.bloom,
-            None,
-        );
-        let r = GpuRenderer::new(
-            &ctx,
-            plan,
-            GpuInput::Flat(&img),
-            &pipeline,
-            GpuConfig::default(),
-        )
-        .unwrap();
+        let r = flat_renderer(&ctx, &img, &pipeline);
         r.render(false).unwrap();
         let toned = r.read_output("tonemap").unwrap().unwrap();
         let blurred = r.read_output("bloom_blur").unwrap().unwrap();
@@ -761,20 +772,7 @@ fn subnormal_luminance_is_toned_to_zero_on_both_renderers() {
         };
         let resolved = settings.resolve().unwrap();
         let pipeline = resolved.pipeline();
-        let plan = StagePlan::build(
-            tonegate::plan::Input::Flat,
-            pipeline.operator,
-            pipeline.bloom,
-            pipeline.grade,
-        );
-        let r = GpuRenderer::new(
-            &ctx,
-            plan,
-            GpuInput::Flat(&img),
-            &pipeline,
-            GpuConfig::default(),
-        )
-        .unwrap();
+        let r = flat_renderer(&ctx, &img, &pipeline);
         let gpu = r.render(true).unwrap();
         let toned = r.read_output("tonemap").unwrap().unwrap();
         let (_, cpu) = reference::render_flat(&img, &pipeline).unwrap();

@@ -30,6 +30,18 @@ impl Drop for Served {
     }
 }
 
+/// `--db` and `--suite` of a seeded history, then `more`.
+fn history_args<'a>(seeded: &'a common::Seeded, more: &[&'a str]) -> Vec<&'a str> {
+    let mut args = vec![
+        "--db",
+        seeded.db.to_str().unwrap(),
+        "--suite",
+        seeded.suite.to_str().unwrap(),
+    ];
+    args.extend_from_slice(more);
+    args
+}
+
 /// How to start the binary.
 #[derive(Default)]
 struct Launch<'a> {
@@ -175,14 +187,7 @@ fn idle_sockets_past_the_file_limit_do_not_stop_health_checks() {
     let dir = tempfile::tempdir().unwrap();
     let seeded = common::seed_empty(dir.path());
     let launch = Launch {
-        args: vec![
-            "--db",
-            seeded.db.to_str().unwrap(),
-            "--suite",
-            seeded.suite.to_str().unwrap(),
-            "--header-timeout",
-            "4",
-        ],
+        args: history_args(&seeded, &["--header-timeout", "4"]),
         nofile: Some(256),
         ..Default::default()
     };
@@ -323,14 +328,7 @@ fn a_read_only_history_is_reported_and_runs_are_refused_with_the_path() {
         chmod(dir.path(), 0o555);
     }
     let launch = Launch {
-        args: vec![
-            "--db",
-            seeded.db.to_str().unwrap(),
-            "--suite",
-            seeded.suite.to_str().unwrap(),
-            "--token-file",
-            token.to_str().unwrap(),
-        ],
+        args: history_args(&seeded, &["--token-file", token.to_str().unwrap()]),
         as_nobody: root,
         ..Default::default()
     };
@@ -715,12 +713,7 @@ fn a_signal_after_gpu_work_drains_the_queues_and_exits_zero() {
         let dir = tempfile::tempdir().unwrap();
         let seeded = common::seed_empty(dir.path());
         let launch = Launch {
-            args: vec![
-                "--db",
-                seeded.db.to_str().unwrap(),
-                "--suite",
-                seeded.suite.to_str().unwrap(),
-            ],
+            args: history_args(&seeded, &[]),
             log: Some("info"),
             ..Default::default()
         };

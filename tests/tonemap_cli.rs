@@ -3,8 +3,9 @@
 //! `pow`-based encode of that display image (the encoder's steps replace a
 //! `pow` per sample and must not change one byte).
 
+mod common;
+
 use std::path::Path;
-use std::process::Command;
 use tonegate::env::BuiltinEnv;
 use tonegate::io::{load_hdr, read_png8, write_image_hdr, LoadOptions};
 use tonegate::reference::encode::encode_channel;
@@ -13,15 +14,11 @@ use tonegate::scene::Encoding;
 /// Runs `tonegate tonemap` with a plan that has every flat stage (bloom,
 /// grade with contrast) and returns its JSON report.
 fn tonemap(input: &Path, output: &Path, extra: &[&str]) -> serde_json::Value {
-    let out = Command::new(env!("CARGO_BIN_EXE_tonegate"))
-        .arg("tonemap")
-        .arg(input)
-        .arg("-o")
-        .arg(output)
-        .args(["--bloom", "0.4", "--contrast", "1.2", "--json"])
-        .args(extra)
-        .output()
-        .expect("tonegate runs");
+    let (input, output) = (input.to_str().unwrap(), output.to_str().unwrap());
+    let mut args = vec!["tonemap", input, "-o", output];
+    args.extend(["--bloom", "0.4", "--contrast", "1.2", "--json"]);
+    args.extend_from_slice(extra);
+    let out = common::tonegate(&args);
     assert!(
         out.status.success(),
         "tonegate failed: {}",

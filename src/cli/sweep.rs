@@ -30,7 +30,7 @@ pub struct TradeoffArgs {
     /// Output folder for tradeoff.json and the SVG scatter plots.
     #[arg(long, default_value = "out/tradeoff")]
     pub out: PathBuf,
-    /// Adapter: "default", "any", or a name substring.
+    /// Adapter: "default" (lavapipe when present), "hardware" (the best GPU), "any", or a name substring.
     #[arg(long, default_value = "default")]
     pub adapter: AdapterChoice,
     #[command(flatten)]
@@ -283,7 +283,7 @@ pub struct StressArgs {
     /// Run the CPU reference only (no GPU needed).
     #[arg(long)]
     pub cpu_only: bool,
-    /// Adapter: "default", "any", or a name substring.
+    /// Adapter: "default" (lavapipe when present), "hardware" (the best GPU), "any", or a name substring.
     #[arg(long, default_value = "default")]
     pub adapter: AdapterChoice,
 }

@@ -1,0 +1,67 @@
+#!/usr/bin/env bash
+# What anyone with a GPU runs: a release build, then on one adapter (default
+# the best hardware one, `--adapter hardware`) the gate (`check`), the stiff
+# inputs (`stress --json`) and the frame benchmark (`bench --json` at 720p,
+# 1080p and 2160p, staged and fused), all into one report folder:
+#   ci/gpu.sh [OUT_DIR] [ADAPTER]        (default: gpu-report, hardware)
+# Exits 0 only if check and stress pass; the bench never decides.
+# ADAPTER=default runs the same on lavapipe, to try the script without a GPU.
+# TONEGATE=path/to/tonegate skips the build (a binary built elsewhere).
+set -uo pipefail
+cd "$(dirname "$0")/.."
+out=${1:-gpu-report}
+adapter=${2:-hardware}
+mkdir -p "$out"
+if [ -z "${TONEGATE:-}" ]; then
+  cargo build --release --locked || exit 2
+  TONEGATE=target/release/tonegate
+fi
+status=0
+
+"$TONEGATE" check --adapter "$adapter" --no-history \
+  --json "$out/check.json" --junit "$out/check.junit.xml" --artifacts "$out/artifacts" \
+  >"$out/check.txt" 2>&1
+check=$?
+[ "$check" = 0 ] || status=1
+
+"$TONEGATE" stress --adapter "$adapter" --json >"$out/stress.json" 2>"$out/stress.err"
+stress=$?
+[ "$stress" = 0 ] || status=1
+
+for size in 1280x720 1920x1080 3840x2160; do
+  for execution in staged fused; do
+    "$TONEGATE" bench --adapter "$adapter" --size "$size" --execution "$execution" \
+      --frames "${BENCH_FRAMES:-300}" --json >"$out/bench-$size-$execution.json" \
+      2>"$out/bench-$size-$execution.err" || echo "bench $size $execution failed" >&2
+  done
+done
+
+python3 - "$out" "$check" "$stress" <<'PY'
+import glob, json, os, sys
+out, check, stress = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+def load(path):
+    try:
+        with open(path) as f:
+            return json.load(f)
+    except (OSError, ValueError) as e:
+        return {"error": f"{path}: {e}"}
+report = {
+    "check_exit": check,
+    "stress_exit": stress,
+    "check": load(os.path.join(out, "check.json")),
+    "stress": load(os.path.join(out, "stress.json")),
+    "bench": {os.path.basename(p)[6:-5]: load(p) for p in sorted(glob.glob(os.path.join(out, "bench-*.json")))},
+}
+with open(os.path.join(out, "report.json"), "w") as f:
+    json.dump(report, f, indent=1)
+adapter = report["check"].get("adapter", {}) if isinstance(report["check"], dict) else {}
+print(f"adapter: {adapter.get('name', '?')} ({adapter.get('chosen', '?')})")
+print(f"check: exit {check}; stress: exit {stress}")
+for name, b in report["bench"].items():
+    if "error" in b:
+        print(f"bench {name}: {b['error']}")
+        continue
+    print(f"bench {name}: {json.dumps({k: b[k] for k in b if k in ('frame_gpu_ms', 'frame_wall_ms_with_readback', 'fps', 'fps_with_readback', 'floor_ms')})}")
+print(f"report: {os.path.join(out, 'report.json')}")
+PY
+exit $status
