@@ -90,3 +90,59 @@ fn an_hdr_output_skips_the_encode_and_a_png_is_the_exact_encode() {
         }
     }
 }
+
+/// A plan of statistics and the curve alone reads the f32 input and writes
+/// f32 directly (no f64 copies); it must give the bits of the general stage
+/// loop, which widens to f64, runs every stage and rounds at the end.
+#[test]
+fn the_f32_shortcut_gives_the_general_paths_bits() {
+    use tonegate::reference::{render_flat_display_general, render_flat_display_until};
+    use tonegate::scene::{ColourPath, OperatorKind};
+    use tonegate::toning::{Preset, ToneSettings};
+
+    let settings = [
+        ToneSettings::default(),
+        ToneSettings {
+            preset: Some(Preset::Reinhard02),
+            ..Default::default()
+        },
+        ToneSettings {
+            operator: OperatorKind::Seed001,
+            ..Default::default()
+        },
+        ToneSettings {
+            operator: OperatorKind::Reinhard02,
+            colour: ColourPath::Xyy,
+            white: Some(3.0),
+            ..Default::default()
+        },
+    ];
+    for env in BuiltinEnv::ALL {
+        let img = env.generate(128, 64);
+        for s in &settings {
+            let resolved = s.resolve().unwrap();
+            let pipeline = resolved.pipeline();
+            let fast = render_flat_display_until(&img, &pipeline, &|| false)
+                .unwrap()
+                .unwrap();
+            assert!(
+                !fast
+                    .plan
+                    .names()
+                    .iter()
+                    .any(|n| n.starts_with("bloom") || *n == "grade"),
+                "{:?}",
+                fast.plan.names()
+            );
+            let general = render_flat_display_general(&img, &pipeline).unwrap();
+            let bits = |i: &tonegate::image::HdrImage| -> Vec<u32> {
+                i.pixels.iter().flatten().map(|v| v.to_bits()).collect()
+            };
+            assert!(
+                bits(&fast.display) == bits(&general),
+                "{env} {:?}: the shortcut differs",
+                s.operator
+            );
+        }
+    }
+}
