@@ -4,7 +4,7 @@
 
 use crate::error::{Error, Result};
 use crate::gpu::{GpuConfig, GpuContext};
-use crate::image::{HdrImage, Rgb8Image};
+use crate::image::{HdrImage, LinearImage, Rgb8Image};
 use crate::plan::StagePlan;
 use crate::reference::luminance_stats::LuminanceStats;
 use crate::reference::tonemap::ToneParams;
@@ -276,10 +276,9 @@ pub struct Toned {
     pub plan: StagePlan,
     pub stats: LuminanceStats,
     pub tone: ToneParams,
-    /// The linear display-referred image entering `encode`, rounded to f32,
-    /// when asked for (an HDR output file); on the GPU it is one more
-    /// full-size readback.
-    pub display: Option<HdrImage>,
+    /// The linear display-referred image entering `encode`, when asked for
+    /// (an HDR output file); on the GPU it is one more full-size readback.
+    pub display: Option<LinearImage>,
     /// `encode`'s 8-bit frame: always from the GPU; from the CPU reference
     /// only when the display image was not asked for (an HDR output never
     /// uses it, and the encode was 44 % of such a run).
@@ -368,10 +367,7 @@ fn gpu_flat(
     )?;
     let out = r.render(true)?;
     let display = if want_display {
-        Some(match r.read_output("display")? {
-            Some(display) => display.to_hdr(),
-            None => img.clone(),
-        })
+        Some(r.read_output("display")?.unwrap_or_else(|| img.to_linear()))
     } else {
         None
     };

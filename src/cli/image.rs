@@ -160,7 +160,9 @@ pub fn tonemap(a: TonemapArgs) -> Result<ExitCode> {
     )?;
     let plan = &out.plan;
     match (&out.display, &out.frame) {
-        (Some(display), _) if ext != "png" => tonegate::io::write_image_hdr(&a.output, display)?,
+        (Some(display), _) if ext != "png" => {
+            tonegate::io::write_image_hdr(&a.output, &display.to_hdr())?
+        }
         (_, Some(frame)) => tonegate::io::write_png8(&a.output, frame)?,
         _ => {
             return Err(invalid(

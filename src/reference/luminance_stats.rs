@@ -1,6 +1,6 @@
 //! `luminance_stats`: log-average, weighted log-average, min and max of Y.
 
-use crate::image::{HdrImage, LinearImage};
+use crate::image::LinearImage;
 use crate::plan::StatsNeeds;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -79,38 +79,13 @@ pub fn luminance_stats(
     weights: [f64; 3],
     delta: f64,
 ) -> LuminanceStats {
-    stats_of(&img.pixels, img.width, needs, weights, delta, |c| c)
-}
-
-/// [`luminance_stats`] of an f32 image, each sample widened as it is read
-/// (exactly, as [`HdrImage::to_linear`] does): the same bits, without a
-/// full-size f64 copy.
-pub fn luminance_stats_f32(
-    img: &HdrImage,
-    needs: StatsNeeds,
-    weights: [f64; 3],
-    delta: f64,
-) -> LuminanceStats {
-    stats_of(&img.pixels, img.width, needs, weights, delta, |p| {
-        p.map(f64::from)
-    })
-}
-
-fn stats_of<P: Copy + Sync>(
-    pixels: &[P],
-    width: u32,
-    needs: StatsNeeds,
-    weights: [f64; 3],
-    delta: f64,
-    widen: impl Fn(P) -> [f64; 3] + Sync,
-) -> LuminanceStats {
-    let width = width.max(1) as usize;
-    let rows: Vec<Partial> = pixels
+    let width = img.width.max(1) as usize;
+    let rows: Vec<Partial> = img
+        .pixels
         .par_chunks(width)
         .map(|row| {
             let mut p = Partial::new();
             for &c in row {
-                let c = widen(c);
                 let y = crate::color::luminance_with(c, weights);
                 if needs.log_average || needs.weighted_log_average {
                     let l = libm::log(delta + y);
@@ -136,7 +111,7 @@ fn stats_of<P: Copy + Sync>(
         total.min = total.min.min(r.min);
         total.max = total.max.max(r.max);
     }
-    let n = pixels.len().max(1) as f64;
+    let n = img.pixel_count().max(1) as f64;
     let log_average = libm::exp(total.log_sum.value() / n);
     let weight_sum = total.weight_sum.value();
     let weighted = if weight_sum > 0.0 {

@@ -298,14 +298,13 @@ pub fn render_flat(img: &HdrImage, p: &Pipeline) -> Result<(StagePlan, FrameOutp
 }
 
 /// A flat image tone-mapped to the display-referred linear image that
-/// `encode` would take, without encoding it, rounded to f32: what an HDR
-/// output file holds.
+/// `encode` would take, without encoding it: what an HDR output file holds.
 pub struct FlatDisplay {
     /// The plan that ran: [`render_flat`]'s without `encode`.
     pub plan: StagePlan,
     pub stats: LuminanceStats,
     pub tone: ToneParams,
-    pub display: HdrImage,
+    pub display: LinearImage,
 }
 
 /// [`render_flat`] up to `encode`, which is left out, stopping between
@@ -320,51 +319,13 @@ pub fn render_flat_display_until(
     if stop() {
         return Ok(None);
     }
-    // Statistics and the curve only (no bloom, no grade): both read the f32
-    // input directly and the curve writes f32, with the bits the general
-    // path gives (tests/tonemap_cli.rs compares the two).
-    let only_the_curve = matches!(
-        plan.stages(),
-        [Stage::LuminanceStats(_), Stage::Tonemap { .. }] | [Stage::Tonemap { .. }]
-    );
-    if only_the_curve {
-        let (weights, delta) = tonemap::operator_constants(p.operator);
-        let stats = match plan.stages().first() {
-            Some(Stage::LuminanceStats(needs)) => {
-                luminance_stats::luminance_stats_f32(img, *needs, weights, delta)
-            }
-            _ => LuminanceStats::default(),
-        };
-        if stop() {
-            return Ok(None);
-        }
-        let tone = tonemap::resolve(p.operator, &stats)?;
-        let display = tonemap::tonemap_f32(img, &tone);
-        return Ok(Some(FlatDisplay {
-            plan,
-            stats,
-            tone,
-            display,
-        }));
-    }
     let made = run_stages_until(&plan, img.to_linear(), p, stop, false)?;
     Ok(made.map(|m| FlatDisplay {
         plan,
         stats: m.stats,
         tone: m.tone,
-        display: m.display.unwrap_or(m.toned).to_hdr(),
+        display: m.display.unwrap_or(m.toned),
     }))
-}
-
-/// [`render_flat_display_until`] by the general stage loop alone, for the
-/// test that the f32 shortcut gives the same bits.
-#[doc(hidden)]
-pub fn render_flat_display_general(img: &HdrImage, p: &Pipeline) -> Result<HdrImage, PlanError> {
-    let plan =
-        StagePlan::build(crate::plan::Input::Flat, p.operator, p.bloom, p.grade).without_encode();
-    let made = run_stages_until(&plan, img.to_linear(), p, &|| false, false)?
-        .ok_or(PlanError::Incomplete { missing: "tonemap" })?;
-    Ok(made.display.unwrap_or(made.toned).to_hdr())
 }
 
 /// [`render_flat`], stopping between stages when `stop` says so (`None`).

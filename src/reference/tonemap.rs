@@ -1,7 +1,7 @@
 //! `tonemap`: the global Reinhard 2002 family (SPEC §3) and both colour paths.
 
 use crate::color::{luminance_with, BT709, PFS, SMALLEST_NORMAL};
-use crate::image::{HdrImage, LinearImage};
+use crate::image::LinearImage;
 use crate::plan::PlanError;
 use crate::reference::luminance_stats::LuminanceStats;
 use crate::scene::{ColourPath, Key, Operator, Positive};
@@ -203,16 +203,6 @@ pub fn tonemap_pixel(
 /// Tone-maps a linear HDR frame.
 pub fn tonemap(img: &LinearImage, p: &ToneParams) -> LinearImage {
     tonemap_into(img.clone(), p)
-}
-
-/// [`tonemap`] of an f32 image into an f32 image: each sample widened
-/// exactly, toned in f64 and rounded to f32 as [`LinearImage::to_hdr`]
-/// does, so the bits are those of `tonemap(&img.to_linear(), p).to_hdr()`
-/// without either full-size f64 image.
-pub fn tonemap_f32(img: &HdrImage, p: &ToneParams) -> HdrImage {
-    let to_xyz = rgb_to_xyz(p.weights);
-    let to_rgb = invert3(to_xyz);
-    img.par_map(|c| tonemap_pixel(c.map(f64::from), p, &to_xyz, &to_rgb).map(|v| v as f32))
 }
 
 /// [`tonemap`] in the input's own buffer.
