@@ -151,18 +151,7 @@ mod tests {
     fn every_stage_of_the_plan_has_a_shader_and_a_reference() {
         // One stage, one name: the WGSL file, the CPU reference module and the label.
         let names: Vec<&str> = stage_names().collect();
-        for stage in [
-            "sphere",
-            "luminance_stats",
-            "tonemap",
-            "bloom_bright",
-            "bloom_downsample",
-            "bloom_blur",
-            "bloom_composite",
-            "grade_stats",
-            "grade",
-            "encode",
-        ] {
+        for stage in crate::plan::Stage::NAMES {
             assert!(names.contains(&stage), "no shaders/{stage}.wgsl");
         }
     }

@@ -110,7 +110,10 @@ pub(crate) fn decode<R: BufRead + Seek>(
         });
     }
 
-    if let Some(tables_at) = tables_at {
+    // `exr` allocates a block's declared size, up to the part's largest
+    // possible block: only when that bound is beyond the file's length
+    // (hostile tile or line sizes) are the declared sizes read first.
+    if let (Some(tables_at), true) = (tables_at, header.max_block_byte_size() as u64 > len) {
         check_block_sizes(&mut reader, tables_at, len, &meta, part, file)?;
     }
     reader.seek(SeekFrom::Start(0)).map_err(io_error)?;
