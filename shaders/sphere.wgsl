@@ -36,7 +36,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     var acc = vec3<f32>(0.0);
     for (var k = 0u; k < SPP; k = k + 1u) {
-        let j = jitter(k, SPP);
+        let j = jitter(k, SPP) + frame.jitter;
         let d = camera_ray(f32(id.x) + 0.5 + j.x, f32(id.y) + 0.5 + j.y, frame);
         acc = acc + bilinear(equirect_uv(sphere_direction(frame, d)));
     }
@@ -50,7 +50,7 @@ fn main_hardware(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     var acc = vec3<f32>(0.0);
     for (var k = 0u; k < SPP; k = k + 1u) {
-        let j = jitter(k, SPP);
+        let j = jitter(k, SPP) + frame.jitter;
         let d = camera_ray(f32(id.x) + 0.5 + j.x, f32(id.y) + 0.5 + j.y, frame);
         let uv = equirect_uv(sphere_direction(frame, d));
         acc = acc + textureSampleLevel(env_texture, env_sampler, uv, 0.0).rgb;

@@ -126,6 +126,68 @@ pub fn jitter(k: u32, spp: u32) -> (f64, f64) {
     }
 }
 
+/// TAA's jitter cycle: frame n of a TAA sequence renders one sample at the
+/// (n mod 16)-th offset of the accumulation reference's own Halton(2,3)
+/// sequence (seed 002 §3.6.1 uses its first 16 points), so 16 consecutive
+/// TAA frames visit exactly the 16 sub-pixel positions a 16-spp golden
+/// averages.
+pub const TAA_JITTER_CYCLE: u32 = 16;
+
+/// The sub-pixel offset frame `n` of a TAA sequence renders at: the same
+/// function the supersampling reference uses, sample n mod 16 of 16.
+pub fn taa_jitter(n: u32) -> (f64, f64) {
+    jitter(n % TAA_JITTER_CYCLE, TAA_JITTER_CYCLE)
+}
+
+impl Camera {
+    /// The film point (in pixels from the top-left corner) a view direction
+    /// passes through: the inverse of [`Camera::ray`]. None when the
+    /// direction points away from the film (z ≥ 0).
+    pub fn project(&self, d: [f64; 3]) -> Option<(f64, f64)> {
+        if d[2].is_nan() || d[2] >= 0.0 {
+            return None;
+        }
+        let tan_half = libm::tan(0.5 * self.fov_y_deg.to_radians());
+        let aspect = self.width as f64 / self.height as f64;
+        let (x, y) = (d[0] / -d[2], d[1] / -d[2]);
+        let px = (x / (tan_half * aspect) + 1.0) * 0.5 * self.width as f64;
+        let py = (1.0 - y / tan_half) * 0.5 * self.height as f64;
+        Some((px, py))
+    }
+}
+
+/// The matrix taking a view direction of frame n to the view direction that
+/// saw the same point of the sphere in frame n − 1: R(n−1)·R(n)ᵀ. The camera
+/// is fixed at the centre and the sphere turns by a known rotation, so TAA's
+/// reprojection is exact (seed 002 needs a velocity buffer; this scene does
+/// not).
+pub fn reprojection(previous: &Mat3, current: &Mat3) -> Mat3 {
+    let mut m = [[0.0; 3]; 3];
+    for (i, row) in m.iter_mut().enumerate() {
+        for (j, v) in row.iter_mut().enumerate() {
+            *v = (0..3).map(|k| previous[i][k] * current[j][k]).sum();
+        }
+    }
+    m
+}
+
+/// Where pixel (i, j)'s centre was in the previous frame, in pixels from the
+/// top-left corner, given the [`reprojection`] matrix: None when that point
+/// of the sphere was behind the camera or off the film (history rejected).
+/// The centre is unjittered: the jitter moves samples, not the history grid.
+pub fn reproject(camera: &Camera, m: &Mat3, i: u32, j: u32) -> Option<(f64, f64)> {
+    let d = camera.ray(i as f64 + 0.5, j as f64 + 0.5);
+    let p = [
+        m[0][0] * d[0] + m[0][1] * d[1] + m[0][2] * d[2],
+        m[1][0] * d[0] + m[1][1] * d[1] + m[1][2] * d[2],
+        m[2][0] * d[0] + m[2][1] * d[1] + m[2][2] * d[2],
+    ];
+    let (px, py) = camera.project(p)?;
+    let on_film =
+        (0.0..=camera.width as f64).contains(&px) && (0.0..=camera.height as f64).contains(&py);
+    on_film.then_some((px, py))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -191,5 +253,66 @@ mod tests {
         assert_eq!(jitter(0, 1), (0.0, 0.0));
         let (jx, jy) = jitter(0, 16);
         assert!((-0.5..0.5).contains(&jx) && (-0.5..0.5).contains(&jy));
+    }
+
+    #[test]
+    fn projection_inverts_the_camera_ray() {
+        let cam = Camera {
+            width: 320,
+            height: 180,
+            fov_y_deg: 60.0,
+        };
+        for &(px, py) in &[(0.5, 0.5), (160.0, 90.0), (319.5, 10.25), (3.0, 179.9)] {
+            let (qx, qy) = cam.project(cam.ray(px, py)).unwrap();
+            assert!(
+                (qx - px).abs() < 1e-9 && (qy - py).abs() < 1e-9,
+                "{px},{py} -> {qx},{qy}"
+            );
+        }
+        assert_eq!(cam.project([0.0, 0.0, 1.0]), None);
+    }
+
+    #[test]
+    fn reprojection_follows_the_sphere_and_rejects_what_left_the_film() {
+        let cam = Camera {
+            width: 64,
+            height: 64,
+            fov_y_deg: 60.0,
+        };
+        let axis = [1.0, 0.0, 0.0];
+        let (prev, cur) = (rotation_matrix(axis, 0.10), rotation_matrix(axis, 0.13));
+        let m = reprojection(&prev, &cur);
+        // A still sphere maps every pixel onto itself.
+        let still = reprojection(&cur, &cur);
+        let (x, y) = reproject(&cam, &still, 7, 9).unwrap();
+        assert!((x - 7.5).abs() < 1e-9 && (y - 9.5).abs() < 1e-9, "{x},{y}");
+        // The point pixel (i, j) sees now met the map where, one frame
+        // earlier, the reprojected film point's ray met it.
+        for (i, j) in [(5, 5), (32, 20), (60, 3)] {
+            let Some((px, py)) = reproject(&cam, &m, i, j) else {
+                continue;
+            };
+            let now = sphere_direction(&cur, cam.ray(i as f64 + 0.5, j as f64 + 0.5));
+            let then = sphere_direction(&prev, cam.ray(px, py));
+            let (a, b) = (equirect_uv(now), equirect_uv(then));
+            assert!(
+                (a.0 - b.0).abs() < 1e-12 && (a.1 - b.1).abs() < 1e-12,
+                "{a:?} {b:?}"
+            );
+        }
+        // Turning about x moves content vertically: the top row came from
+        // above the film after a large enough step.
+        let big = reprojection(&rotation_matrix(axis, 0.0), &rotation_matrix(axis, 0.3));
+        let top = reproject(&cam, &big, 32, 0);
+        let bottom = reproject(&cam, &big, 32, 63);
+        assert!(top.is_none() != bottom.is_none(), "{top:?} {bottom:?}");
+    }
+
+    #[test]
+    fn taa_jitter_cycles_through_the_reference_offsets() {
+        for n in 0..40 {
+            assert_eq!(taa_jitter(n), jitter(n % 16, 16));
+        }
+        assert_ne!(taa_jitter(0), taa_jitter(1));
     }
 }

@@ -3,7 +3,9 @@
 //! Both renderers execute a plan; a stage that is not in it is neither built,
 //! dispatched nor timed. `tonegate plan scene.toml` prints it.
 
-use crate::scene::{BrightPass, ColourPath, Encoding, Grade, Key, Operator, Scene};
+use crate::scene::{
+    BrightPass, ColourPath, Encoding, Grade, Key, Operator, Scene, TaaParams, TaaVariant,
+};
 use serde::Serialize;
 use std::fmt;
 
@@ -43,6 +45,17 @@ pub enum Stage {
     Sphere {
         spp: u32,
     },
+    /// The edge-aware TAA's Sobel pass: how aliased each pixel of the
+    /// current (jittered) frame is (seed 002 §4.3.3).
+    TaaSobel,
+    /// Temporal anti-aliasing (seed 002): the jittered frame resolved against
+    /// its reprojected, clipped history, then sharpened. It sits on the HDR
+    /// frame, before `luminance_stats`, so the operator measures the
+    /// anti-aliased frame, as the accumulation reference's operator measures
+    /// its supersampled one: after tone mapping, every frame's statistics
+    /// would come from a single jittered sample set and the exposure would
+    /// shimmer with the jitter.
+    Taa(TaaParams),
     /// Reduces the HDR frame to the statistics the operator needs.
     LuminanceStats(StatsNeeds),
     Tonemap {
@@ -67,8 +80,10 @@ pub enum Stage {
 
 impl Stage {
     /// Every stage's name, in plan order.
-    pub const NAMES: [&'static str; 10] = [
+    pub const NAMES: [&'static str; 12] = [
         "sphere",
+        "taa_sobel",
+        "taa",
         "luminance_stats",
         "tonemap",
         "bloom_bright",
@@ -83,6 +98,8 @@ impl Stage {
     pub fn name(&self) -> &'static str {
         match self {
             Stage::Sphere { .. } => "sphere",
+            Stage::TaaSobel => "taa_sobel",
+            Stage::Taa(_) => "taa",
             Stage::LuminanceStats(_) => "luminance_stats",
             Stage::Tonemap { .. } => "tonemap",
             Stage::BloomBright { .. } => "bloom_bright",
@@ -216,14 +233,35 @@ impl StagePlan {
         StagePlan { stages }
     }
 
-    /// The plan of one scene frame at `spp` samples per pixel.
+    /// The plan of one scene frame at `spp` samples per pixel: a TAA scene's
+    /// 1-spp frames get the TAA stages right after `sphere` (at more samples
+    /// the scene is its own accumulation reference, with no TAA).
     pub fn for_scene(scene: &Scene, spp: u32) -> StagePlan {
-        StagePlan::build(
+        let mut plan = StagePlan::build(
             Input::Sphere { spp },
             &scene.operator,
             scene.bloom.as_ref(),
             scene.grade.as_ref(),
-        )
+        );
+        if let Some(taa) = scene.taa_active().filter(|_| spp == 1) {
+            let params = taa.params();
+            let mut stages = vec![plan.stages.remove(0)];
+            if params.variant == TaaVariant::EdgeAware {
+                stages.push(Stage::TaaSobel);
+            }
+            stages.push(Stage::Taa(params));
+            stages.append(&mut plan.stages);
+            plan.stages = stages;
+        }
+        plan
+    }
+
+    /// The TAA stage's parameters, when the plan has one.
+    pub fn taa(&self) -> Option<TaaParams> {
+        self.stages.iter().find_map(|s| match s {
+            Stage::Taa(p) => Some(*p),
+            _ => None,
+        })
     }
 
     /// The stages, in execution order.
@@ -272,6 +310,13 @@ impl fmt::Display for StagePlan {
                 Stage::BloomBright { source } => format!("from {source:?}").to_lowercase(),
                 Stage::BloomDownsample { factor } => format!("1/{factor}"),
                 Stage::BloomBlur { radius } => format!("radius {radius}, 2 passes"),
+                Stage::Taa(p) => format!(
+                    "{}, feedback {}..{}, sharpen {}",
+                    p.variant.name(),
+                    p.feedback_min,
+                    p.feedback_max,
+                    p.sharpen
+                ),
                 _ => String::new(),
             };
             writeln!(f, "{:>2}. {:<17} {}", i + 1, s.name(), detail)?;

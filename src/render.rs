@@ -2,12 +2,12 @@
 //! loop `check`, `render`, `tradeoff` and the goldens share.
 
 use crate::check::Rendered;
-use crate::conventions::rotation_matrix;
+use crate::conventions::{reprojection, rotation_matrix, taa_jitter, Mat3};
 use crate::gpu::{GpuConfig, GpuContext, GpuError, GpuFrame, GpuInput, GpuRenderer, GpuStats};
-use crate::image::{HdrImage, Rgb8Image};
+use crate::image::{HdrImage, LinearImage, Rgb8Image};
 use crate::perf::{summarise, StageTiming};
 use crate::plan::{PlanError, StagePlan};
-use crate::reference::{render_frame, scene_camera, FrameSummary, Pipeline};
+use crate::reference::{render_frame, render_taa_frame, scene_camera, FrameSummary, Pipeline};
 use crate::scene::{Scene, Size};
 use std::time::Instant;
 
@@ -97,6 +97,18 @@ pub struct SceneRenderer<'a> {
     env: &'a HdrImage,
     spp: u32,
     engine: Engine<'a>,
+    /// Whether the plan has TAA, whose frames depend on the frames before.
+    taa: bool,
+    history: std::sync::Mutex<TaaHistory>,
+}
+
+/// Where a TAA sequence's history stands.
+#[derive(Default)]
+struct TaaHistory {
+    /// The frame the history is ready for (None: no usable history).
+    next: Option<u32>,
+    /// The CPU reference's history (the GPU keeps its own on the device).
+    cpu: Option<LinearImage>,
 }
 
 impl<'a> SceneRenderer<'a> {
@@ -107,6 +119,8 @@ impl<'a> SceneRenderer<'a> {
             env,
             spp,
             engine: Engine::Cpu,
+            taa: StagePlan::for_scene(scene, spp).taa().is_some(),
+            history: Default::default(),
         }
     }
 
@@ -137,7 +151,9 @@ impl<'a> SceneRenderer<'a> {
             scene,
             env,
             spp,
+            taa: renderer.has_taa(),
             engine: Engine::Gpu(Box::new(renderer)),
+            history: Default::default(),
         })
     }
 
@@ -169,8 +185,13 @@ impl<'a> SceneRenderer<'a> {
         }
     }
 
-    /// Renders frame `n`, read back.
+    /// Renders frame `n`, read back. A TAA frame needs the frames before it:
+    /// when `n` does not follow the last frame rendered, the frames from the
+    /// last history reset up to `n` are rendered first (not read back).
     pub fn frame(&self, n: u32) -> Result<RenderedFrame, RenderError> {
+        if self.taa {
+            return self.taa_frame(n);
+        }
         let start = Instant::now();
         match &self.engine {
             Engine::Cpu => {
@@ -209,12 +230,97 @@ impl<'a> SceneRenderer<'a> {
     }
 
     /// Renders frame `n` without reading it back and returns its stage
-    /// times: what timing runs repeat. Empty on the CPU.
+    /// times: what timing runs repeat. Empty on the CPU. A TAA frame is
+    /// timed with a history to resolve against (its full cost), and the
+    /// sequence's history is then spent: the next `frame` starts again from
+    /// the last reset.
     pub fn stage_times(&self, n: u32) -> Result<Vec<StageTiming>, RenderError> {
         match &self.engine {
             Engine::Cpu => Ok(Vec::new()),
+            Engine::Gpu(r) if self.taa => {
+                self.lock_history().next = None;
+                self.set_gpu_taa_frame(r, n, true);
+                Ok(r.render(false).map_err(|e| self.gpu_error(e))?.timings)
+            }
             Engine::Gpu(r) => Ok(self.gpu_frame(r, n, false)?.timings),
         }
+    }
+
+    fn lock_history(&self) -> std::sync::MutexGuard<'_, TaaHistory> {
+        self.history
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
+    }
+
+    fn rotation(&self, n: u32) -> Mat3 {
+        rotation_matrix(self.scene.rotation.axis, self.scene.angle(n))
+    }
+
+    /// Sets frame `n`'s rotation, jitter and history on the GPU; `history`
+    /// false resets it.
+    fn set_gpu_taa_frame(&self, r: &GpuRenderer, n: u32, history: bool) {
+        let rotation = self.rotation(n);
+        r.set_frame(&rotation, taa_jitter(n));
+        let m = match r.config.taa_fault {
+            // The broken TAA of `check --taa-fault wrong-rotation`: the
+            // history is read as if the sphere had not turned.
+            Some(crate::gpu::TaaFault::WrongRotation) => reprojection(&rotation, &rotation),
+            _ => reprojection(&self.rotation(n.saturating_sub(1)), &rotation),
+        };
+        r.set_taa_history(history.then_some(&m));
+    }
+
+    /// Frame `n` of a TAA plan, with the frames it depends on.
+    fn taa_frame(&self, n: u32) -> Result<RenderedFrame, RenderError> {
+        let taa = self.scene.taa.as_ref();
+        let resets = |k: u32| taa.is_none_or(|t| t.resets_at(k));
+        let mut track = self.lock_history();
+        let first = if track.next == Some(n) {
+            n
+        } else {
+            (0..=n).rev().find(|&k| resets(k)).unwrap_or(0)
+        };
+        let plan_error = |source| RenderError::Plan {
+            scene: self.scene.name.clone(),
+            source,
+        };
+        let mut last = None;
+        for k in first..=n {
+            let start = Instant::now();
+            let keep = !resets(k);
+            last = Some(match &self.engine {
+                Engine::Cpu => {
+                    let history = if keep { track.cpu.take() } else { None };
+                    let (out, next) = render_taa_frame(self.scene, self.env, k, history.as_ref())
+                        .map_err(plan_error)?;
+                    track.cpu = Some(next);
+                    RenderedFrame {
+                        index: k,
+                        image: out.frame,
+                        wall_ms: start.elapsed().as_secs_f64() * 1e3,
+                        detail: FrameDetail::Cpu(FrameSummary {
+                            stats: out.stats,
+                            tone: out.tone,
+                        }),
+                    }
+                }
+                Engine::Gpu(r) => {
+                    self.set_gpu_taa_frame(r, k, keep);
+                    let out = r.render(k == n).map_err(|e| self.gpu_error(e))?;
+                    RenderedFrame {
+                        index: k,
+                        image: out.frame.unwrap_or_else(|| Rgb8Image::filled(0, 0, [0; 3])),
+                        wall_ms: out.wall_ms,
+                        detail: FrameDetail::Gpu {
+                            stats: out.stats,
+                            timings: out.timings,
+                        },
+                    }
+                }
+            });
+            track.next = Some(k + 1);
+        }
+        last.ok_or_else(|| self.gpu_error(GpuError::Readback("no frame".into())))
     }
 
     fn gpu_frame(&self, r: &GpuRenderer, n: u32, read_back: bool) -> Result<GpuFrame, RenderError> {

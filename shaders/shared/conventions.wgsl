@@ -113,3 +113,29 @@ fn jitter(k: u32, spp: u32) -> vec2<f32> {
     }
     return vec2<f32>(halton(k + 1u, 2u) - 0.5, halton(k + 1u, 3u) - 0.5);
 }
+
+// The film point a view direction passes through (the inverse of
+// `camera_ray`); the caller checks d.z < 0 first.
+fn camera_project(d: vec3<f32>, f: FrameUniforms) -> vec2<f32> {
+    let x = d.x / -d.z;
+    let y = d.y / -d.z;
+    let px = (x / (f.tan_half * f.aspect) + 1.0) * 0.5 * f32(f.size.x);
+    let py = (1.0 - y / f.tan_half) * 0.5 * f32(f.size.y);
+    return vec2<f32>(px, py);
+}
+
+// Where pixel (i, j)'s centre was last frame under the reprojection matrix
+// with rows m0..m2, or (-1, -1) when that point was behind the camera or off
+// the film (`conventions::reproject`).
+fn reproject(i: u32, j: u32, m0: vec3<f32>, m1: vec3<f32>, m2: vec3<f32>, f: FrameUniforms) -> vec2<f32> {
+    let d = camera_ray(f32(i) + 0.5, f32(j) + 0.5, f);
+    let p = vec3<f32>(dot(m0, d), dot(m1, d), dot(m2, d));
+    if (!(p.z < 0.0)) {
+        return vec2<f32>(-1.0, -1.0);
+    }
+    let q = camera_project(p, f);
+    if (q.x < 0.0 || q.x > f32(f.size.x) || q.y < 0.0 || q.y > f32(f.size.y)) {
+        return vec2<f32>(-1.0, -1.0);
+    }
+    return q;
+}

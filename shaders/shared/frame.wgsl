@@ -9,4 +9,7 @@ struct FrameUniforms {
     // tan(fov_y / 2) and width / height.
     tan_half: f32,
     aspect: f32,
+    // The frame's sub-pixel jitter (a TAA frame; 0 otherwise), added to
+    // every sample's offset as `conventions::taa_jitter` says.
+    jitter: vec2<f32>,
 }

@@ -108,7 +108,8 @@ pub fn evaluate(
 pub struct Judging<'a> {
     pub scene: &'a str,
     pub checks: &'a [CheckSpec],
-    /// The goldens' spp: the spp of checks that name none.
+    /// The spp of checks that name none: the goldens' own, or 1 for a TAA
+    /// scene (`Scene::default_spp`).
     pub reference_spp: u32,
     pub test: TestKind,
 }

@@ -270,7 +270,8 @@ pub struct Judged<'a> {
     pub adapter: &'a str,
     /// Samples per pixel of the render under test.
     pub spp: u32,
-    /// The scene's `reference_spp`: the spp of checks that name none.
+    /// The spp of checks that name none (`Scene::default_spp`: the goldens'
+    /// own, or 1 for a TAA scene).
     pub reference_spp: u32,
 }
 

@@ -27,8 +27,9 @@ pub struct CheckArgs {
     #[arg(long)]
     pub cpu: bool,
     /// Samples per pixel of the render under test (default: each scene's
-    /// reference_spp, the goldens' own; 1 = the plain, aliased path). Checks
-    /// apply at the spp they name (`spp` in the scene file, default reference_spp).
+    /// reference_spp, the goldens' own, or 1 for a TAA scene; 1 = the plain,
+    /// aliased path, or the TAA path of a TAA scene). Checks apply at the spp
+    /// they name (`spp` in the scene file, default the scene's default).
     #[arg(long)]
     pub spp: Option<u32>,
     #[command(flatten)]

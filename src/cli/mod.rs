@@ -95,6 +95,7 @@ impl GpuArgs {
             env_filter: self.env_filter,
             execution: self.execution,
             fault_gain: None,
+            taa_fault: None,
         }
     }
 }

@@ -36,8 +36,8 @@ pub enum Renderer {
     Gpu {
         adapter: AdapterChoice,
         config: GpuConfig,
-        /// Samples per pixel; None renders each scene at its goldens' spp
-        /// (`reference_spp`), so the comparison is like for like.
+        /// Samples per pixel; None renders each scene at its default spp
+        /// (`reference_spp`, like for like with its goldens; 1 for a TAA scene).
         spp: Option<u32>,
     },
     /// The CPU reference (to check the gate and the goldens themselves);
@@ -229,7 +229,7 @@ pub fn run(opts: &CheckOptions, progress: &dyn Progress) -> CheckOutcome {
 fn spp_json(spp: Option<u32>) -> serde_json::Value {
     match spp {
         Some(n) => n.into(),
-        None => "reference_spp".into(),
+        None => "scene_default".into(),
     }
 }
 
@@ -312,7 +312,7 @@ fn run_inner(
     for scene in &suite.scenes {
         progress.working_on(&scene.name);
         let spp = match opts.renderer {
-            Renderer::Cpu { spp } | Renderer::Gpu { spp, .. } => spp.unwrap_or(scene.reference_spp),
+            Renderer::Cpu { spp } | Renderer::Gpu { spp, .. } => spp.unwrap_or(scene.default_spp()),
         };
         let env = scene_environment(scene)?;
         let renderer = match &ctx {

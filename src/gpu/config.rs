@@ -95,6 +95,21 @@ pub struct GpuConfig {
     /// (`check --fault-gain 1.02`). None in every real run.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub fault_gain: Option<f32>,
+    /// Fault injection: a deliberately broken TAA that proves the gate's TAA
+    /// checks catch one (`check --taa-fault no-clip`). None in every real run.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub taa_fault: Option<TaaFault>,
+}
+
+/// The ways `check --taa-fault` breaks the TAA stage.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+#[serde(rename_all = "snake_case")]
+pub enum TaaFault {
+    /// The history is blended without the clipping box (ghosts stay).
+    NoClip,
+    /// The history is reprojected as if the sphere had not turned.
+    WrongRotation,
 }
 
 impl GpuConfig {

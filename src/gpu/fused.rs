@@ -49,7 +49,7 @@ pub fn wire(w: &mut Wiring, stage: &Stage) -> Result<Option<Pass>, GpuError> {
                 ctx, format, t, b, from_toned, w.weights, &w.stats, &w.hdr, &out,
             ));
             w.low = Some(out);
-            Pass { name, dispatches }
+            Pass::every_frame(name, dispatches)
         }
         Stage::BloomComposite => {
             let strength = w.bloom(name)?.strength.get();
@@ -85,7 +85,7 @@ pub fn wire(w: &mut Wiring, stage: &Stage) -> Result<Option<Pass>, GpuError> {
                 &w.hdr,
                 &w.frame,
             ));
-            Pass { name, dispatches }
+            Pass::every_frame(name, dispatches)
         }
         _ => return Ok(None),
     }))

@@ -11,7 +11,7 @@ pub mod stages;
 pub mod timing;
 mod wiring;
 
-pub use config::{EnvFilter, Execution, GpuConfig, HdrFormat, ReductionMethod, F16_MAX};
+pub use config::{EnvFilter, Execution, GpuConfig, HdrFormat, ReductionMethod, TaaFault, F16_MAX};
 pub use context::{choose, AdapterChoice, AdapterReport, Candidate, GpuContext};
 pub use renderer::{GpuFrame, GpuInput, GpuRenderer, GpuStats};
 
@@ -72,4 +72,6 @@ mod grade;
 mod grade_stats;
 mod luminance_stats;
 pub mod sphere;
+mod taa;
+mod taa_sobel;
 mod tonemap;

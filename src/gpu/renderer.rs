@@ -4,7 +4,7 @@
 
 use super::config::{Execution, GpuConfig};
 use super::sphere::Environment;
-use super::stages::{hdr_texture, read_buffer, shared_buffer, storage_buffer, upload, Dispatch};
+use super::stages::{hdr_texture, read_buffer, shared_buffer, storage_buffer, upload};
 use super::timing::Queries;
 use super::wiring::Wiring;
 use super::{GpuContext, GpuError, HdrFormat};
@@ -66,6 +66,9 @@ struct FrameUniforms {
     size: [u32; 2],
     tan_half: f32,
     aspect: f32,
+    jitter: [f32; 2],
+    /// WGSL rounds the struct up to 16 bytes.
+    _pad: [f32; 2],
 }
 
 /// Where the frame comes from.
@@ -114,8 +117,13 @@ pub struct GpuRenderer<'a> {
     height: u32,
     camera: Option<Camera>,
     uniforms: Option<wgpu::Buffer>,
-    /// Per plan stage, its dispatches (one compute pass each).
-    passes: Vec<(&'static str, Vec<Dispatch>)>,
+    /// Per plan stage, its dispatches (one compute pass each), and those of
+    /// odd frames where they alternate (the TAA history).
+    passes: Vec<super::wiring::Pass>,
+    /// The TAA history pair and uniforms, in a TAA plan.
+    taa: Option<super::taa::TaaResources>,
+    /// Whether the next frame is odd (reads the second history texture).
+    odd: std::sync::atomic::AtomicBool,
     /// Stage outputs that can be read back: (stage name, texture).
     outputs: Vec<(&'static str, wgpu::Texture)>,
     stats: wgpu::Buffer,
@@ -138,7 +146,8 @@ impl<'a> GpuRenderer<'a> {
         let (config, notes) = config.in_effect(input.max_component(), &plan);
         let (width, height) = input.size();
         ctx.check_size(width, height)?;
-        let mut wiring = frame_resources(ctx, &input, pipeline, config, (width, height))?;
+        let taa = plan.taa().is_some();
+        let mut wiring = frame_resources(ctx, &input, pipeline, config, (width, height), taa)?;
         let camera = match input {
             GpuInput::Sphere { camera, .. } => Some(camera),
             GpuInput::Flat(_) => None,
@@ -154,7 +163,7 @@ impl<'a> GpuRenderer<'a> {
                 None => wiring.staged(stage)?,
             };
             if !pass.dispatches.is_empty() {
-                passes.push((pass.name, pass.dispatches));
+                passes.push(pass);
             }
         }
         let queries = Queries::new(ctx, passes.len());
@@ -164,6 +173,7 @@ impl<'a> GpuRenderer<'a> {
             frame,
             environment,
             outputs,
+            taa,
             ..
         } = wiring;
         let frame_bytes = width as u64 * height as u64 * 4;
@@ -177,6 +187,8 @@ impl<'a> GpuRenderer<'a> {
             camera,
             uniforms: environment.map(|(_, uniforms)| uniforms),
             passes,
+            taa,
+            odd: std::sync::atomic::AtomicBool::new(false),
             outputs,
             stats_read: read_buffer(
                 ctx,
@@ -196,11 +208,17 @@ impl<'a> GpuRenderer<'a> {
     }
 
     pub fn stage_names(&self) -> Vec<&'static str> {
-        self.passes.iter().map(|(n, _)| *n).collect()
+        self.passes.iter().map(|p| p.name).collect()
     }
 
     /// Sets the sphere rotation for the next frames (no-op for flat input).
     pub fn set_rotation(&self, rotation: &Mat3) {
+        self.set_frame(rotation, (0.0, 0.0));
+    }
+
+    /// Sets the sphere rotation and the frame's sub-pixel jitter (a TAA
+    /// frame's `conventions::taa_jitter`) for the next frames.
+    pub fn set_frame(&self, rotation: &Mat3, jitter: (f64, f64)) {
         let (Some(cam), Some(buf)) = (&self.camera, &self.uniforms) else {
             return;
         };
@@ -217,13 +235,47 @@ impl<'a> GpuRenderer<'a> {
             size: [cam.width, cam.height],
             tan_half: libm::tan(0.5 * cam.fov_y_deg.to_radians()) as f32,
             aspect: (cam.width as f64 / cam.height as f64) as f32,
+            jitter: [jitter.0 as f32, jitter.1 as f32],
+            _pad: [0.0; 2],
         };
         self.ctx.queue.write_buffer(buf, 0, bytemuck::bytes_of(&u));
     }
 
+    /// Whether the plan has a TAA stage.
+    pub fn has_taa(&self) -> bool {
+        self.taa.is_some()
+    }
+
+    /// The TAA history of the next frame: `reprojection` from the previous
+    /// frame's rotation (`conventions::reprojection`), or None for a reset.
+    /// No-op without a TAA stage.
+    pub fn set_taa_history(&self, reprojection: Option<&Mat3>) {
+        let Some(taa) = &self.taa else {
+            return;
+        };
+        let row = |m: &Mat3, i: usize| [m[i][0] as f32, m[i][1] as f32, m[i][2] as f32, 0.0];
+        let u = super::taa::TaaUniforms {
+            rows: match reprojection {
+                Some(m) => [row(m, 0), row(m, 1), row(m, 2)],
+                None => [[0.0; 4]; 3],
+            },
+            has_history: reprojection.is_some() as u32,
+            _pad: [0; 3],
+        };
+        self.ctx
+            .queue
+            .write_buffer(&taa.uniforms, 0, bytemuck::bytes_of(&u));
+    }
+
     /// Records every pass of the plan, timestamps in `slot`.
     pub fn encode(&self, encoder: &mut wgpu::CommandEncoder, slot: u32) {
-        for (i, (name, dispatches)) in self.passes.iter().enumerate() {
+        let odd = self.odd.load(std::sync::atomic::Ordering::Relaxed);
+        for (i, p) in self.passes.iter().enumerate() {
+            let name = p.name;
+            let dispatches = match &p.odd {
+                Some(d) if odd => d,
+                _ => &p.dispatches,
+            };
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some(&format!("tonegate.{name}")),
                 timestamp_writes: self.queries.as_ref().map(|q| q.writes(slot, i)),
@@ -281,6 +333,11 @@ impl<'a> GpuRenderer<'a> {
             );
         }
         self.ctx.queue.submit([encoder.finish()]);
+        if self.taa.is_some() {
+            // The frame just submitted wrote the other history texture.
+            self.odd
+                .fetch_xor(true, std::sync::atomic::Ordering::Relaxed);
+        }
         self.ctx.wait()?;
         let stats_bytes = self.ctx.read_buffer(&self.stats_read)?;
         let stats: GpuStats =
@@ -310,15 +367,33 @@ impl<'a> GpuRenderer<'a> {
         })
     }
 
-    /// Reads back the output texture of `stage` ("sphere", "tonemap",
-    /// "bloom_blur", "bloom_composite", "grade", or "display" for the frame
-    /// entering `encode`) as f64, or None when the plan has no such stage.
+    /// Reads back the output texture of `stage` ("sphere", "taa_sobel",
+    /// "taa", "tonemap", "bloom_blur", "bloom_composite", "grade", "display"
+    /// for the frame entering `encode`, or "taa_history" for the unsharpened
+    /// TAA blend of the last frame) as f64, or None when the plan has no such
+    /// stage.
     pub fn read_output(&self, stage: &str) -> Result<Option<LinearImage>, GpuError> {
-        let Some((_, texture)) = self.outputs.iter().find(|(n, _)| *n == stage) else {
+        // The TAA history the last frame wrote: the texture the next frame reads.
+        let history = self.taa.as_ref().map(|t| {
+            let odd = self.odd.load(std::sync::atomic::Ordering::Relaxed);
+            ("taa_history", &t.history[usize::from(odd)])
+        });
+        let found = self
+            .outputs
+            .iter()
+            .map(|(n, t)| (*n, t))
+            .chain(history)
+            .find(|(n, _)| *n == stage);
+        let Some((_, texture)) = found else {
             return Ok(None);
         };
         let (w, h) = (texture.width(), texture.height());
-        let bpp = self.config.hdr_format.bytes_per_pixel();
+        let single = texture.format() == wgpu::TextureFormat::R32Float;
+        let bpp = if single {
+            4
+        } else {
+            self.config.hdr_format.bytes_per_pixel()
+        };
         let row = (w * bpp).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
             * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
         let buf = read_buffer(self.ctx, "tonegate.readback", row as u64 * h as u64);
@@ -351,6 +426,11 @@ impl<'a> GpuRenderer<'a> {
         for y in 0..h as usize {
             let line = &bytes[y * row as usize..y * row as usize + (w * bpp) as usize];
             for px in line.chunks_exact(bpp as usize) {
+                if single {
+                    let v = f32::from_le_bytes([px[0], px[1], px[2], px[3]]) as f64;
+                    pixels.push([v, v, v]);
+                    continue;
+                }
                 let c = |i: usize| -> f64 {
                     match self.config.hdr_format {
                         HdrFormat::Rgba32Float => f32::from_le_bytes([
@@ -383,6 +463,7 @@ fn frame_resources<'a, 'p>(
     pipeline: &'p Pipeline<'p>,
     config: GpuConfig,
     (width, height): (u32, u32),
+    taa: bool,
 ) -> Result<Wiring<'a, 'p>, GpuError> {
     let format = config.hdr_format;
     let (weights, delta) = operator_constants(pipeline.operator);
@@ -403,6 +484,15 @@ fn frame_resources<'a, 'p>(
             (hdr, None)
         }
     };
+    // A TAA plan's sphere writes the jittered frame, and `taa` the frame the
+    // operator reads.
+    let (hdr, current) = match taa {
+        true => (
+            hdr_texture(ctx, "tonegate.taa", width, height, format),
+            Some(hdr),
+        ),
+        false => (hdr, None),
+    };
     Ok(Wiring {
         ctx,
         format,
@@ -411,6 +501,10 @@ fn frame_resources<'a, 'p>(
         pipeline,
         reduction: config.reduction,
         fault_gain: config.fault_gain,
+        taa_fault: config.taa_fault,
+        current,
+        amount: None,
+        taa: None,
         weights,
         delta,
         hdr,

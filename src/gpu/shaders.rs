@@ -72,6 +72,11 @@ const SOURCES: &[(&str, &str)] = &[
     ),
     ("grade.wgsl", include_str!("../../shaders/grade.wgsl")),
     ("encode.wgsl", include_str!("../../shaders/encode.wgsl")),
+    (
+        "taa_sobel.wgsl",
+        include_str!("../../shaders/taa_sobel.wgsl"),
+    ),
+    ("taa.wgsl", include_str!("../../shaders/taa.wgsl")),
     ("floor.wgsl", include_str!("../../shaders/floor.wgsl")),
     ("fused.wgsl", include_str!("../../shaders/fused.wgsl")),
 ];

@@ -16,14 +16,23 @@ use crate::scene::Bloom;
 pub struct Pass {
     pub name: &'static str,
     pub dispatches: Vec<Dispatch>,
+    /// The dispatches of odd frames, for a stage whose bindings alternate
+    /// (the TAA history's ping-pong pair); None: `dispatches` every frame.
+    pub odd: Option<Vec<Dispatch>>,
 }
 
 impl Pass {
     /// A stage that runs inside another stage's pass.
     pub fn merged(name: &'static str) -> Pass {
+        Pass::every_frame(name, Vec::new())
+    }
+
+    /// A pass with the same dispatches every frame.
+    pub fn every_frame(name: &'static str, dispatches: Vec<Dispatch>) -> Pass {
         Pass {
             name,
-            dispatches: Vec::new(),
+            dispatches,
+            odd: None,
         }
     }
 }
@@ -38,11 +47,20 @@ pub struct Wiring<'a, 'p> {
     pub reduction: super::ReductionMethod,
     /// Fault injection: a gain on the tone-mapped colour (`check --fault-gain`).
     pub fault_gain: Option<f32>,
+    /// Fault injection: a broken TAA (`check --taa-fault`).
+    pub taa_fault: Option<super::TaaFault>,
     /// The operator's luminance weights and δ.
     pub weights: [f64; 3],
     pub delta: f64,
-    /// The HDR frame: `sphere`'s output, or the uploaded flat image.
+    /// The HDR frame the operator reads: `sphere`'s output (`taa`'s in a TAA
+    /// plan), or the uploaded flat image.
     pub hdr: wgpu::Texture,
+    /// In a TAA plan, `sphere`'s jittered frame, which `taa` resolves into `hdr`.
+    pub current: Option<wgpu::Texture>,
+    /// `taa_sobel`'s aliasing amount.
+    pub amount: Option<wgpu::Texture>,
+    /// `taa`'s history pair and uniforms.
+    pub taa: Option<super::taa::TaaResources>,
     /// `luminance_stats`'s output and the resolved operator parameters.
     pub stats: wgpu::Buffer,
     /// `encode`'s packed 8-bit frame.
@@ -97,10 +115,44 @@ impl<'p> Wiring<'_, 'p> {
                     stage: name,
                     what: "environment",
                 })?;
-                self.outputs.push((name, self.hdr.clone()));
+                let target = self.current.as_ref().unwrap_or(&self.hdr);
+                self.outputs.push((name, target.clone()));
                 vec![super::sphere::sphere(
-                    ctx, format, *spp, uniforms, env, &self.hdr,
+                    ctx, format, *spp, uniforms, env, target,
                 )]
+            }
+            Stage::TaaSobel => {
+                let current = self.current.clone().ok_or(order("sphere"))?;
+                let amount =
+                    super::taa_sobel::amount_texture(ctx, current.width(), current.height());
+                let d = super::taa_sobel::taa_sobel(ctx, format, &current, &amount);
+                self.outputs.push((name, amount.clone()));
+                self.amount = Some(amount);
+                vec![d]
+            }
+            Stage::Taa(params) => {
+                let (_, uniforms) = self.environment.as_ref().ok_or(PlanError::NoParameters {
+                    stage: name,
+                    what: "camera",
+                })?;
+                let current = self.current.clone().ok_or(order("sphere"))?;
+                let made = super::taa::taa(
+                    ctx,
+                    format,
+                    params,
+                    self.taa_fault,
+                    uniforms,
+                    &current,
+                    self.amount.as_ref(),
+                    &self.hdr,
+                );
+                self.outputs.push((name, self.hdr.clone()));
+                self.taa = Some(made.resources);
+                return Ok(Pass {
+                    name,
+                    dispatches: made.even,
+                    odd: Some(made.odd),
+                });
             }
             Stage::LuminanceStats(needs) => super::luminance_stats::luminance_stats(
                 ctx,
@@ -208,6 +260,6 @@ impl<'p> Wiring<'_, 'p> {
                 )]
             }
         };
-        Ok(Pass { name, dispatches })
+        Ok(Pass::every_frame(name, dispatches))
     }
 }

@@ -11,6 +11,8 @@ pub mod grade;
 pub mod grade_stats;
 pub mod luminance_stats;
 pub mod sphere;
+pub mod taa;
+pub mod taa_sobel;
 pub mod tonemap;
 
 use crate::conventions::{rotation_matrix, Camera};
@@ -167,7 +169,9 @@ fn run_stages_until(
         let name = stage.name();
         let tonemap_first = || PlanError::order(name, "tonemap");
         match stage {
-            Stage::Sphere { .. } => {}
+            // The TAA stages run before the plan's loop, in `render_taa_frame`:
+            // they carry the history from frame to frame.
+            Stage::Sphere { .. } | Stage::TaaSobel | Stage::Taa(_) => {}
             Stage::LuminanceStats(needs) => {
                 let hdr = hdr.as_ref().ok_or_else(hdr_gone)?;
                 stats = luminance_stats::luminance_stats(hdr, *needs, weights, delta);
@@ -287,9 +291,47 @@ pub fn render_frame(
     spp: u32,
 ) -> Result<FrameOutputs, PlanError> {
     let plan = StagePlan::for_scene(scene, spp);
+    if plan.taa().is_some() {
+        // A TAA frame depends on the frames before it: `render::SceneRenderer`
+        // carries the history (`render_taa_frame`).
+        return Err(PlanError::NoParameters {
+            stage: "taa",
+            what: "history (render TAA frames in order through render_taa_frame)",
+        });
+    }
     let rotation = rotation_matrix(scene.rotation.axis, scene.angle(n));
     let hdr = sphere::sphere(env, &scene_camera(scene), &rotation, spp);
     run_plan(&plan, hdr, &Pipeline::of_scene(scene))
+}
+
+/// Frame `n` of a TAA scene at 1 spp: `sphere` at the frame's jitter,
+/// `taa_sobel` and `taa` against `history` (None: a reset), then the rest of
+/// the plan on the resolved frame. Returns the frame's outputs (`hdr` is the
+/// `taa` output) and the next frame's history. The plan must be a TAA plan
+/// (`StagePlan::for_scene(scene, 1)` of a scene with active TAA).
+pub fn render_taa_frame(
+    scene: &Scene,
+    env: &HdrImage,
+    n: u32,
+    history: Option<&LinearImage>,
+) -> Result<(FrameOutputs, LinearImage), PlanError> {
+    let plan = StagePlan::for_scene(scene, 1);
+    let params = plan.taa().ok_or(PlanError::Incomplete { missing: "taa" })?;
+    let camera = scene_camera(scene);
+    let rotation = rotation_matrix(scene.rotation.axis, scene.angle(n));
+    let current =
+        sphere::sphere_jittered(env, &camera, &rotation, crate::conventions::taa_jitter(n));
+    let amount = plan
+        .contains("taa_sobel")
+        .then(|| taa_sobel::taa_sobel(&current));
+    let previous = rotation_matrix(scene.rotation.axis, scene.angle(n.saturating_sub(1)));
+    let frame = taa::TaaFrame {
+        history,
+        reprojection: crate::conventions::reprojection(&previous, &rotation),
+    };
+    let resolved = taa::taa(&current, amount.as_ref(), &frame, &camera, &params);
+    let out = run_plan(&plan, resolved.output, &Pipeline::of_scene(scene))?;
+    Ok((out, resolved.history))
 }
 
 /// Tone-maps a flat HDR image (no sphere stage).

@@ -11,13 +11,15 @@ use std::path::{Path, PathBuf};
 mod display;
 mod operator;
 mod sequence;
+mod taa;
 mod units;
 
 pub use crate::conventions::MAX_SPP;
 pub use display::{Bloom, BrightPass, Encoding, Grade};
 pub use operator::{ColourPath, Key, Operator, OperatorKind};
 pub use sequence::{Environment, Rotation, MAX_FRAMES};
-pub use units::{Factor, NonNegative, Positive, Radius, Size, MAX_OUTPUT_PIXELS};
+pub use taa::{Taa, TaaParams, TaaVariant};
+pub use units::{Factor, Feedback, NonNegative, Positive, Radius, Size, Unit, MAX_OUTPUT_PIXELS};
 
 use crate::check::{CheckSpec, Judging, TestKind};
 
@@ -61,6 +63,11 @@ pub struct Scene {
     pub grade: Option<Grade>,
     #[serde(default)]
     pub encoding: Encoding,
+    /// Temporal anti-aliasing: the scene renders 1 jittered spp per frame
+    /// and resolves it against its history (or, `variant = "off"`, the plain
+    /// 1-spp frame: the no-AA side of the comparison).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub taa: Option<Taa>,
     /// Samples per pixel of the reference (accumulation buffer), 1..=128.
     #[serde(default = "default_spp")]
     pub reference_spp: u32,
@@ -203,6 +210,30 @@ impl Scene {
                 self.reference_spp
             ));
         }
+        if let Some(taa) = &self.taa {
+            if self.reference_spp < 2 {
+                return Err(format!(
+                    "{}: a TAA scene is judged against the accumulation reference, which needs at least 2 samples, got {}",
+                    at("reference_spp"),
+                    self.reference_spp
+                ));
+            }
+            if taa.feedback_min.get() > taa.feedback_max.get() {
+                return Err(format!(
+                    "{}: feedback_min {} exceeds feedback_max {}",
+                    at("feedback_min"),
+                    taa.feedback_min.get(),
+                    taa.feedback_max.get()
+                ));
+            }
+            if let Some(n) = taa.reset_frames.iter().find(|&&n| n >= self.frames) {
+                return Err(format!(
+                    "{}: frame {n} is past the sequence's last frame {}",
+                    at("reset_frames"),
+                    self.frames - 1
+                ));
+            }
+        }
         if let Operator::Seed000 { white_fraction, .. } = &self.operator {
             if white_fraction.get() > 1.0 {
                 return Err(format!(
@@ -231,6 +262,22 @@ impl Scene {
         (n as f64 * self.rotation.degrees_per_frame).to_radians()
     }
 
+    /// The TAA the scene's 1-spp frames run, if any (`variant = "off"` runs none).
+    pub fn taa_active(&self) -> Option<&Taa> {
+        self.taa.as_ref().filter(|t| t.variant != TaaVariant::Off)
+    }
+
+    /// The spp `check` renders at unless told otherwise, and the spp of
+    /// checks that name none: a TAA scene (any variant) is about its 1-spp
+    /// frames; any other scene renders like for like with its goldens.
+    pub fn default_spp(&self) -> u32 {
+        if self.taa.is_some() {
+            1
+        } else {
+            self.reference_spp
+        }
+    }
+
     /// A static scene (ω = 0) renders the same frame every time.
     pub fn is_static(&self) -> bool {
         self.rotation.degrees_per_frame == 0.0
@@ -251,7 +298,7 @@ impl Scene {
         Judging {
             scene: &self.name,
             checks: &self.checks,
-            reference_spp: self.reference_spp,
+            reference_spp: self.default_spp(),
             test: self.test_kind(),
         }
     }

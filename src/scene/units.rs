@@ -64,6 +64,19 @@ checked_number!(
     "between 1 and 64"
 );
 
+checked_number!(
+    /// A number in [0, 1].
+    Unit(f64 as "f64"),
+    |v| (0.0..=1.0).contains(&v),
+    "between 0 and 1"
+);
+checked_number!(
+    /// A history weight in [0, 1): 1 would never take a new sample.
+    Feedback(f64 as "f64"),
+    |v| (0.0..1.0).contains(&v),
+    "in [0, 1)"
+);
+
 /// Largest output frame a scene may ask for (both renderers allocate it).
 pub const MAX_OUTPUT_PIXELS: u64 = 64 * 1024 * 1024;
 

@@ -218,6 +218,7 @@ pub fn measure_scene(
             // front is drawn over the staged path's per-stage choices.
             execution: crate::gpu::Execution::Staged,
             fault_gain: None,
+            taa_fault: None,
         };
         let r = SceneRenderer::gpu(&variant, &env, ctx, config, knobs.spp).map_err(failed)?;
         let mut times = Vec::new();

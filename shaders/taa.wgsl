@@ -1,0 +1,205 @@
+// taa: the jittered frame resolved against its reprojected, clipped history
+// and sharpened (seed 002 §3.6), mirroring src/reference/taa.rs step by step.
+//#include shared/frame.wgsl
+//#include shared/conventions.wgsl
+//#include shared/colour.wgsl
+
+// The history's weight range (scene `[taa]` feedback_min / feedback_max).
+override FEEDBACK_MIN: f32 = 0.88;
+override FEEDBACK_MAX: f32 = 0.97;
+// Sharpen strength s of seed 002's kernel [0 −1 0; −1 5 −1; 0 −1 0].
+override SHARPEN: f32 = 0.25;
+// Fault injection (`check --taa-fault no-clip`): blend the unclipped history.
+override NO_CLIP: bool = false;
+
+struct TaaUniforms {
+    // Rows of the reprojection matrix R(n−1)·R(n)ᵀ (xyz).
+    m0: vec4<f32>,
+    m1: vec4<f32>,
+    m2: vec4<f32>,
+    // 0 on a reset: the frame has no history.
+    has_history: u32,
+}
+
+@group(0) @binding(0) var<uniform> frame: FrameUniforms;
+@group(0) @binding(1) var<uniform> taa: TaaUniforms;
+@group(0) @binding(2) var current: texture_2d<f32>;
+@group(0) @binding(3) var history_in: texture_2d<f32>;
+@group(0) @binding(4) var amount: texture_2d<f32>;
+@group(0) @binding(5) var history_out: texture_storage_2d<HDR_FORMAT, write>;
+// The stage output when the sharpen is off (SHARPEN = 0): the blend itself.
+@group(0) @binding(6) var taa_out: texture_storage_2d<HDR_FORMAT, write>;
+// The sharpen entry's input (this frame's blend) and output.
+@group(0) @binding(7) var blend_in: texture_2d<f32>;
+
+const BT709 = vec3<f32>(0.2126, 0.7152, 0.0722);
+
+// conventions.wgsl's `bilinear` reads the environment through these; `taa`
+// reads no environment and never calls it.
+fn env_size() -> vec2<u32> {
+    return vec2<u32>(1u, 1u);
+}
+fn env_texel(x: i32, y: i32) -> vec3<f32> {
+    return vec3<f32>(0.0);
+}
+
+fn load_clamped(t: texture_2d<f32>, x: i32, y: i32) -> vec3<f32> {
+    let dims = vec2<i32>(textureDimensions(t));
+    return textureLoad(t, vec2<i32>(clamp(x, 0, dims.x - 1), clamp(y, 0, dims.y - 1)), 0).rgb;
+}
+
+fn amount_at(x: i32, y: i32) -> f32 {
+    let dims = vec2<i32>(textureDimensions(amount));
+    return textureLoad(amount, vec2<i32>(clamp(x, 0, dims.x - 1), clamp(y, 0, dims.y - 1)), 0).r;
+}
+
+// The history at film point q, bilinear over texel centres, border clamped.
+fn history_at(q: vec2<f32>) -> vec3<f32> {
+    let x = q.x - 0.5;
+    let y = q.y - 0.5;
+    let x0f = floor(x);
+    let y0f = floor(y);
+    let fx = x - x0f;
+    let fy = y - y0f;
+    let x0 = i32(x0f);
+    let y0 = i32(y0f);
+    let p00 = load_clamped(history_in, x0, y0);
+    let p10 = load_clamped(history_in, x0 + 1, y0);
+    let p01 = load_clamped(history_in, x0, y0 + 1);
+    let p11 = load_clamped(history_in, x0 + 1, y0 + 1);
+    let top = p00 * (1.0 - fx) + p10 * fx;
+    let bottom = p01 * (1.0 - fx) + p11 * fx;
+    return top * (1.0 - fy) + bottom * fy;
+}
+
+// The cross (+) and 3×3 neighbourhoods' min and max.
+struct Neighbourhood {
+    lo_cross: vec3<f32>,
+    hi_cross: vec3<f32>,
+    lo_all: vec3<f32>,
+    hi_all: vec3<f32>,
+}
+
+fn neighbourhood(x: i32, y: i32) -> Neighbourhood {
+    var n: Neighbourhood;
+    let c = load_clamped(current, x, y);
+    let l = load_clamped(current, x - 1, y);
+    let r = load_clamped(current, x + 1, y);
+    let u = load_clamped(current, x, y - 1);
+    let d = load_clamped(current, x, y + 1);
+    n.lo_cross = min(min(min(c, l), min(r, u)), d);
+    n.hi_cross = max(max(max(c, l), max(r, u)), d);
+    let a = load_clamped(current, x - 1, y - 1);
+    let b = load_clamped(current, x + 1, y - 1);
+    let e = load_clamped(current, x - 1, y + 1);
+    let f = load_clamped(current, x + 1, y + 1);
+    n.lo_all = min(n.lo_cross, min(min(a, b), min(e, f)));
+    n.hi_all = max(n.hi_cross, max(max(a, b), max(e, f)));
+    return n;
+}
+
+// `clip_to_box` of the reference: toward the box centre, onto its surface.
+fn clip_to_box(h: vec3<f32>, lo: vec3<f32>, hi: vec3<f32>) -> vec3<f32> {
+    let centre = 0.5 * (lo + hi);
+    let extent = 0.5 * (hi - lo);
+    let v = h - centre;
+    var reach = 0.0;
+    var flat_miss = false;
+    for (var k = 0; k < 3; k = k + 1) {
+        if (extent[k] > 0.0) {
+            reach = max(reach, abs(v[k]) / extent[k]);
+        } else if (v[k] != 0.0) {
+            flat_miss = true;
+        }
+    }
+    if (flat_miss) {
+        return centre;
+    }
+    if (reach <= 1.0) {
+        return h;
+    }
+    return centre + v / reach;
+}
+
+fn feedback(c: vec3<f32>, h: vec3<f32>) -> f32 {
+    let yc = luminance_with(c, BT709);
+    let yh = luminance_with(h, BT709);
+    let top = max(yc, yh);
+    var d = 0.0;
+    if (top >= SMALLEST_NORMAL) {
+        d = min(abs(yc - yh) / top, 1.0);
+    }
+    let w = (1.0 - d) * (1.0 - d);
+    return FEEDBACK_MIN + (FEEDBACK_MAX - FEEDBACK_MIN) * w;
+}
+
+// The blend of pixel id given its clipping box; writes the new history (and
+// the output when there is no sharpen pass).
+fn finish(id: vec2<u32>, lo: vec3<f32>, hi: vec3<f32>) {
+    let c = textureLoad(current, vec2<i32>(id), 0).rgb;
+    var out = c;
+    if (taa.has_history != 0u) {
+        let q = reproject(id.x, id.y, taa.m0.xyz, taa.m1.xyz, taa.m2.xyz, frame);
+        if (q.x >= 0.0) {
+            var h = history_at(q);
+            if (!NO_CLIP) {
+                h = clip_to_box(h, lo, hi);
+            }
+            out = c + (h - c) * feedback(c, h);
+        }
+    }
+    textureStore(history_out, vec2<i32>(id), vec4<f32>(out, 1.0));
+    if (SHARPEN == 0.0) {
+        textureStore(taa_out, vec2<i32>(id), vec4<f32>(out, 1.0));
+    }
+}
+
+// `taa = "clip"`: the two neighbourhoods' bounds averaged.
+@compute @workgroup_size(64, 1)
+fn resolve_clip(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x >= frame.size.x || id.y >= frame.size.y) {
+        return;
+    }
+    let n = neighbourhood(i32(id.x), i32(id.y));
+    finish(id.xy, 0.5 * (n.lo_cross + n.lo_all), 0.5 * (n.hi_cross + n.hi_all));
+}
+
+// `taa = "edge_aware"`: blended by the aliasing amount, shrunk toward the
+// current colour where there is no edge (seed 002 eqs. 4.12–4.16).
+@compute @workgroup_size(64, 1)
+fn resolve_edge_aware(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x >= frame.size.x || id.y >= frame.size.y) {
+        return;
+    }
+    let x = i32(id.x);
+    let y = i32(id.y);
+    let centre = amount_at(x, y);
+    let cross = centre + amount_at(x - 1, y) + amount_at(x + 1, y) + amount_at(x, y - 1) + amount_at(x, y + 1);
+    let all = cross + amount_at(x - 1, y - 1) + amount_at(x + 1, y - 1) + amount_at(x - 1, y + 1) + amount_at(x + 1, y + 1);
+    let a = clamp(cross / 5.0 + (all / 9.0 - cross / 5.0) * clamp(centre, 0.0, 1.0), 0.0, 1.0);
+    let n = neighbourhood(x, y);
+    let c = textureLoad(current, vec2<i32>(id.xy), 0).rgb;
+    let lo = n.lo_cross + (n.lo_all - n.lo_cross) * a;
+    let hi = n.hi_cross + (n.hi_all - n.hi_cross) * a;
+    finish(id.xy, c + (lo - c) * a, c + (hi - c) * a);
+}
+
+// The sharpen: b + s·(4b − N − S − E − W), limited to the cross
+// neighbourhood's range (reference::taa::sharpen says why).
+@compute @workgroup_size(64, 1)
+fn sharpen(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x >= frame.size.x || id.y >= frame.size.y) {
+        return;
+    }
+    let x = i32(id.x);
+    let y = i32(id.y);
+    let b = load_clamped(blend_in, x, y);
+    let n = load_clamped(blend_in, x, y - 1);
+    let s = load_clamped(blend_in, x, y + 1);
+    let e = load_clamped(blend_in, x + 1, y);
+    let w = load_clamped(blend_in, x - 1, y);
+    let lap = 4.0 * b - n - s - e - w;
+    let lo = min(min(min(b, n), min(s, e)), w);
+    let hi = max(max(max(b, n), max(s, e)), w);
+    textureStore(taa_out, vec2<i32>(id.xy), vec4<f32>(clamp(b + SHARPEN * lap, lo, hi), 1.0));
+}

@@ -1,0 +1,444 @@
+//! `taa`: temporal anti-aliasing (seed 002 §3.6, SPEC §5), in f64.
+//!
+//! Each frame renders one jittered sample per pixel (`sphere`), and this
+//! stage blends it with the history, the previous frame's resolved image:
+//!
+//! 1. **Reprojection**, exact: the camera is fixed at the sphere's centre and
+//!    the sphere turns by a known rotation, so the point pixel p sees now was
+//!    seen last frame at `conventions::reproject` (no velocity buffer). The
+//!    history is read there bilinearly (texel centres at k + ½, clamped at
+//!    the border); a point that was off the film has no history.
+//! 2. **The clipping box** from the current frame's 3×3 and cross (+)
+//!    neighbourhoods: `clip` averages their min and max (§3.6.3);
+//!    `edge_aware` blends them by the pixel's aliasing amount a (Sobel, eq.
+//!    4.15) and shrinks the box toward the current colour by a (eq. 4.16).
+//!    Seed 002's other two signals, depth edges and the model index, do not
+//!    exist in a one-object sphere scene and are not faked: the terms are 0.
+//! 3. **Clipping**, not clamping (§3.6.4): the history colour is moved along
+//!    the line to the box centre until it is inside the box, so it keeps its
+//!    hue instead of snapping to a corner.
+//! 4. **Feedback** from the luminance difference between the clipped history
+//!    and the current colour, biased toward the history (§3.6.3): with
+//!    d = |Yc − Yh| / max(Yc, Yh), the history's weight is
+//!    feedback_min + (feedback_max − feedback_min)·(1 − d)². The difference is
+//!    relative, so the weight does not depend on the exposure of an HDR frame.
+//! 5. The blend is the new history. The stage's output is the blend
+//!    **sharpened** by seed 002's kernel at strength s (eq. 3.1, see
+//!    `scene::Taa::sharpen`), limited to the cross neighbourhood's range (see
+//!    [`sharpen`]); the history is kept unsharpened, or the sharpening would
+//!    compound frame after frame.
+//!
+//! `shaders/taa.wgsl` does the same arithmetic in f32.
+
+use super::taa_sobel::clamped;
+use crate::color::{luminance, SMALLEST_NORMAL};
+use crate::conventions::{reproject, Camera, Mat3};
+use crate::image::{Image, LinearImage};
+use crate::scene::{TaaParams, TaaVariant};
+use rayon::prelude::*;
+
+/// What one TAA frame resolves against.
+pub struct TaaFrame<'a> {
+    /// The previous frame's resolved (unsharpened) image; None on a reset.
+    pub history: Option<&'a LinearImage>,
+    /// `conventions::reprojection` from the previous frame's rotation to this one's.
+    pub reprojection: Mat3,
+}
+
+/// The stage's two images.
+pub struct TaaOutput {
+    /// The blend: next frame's history.
+    pub history: LinearImage,
+    /// The sharpened blend: what the later stages read.
+    pub output: LinearImage,
+}
+
+/// The history read bilinearly at film point (px, py), border clamped.
+pub(crate) fn history_at(history: &LinearImage, px: f64, py: f64) -> [f64; 3] {
+    let (x, y) = (px - 0.5, py - 0.5);
+    let (x0, y0) = (x.floor(), y.floor());
+    let (fx, fy) = (x - x0, y - y0);
+    let (x0, y0) = (x0 as i64, y0 as i64);
+    let t = |dx, dy| clamped(history, x0 + dx, y0 + dy);
+    let (p00, p10, p01, p11) = (t(0, 0), t(1, 0), t(0, 1), t(1, 1));
+    let mut out = [0.0; 3];
+    for c in 0..3 {
+        let top = p00[c] * (1.0 - fx) + p10[c] * fx;
+        let bottom = p01[c] * (1.0 - fx) + p11[c] * fx;
+        out[c] = top * (1.0 - fy) + bottom * fy;
+    }
+    out
+}
+
+fn mix3(a: [f64; 3], b: [f64; 3], t: f64) -> [f64; 3] {
+    [
+        a[0] + (b[0] - a[0]) * t,
+        a[1] + (b[1] - a[1]) * t,
+        a[2] + (b[2] - a[2]) * t,
+    ]
+}
+
+/// `history` clipped toward the centre of the box [lo, hi]: unchanged when
+/// inside, else moved along the line to the centre onto the box's surface.
+pub fn clip_to_box(history: [f64; 3], lo: [f64; 3], hi: [f64; 3]) -> [f64; 3] {
+    let mut reach = 0.0f64;
+    let mut centre = [0.0; 3];
+    let mut v = [0.0; 3];
+    for c in 0..3 {
+        centre[c] = 0.5 * (lo[c] + hi[c]);
+        let extent = 0.5 * (hi[c] - lo[c]);
+        v[c] = history[c] - centre[c];
+        let r = if extent > 0.0 {
+            v[c].abs() / extent
+        } else if v[c] != 0.0 {
+            f64::INFINITY
+        } else {
+            0.0
+        };
+        reach = reach.max(r);
+    }
+    if reach <= 1.0 {
+        history
+    } else {
+        // reach = ∞ (a flat box and a history off it) gives the centre.
+        [
+            centre[0] + v[0] / reach,
+            centre[1] + v[1] / reach,
+            centre[2] + v[2] / reach,
+        ]
+    }
+}
+
+/// The history's weight for current colour `c` and clipped history `h`.
+pub fn feedback(c: [f64; 3], h: [f64; 3], p: &TaaParams) -> f64 {
+    let (yc, yh) = (luminance(c), luminance(h));
+    let top = yc.max(yh);
+    let d = if top < SMALLEST_NORMAL {
+        0.0
+    } else {
+        ((yc - yh).abs() / top).min(1.0)
+    };
+    let w = (1.0 - d) * (1.0 - d);
+    p.feedback_min + (p.feedback_max - p.feedback_min) * w
+}
+
+/// The clipping box of pixel (x, y) of `current`: (lo, hi). `amount` is
+/// the Sobel image for `edge_aware` (None for `clip`).
+pub(crate) fn clip_box(
+    current: &LinearImage,
+    amount: Option<&Image<f64>>,
+    x: i64,
+    y: i64,
+) -> ([f64; 3], [f64; 3]) {
+    const CROSS: [(i64, i64); 5] = [(0, 0), (-1, 0), (1, 0), (0, -1), (0, 1)];
+    const CORNERS: [(i64, i64); 4] = [(-1, -1), (1, -1), (-1, 1), (1, 1)];
+    let mut lo_x = [f64::INFINITY; 3];
+    let mut hi_x = [f64::NEG_INFINITY; 3];
+    for (dx, dy) in CROSS {
+        let p = clamped(current, x + dx, y + dy);
+        for c in 0..3 {
+            lo_x[c] = lo_x[c].min(p[c]);
+            hi_x[c] = hi_x[c].max(p[c]);
+        }
+    }
+    let (mut lo_9, mut hi_9) = (lo_x, hi_x);
+    for (dx, dy) in CORNERS {
+        let p = clamped(current, x + dx, y + dy);
+        for c in 0..3 {
+            lo_9[c] = lo_9[c].min(p[c]);
+            hi_9[c] = hi_9[c].max(p[c]);
+        }
+    }
+    match amount {
+        None => (mix3(lo_x, lo_9, 0.5), mix3(hi_x, hi_9, 0.5)),
+        Some(s) => {
+            let a = aliased_value(s, x, y);
+            let centre = clamped(current, x, y);
+            let lo = mix3(lo_x, lo_9, a);
+            let hi = mix3(hi_x, hi_9, a);
+            (mix3(centre, lo, a), mix3(centre, hi, a))
+        }
+    }
+}
+
+/// Seed 002's aliasedValue (eqs. 4.12–4.14) with the model and depth terms
+/// 0: the cross and 3×3 means of the Sobel amount, blended by the pixel's own.
+pub(crate) fn aliased_value(s: &Image<f64>, x: i64, y: i64) -> f64 {
+    let at = |dx, dy| clamped(s, x + dx, y + dy);
+    let centre = at(0, 0);
+    let cross = centre + at(-1, 0) + at(1, 0) + at(0, -1) + at(0, 1);
+    let all = cross + at(-1, -1) + at(1, -1) + at(-1, 1) + at(1, 1);
+    let mixed = cross / 5.0 + (all / 9.0 - cross / 5.0) * centre.clamp(0.0, 1.0);
+    mixed.clamp(0.0, 1.0)
+}
+
+/// Resolves `current` (this frame's jittered `sphere` output) against
+/// `frame`'s history. `amount` is `taa_sobel`'s output, required for
+/// `edge_aware` and ignored for `clip`.
+pub fn taa(
+    current: &LinearImage,
+    amount: Option<&Image<f64>>,
+    frame: &TaaFrame,
+    camera: &Camera,
+    p: &TaaParams,
+) -> TaaOutput {
+    let (w, h) = (current.width as usize, current.height as usize);
+    let amount = amount.filter(|_| p.variant == TaaVariant::EdgeAware);
+    let mut blend = vec![[0.0f64; 3]; w * h];
+    blend.par_chunks_mut(w).enumerate().for_each(|(j, row)| {
+        for (i, out) in row.iter_mut().enumerate() {
+            let c = current.pixels[j * w + i];
+            let previous = frame.history.and_then(|hist| {
+                reproject(camera, &frame.reprojection, i as u32, j as u32)
+                    .map(|(px, py)| history_at(hist, px, py))
+            });
+            *out = match previous {
+                None => c,
+                Some(hist) => {
+                    let (lo, hi) = clip_box(current, amount, i as i64, j as i64);
+                    let clipped = clip_to_box(hist, lo, hi);
+                    mix3(c, clipped, feedback(c, clipped, p))
+                }
+            };
+        }
+    });
+    let history = Image {
+        width: current.width,
+        height: current.height,
+        pixels: blend,
+    };
+    let output = sharpen(&history, p.sharpen);
+    TaaOutput { history, output }
+}
+
+/// Seed 002's sharpen kernel at strength s: b + s·(4b − N − S − E − W),
+/// limited to the range of the blend's cross neighbourhood (per channel).
+///
+/// The limit is ours, not seed 002's: its frames are display-referred, where
+/// the kernel's undershoot beside a bright edge is a dark fringe. On an HDR
+/// frame a 100:1 edge at s = ¼ undershoots to −24 times the dark side; the
+/// fringe is clamped to 0, and a frame of such zeros drags the log-average
+/// the operator adapts to (measured on the grid: the whole frame 10 dB off
+/// the reference). Inside the neighbourhood's range the kernel still
+/// steepens every edge, and creates no colour the neighbourhood lacks.
+pub fn sharpen(b: &LinearImage, s: f64) -> LinearImage {
+    if s == 0.0 {
+        return b.clone();
+    }
+    let w = b.width as usize;
+    let mut out = vec![[0.0f64; 3]; b.pixel_count()];
+    out.par_chunks_mut(w).enumerate().for_each(|(j, row)| {
+        for (i, o) in row.iter_mut().enumerate() {
+            let (x, y) = (i as i64, j as i64);
+            let at = |dx, dy| clamped(b, x + dx, y + dy);
+            let (c, n, so, e, we) = (at(0, 0), at(0, -1), at(0, 1), at(1, 0), at(-1, 0));
+            for k in 0..3 {
+                let lap = 4.0 * c[k] - n[k] - so[k] - e[k] - we[k];
+                let lo = c[k].min(n[k]).min(so[k]).min(e[k]).min(we[k]);
+                let hi = c[k].max(n[k]).max(so[k]).max(e[k]).max(we[k]);
+                o[k] = (c[k] + s * lap).clamp(lo, hi);
+            }
+        }
+    });
+    Image {
+        width: b.width,
+        height: b.height,
+        pixels: out,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::conventions::{reprojection, rotation_matrix};
+
+    fn params(variant: TaaVariant) -> TaaParams {
+        TaaParams {
+            variant,
+            feedback_min: 0.88,
+            feedback_max: 0.97,
+            sharpen: 0.0,
+        }
+    }
+
+    #[test]
+    fn clipping_moves_toward_the_centre_where_clamping_would_snap_to_a_corner() {
+        let (lo, hi) = ([0.0, 0.0, 0.0], [1.0, 1.0, 1.0]);
+        assert_eq!(clip_to_box([0.2, 0.5, 0.9], lo, hi), [0.2, 0.5, 0.9]);
+        // (3, 0.5, 0.5) lies on the line through the centre along x: the
+        // clip lands on the face at x = 1; so does a clamp.
+        assert_eq!(clip_to_box([3.0, 0.5, 0.5], lo, hi), [1.0, 0.5, 0.5]);
+        // Off-axis, the clip keeps the direction from the centre; a clamp
+        // would give (1, 1, 0.5), a colour that was never there.
+        let c = clip_to_box([2.5, 1.5, 0.5], lo, hi);
+        assert!(
+            (c[0] - 1.0).abs() < 1e-15 && (c[1] - 0.75).abs() < 1e-15 && c[2] == 0.5,
+            "{c:?}"
+        );
+        // A flat box takes its only colour.
+        assert_eq!(clip_to_box([2.0, 2.0, 2.0], [1.0; 3], [1.0; 3]), [1.0; 3]);
+    }
+
+    #[test]
+    fn feedback_is_highest_when_history_agrees_and_ignores_exposure() {
+        let p = params(TaaVariant::Clip);
+        assert_eq!(feedback([1.0; 3], [1.0; 3], &p), 0.97);
+        assert!((feedback([1.0; 3], [0.0; 3], &p) - 0.88).abs() < 1e-15);
+        let a = feedback([1.0; 3], [1.5; 3], &p);
+        let b = feedback([1e3; 3], [1.5e3; 3], &p);
+        assert!((a - b).abs() < 1e-12 && a > 0.88 && a < 0.97);
+        assert_eq!(feedback([0.0; 3], [0.0; 3], &p), 0.97);
+    }
+
+    fn camera() -> Camera {
+        Camera {
+            width: 16,
+            height: 12,
+            fov_y_deg: 60.0,
+        }
+    }
+
+    fn still() -> Mat3 {
+        let r = rotation_matrix([1.0, 0.0, 0.0], 0.2);
+        reprojection(&r, &r)
+    }
+
+    #[test]
+    fn a_reset_passes_the_current_frame_through() {
+        let cur = LinearImage::from_fn(16, 12, |x, y| [x as f64, y as f64, 1.0]);
+        let out = taa(
+            &cur,
+            None,
+            &TaaFrame {
+                history: None,
+                reprojection: still(),
+            },
+            &camera(),
+            &params(TaaVariant::Clip),
+        );
+        assert_eq!(out.history.pixels, cur.pixels);
+    }
+
+    #[test]
+    fn a_history_inside_the_box_converges_and_one_outside_is_clipped() {
+        // Current frame flat 1.0: the box is the point 1.0 in `clip`, so any
+        // history is clipped onto it.
+        let cur = LinearImage::filled(16, 12, [1.0; 3]);
+        let hist = LinearImage::filled(16, 12, [5.0; 3]);
+        let frame = TaaFrame {
+            history: Some(&hist),
+            reprojection: still(),
+        };
+        let out = taa(&cur, None, &frame, &camera(), &params(TaaVariant::Clip));
+        assert!(out
+            .history
+            .pixels
+            .iter()
+            .all(|p| (p[0] - 1.0).abs() < 1e-12));
+        // A checkerboard current frame: the box spans [0, 1], a grey history
+        // is inside it and keeps 97 % of its weight (equal luminance).
+        let cur = LinearImage::from_fn(16, 12, |x, y| [((x + y) % 2) as f64; 3]);
+        let hist = LinearImage::filled(16, 12, [0.5; 3]);
+        let frame = TaaFrame {
+            history: Some(&hist),
+            reprojection: still(),
+        };
+        let out = taa(&cur, None, &frame, &camera(), &params(TaaVariant::Clip));
+        let p = out.history.get(5, 5);
+        let c = cur.get(5, 5)[0];
+        let k = feedback([c; 3], [0.5; 3], &params(TaaVariant::Clip));
+        assert!((p[0] - (c + (0.5 - c) * k)).abs() < 1e-12, "{p:?}");
+    }
+
+    #[test]
+    fn edge_aware_rejects_history_where_there_is_no_edge() {
+        // A smooth ramp: no edge anywhere, so the box shrinks to the current
+        // colour and a stale history is dropped; `clip` keeps some of it.
+        let cur = LinearImage::from_fn(16, 12, |x, _| [1.0 + 0.001 * x as f64; 3]);
+        let hist = LinearImage::from_fn(16, 12, |x, _| [1.0 + 0.001 * x as f64 + 0.0015; 3]);
+        let frame = TaaFrame {
+            history: Some(&hist),
+            reprojection: still(),
+        };
+        let s = super::super::taa_sobel::taa_sobel(&cur);
+        let edge = taa(
+            &cur,
+            Some(&s),
+            &frame,
+            &camera(),
+            &params(TaaVariant::EdgeAware),
+        );
+        let clip = taa(&cur, None, &frame, &camera(), &params(TaaVariant::Clip));
+        let (e, c, now) = (
+            edge.history.get(8, 6)[0],
+            clip.history.get(8, 6)[0],
+            cur.get(8, 6)[0],
+        );
+        assert!(
+            (e - now).abs() < (c - now).abs(),
+            "edge-aware {e}, clip {c}, current {now}"
+        );
+    }
+
+    #[test]
+    fn history_off_the_film_is_rejected() {
+        let cam = camera();
+        let cur = LinearImage::filled(16, 12, [1.0; 3]);
+        // A coloured history: clipped toward the grey box centre, it cannot
+        // land on the current grey value.
+        let hist = LinearImage::filled(16, 12, [3.0, 0.0, 3.0]);
+        // A large turn about x: the top rows saw the sphere above the film.
+        let m = reprojection(
+            &rotation_matrix([1.0, 0.0, 0.0], 0.0),
+            &rotation_matrix([1.0, 0.0, 0.0], 0.5),
+        );
+        let mut p = params(TaaVariant::Clip);
+        p.feedback_min = 0.5;
+        // With the box a point at 1.0 the clipped history is 1.0 anyway;
+        // widen it with a checkerboard to see the rejection itself.
+        let cur2 = LinearImage::from_fn(16, 12, |x, y| [((x + y) % 2) as f64 + 0.5; 3]);
+        let out = taa(
+            &cur2,
+            None,
+            &TaaFrame {
+                history: Some(&hist),
+                reprojection: m,
+            },
+            &cam,
+            &p,
+        );
+        let rejected: Vec<bool> = (0..12u32)
+            .map(|j| reproject(&cam, &m, 8, j).is_none())
+            .collect();
+        assert!(rejected.iter().any(|&r| r) && rejected.iter().any(|&r| !r));
+        for (j, r) in rejected.iter().enumerate() {
+            let got = out.history.get(8, j as u32);
+            let now = cur2.get(8, j as u32);
+            assert_eq!(got == now, *r, "row {j}: {got:?} vs {now:?}");
+        }
+        let _ = cur;
+    }
+
+    #[test]
+    fn sharpen_at_strength_one_is_the_seed_kernel_and_a_quarter_the_normalised_one() {
+        let b = LinearImage::from_fn(5, 5, |x, y| [(x * 3 + y * 7 % 5) as f64 + 1.0; 3]);
+        let s1 = sharpen(&b, 1.0);
+        let q = sharpen(&b, 0.25);
+        let (c, n, s, e, w) = (
+            b.get(2, 2)[0],
+            b.get(2, 1)[0],
+            b.get(2, 3)[0],
+            b.get(3, 2)[0],
+            b.get(1, 2)[0],
+        );
+        let (lo, hi) = (c.min(n).min(s).min(e).min(w), c.max(n).max(s).max(e).max(w));
+        assert_eq!(s1.get(2, 2)[0], (5.0 * c - n - s - e - w).clamp(lo, hi));
+        assert!((q.get(2, 2)[0] - (2.0 * c - 0.25 * (n + s + e + w)).clamp(lo, hi)).abs() < 1e-12);
+        // A bright line among dark pixels: the full kernel would give the
+        // dark neighbour 0.1·5 − 10 < 0; the limit keeps it at its own range.
+        let line = LinearImage::from_fn(5, 5, |x, _| [if x == 2 { 10.0 } else { 0.1 }; 3]);
+        let out = sharpen(&line, 1.0);
+        assert_eq!(out.get(1, 2)[0], 0.1);
+        assert_eq!(out.get(2, 2)[0], 10.0);
+    }
+}
