@@ -59,7 +59,7 @@ fn check_passes_on_main_writes_junit_json_and_records_the_run() {
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
     let xml = std::fs::read_to_string(&junit).unwrap();
     // One test suite a scene, and the stress suite (the built-in suite sets `stress = true`).
-    assert_eq!(xml.matches("<testsuite ").count(), 9, "{xml}");
+    assert_eq!(xml.matches("<testsuite ").count(), 16, "{xml}");
     assert!(xml.contains("<testsuite name=\"stress\""), "{xml}");
     assert!(!xml.contains("<failure"), "{xml}");
     assert!(
@@ -79,9 +79,10 @@ fn check_passes_on_main_writes_junit_json_and_records_the_run() {
     assert_eq!(report["stress"]["passed"], true);
     assert!(report["stress"]["cases"].as_array().unwrap().len() >= 32);
     let scenes = report["scenes"].as_array().unwrap();
-    assert_eq!(scenes.len(), 8);
+    assert_eq!(scenes.len(), 15);
     for sc in scenes {
-        // Every scene judged something, at the goldens' spp, and has per-frame metrics.
+        // Every scene judged something, at its default spp (the goldens' own;
+        // 1 for the TAA scenes), and has per-frame metrics.
         assert!(
             sc["checks"]
                 .as_array()
@@ -90,7 +91,27 @@ fn check_passes_on_main_writes_junit_json_and_records_the_run() {
                 .any(|c| c["passed"] == true),
             "{sc}"
         );
-        assert_eq!(sc["spp"], 16);
+        let taa = sc["scene"].as_str().unwrap().starts_with("taa-");
+        assert_eq!(sc["spp"], if taa { 1 } else { 16 }, "{}", sc["scene"]);
+        if taa {
+            let plan: Vec<&str> = sc["plan"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.as_str().unwrap())
+                .collect();
+            let name = sc["scene"].as_str().unwrap();
+            assert_eq!(
+                plan.contains(&"taa"),
+                !name.ends_with("noaa"),
+                "{name}: {plan:?}"
+            );
+            assert_eq!(
+                plan.contains(&"taa_sobel"),
+                name.contains("edge"),
+                "{name}: {plan:?}"
+            );
+        }
         assert!(!sc["frames"].as_array().unwrap().is_empty());
         assert!(sc["summaries"]["psnr"]["worst_frame"].is_u64());
     }
@@ -101,7 +122,7 @@ fn check_passes_on_main_writes_junit_json_and_records_the_run() {
     assert_eq!(run_status(&db, id), "passed");
     let h = History::open_read_only(&db).unwrap();
     let runs = h.runs(10).unwrap();
-    assert_eq!(runs[0].scenes, 8);
+    assert_eq!(runs[0].scenes, 15);
     assert_eq!(
         runs[0].adapter.as_deref(),
         report["adapter"]["name"].as_str()
@@ -312,8 +333,8 @@ fn kill_9_during_a_check_leaves_a_consistent_database_with_the_run_aborted() {
     assert_eq!(h.status(1).unwrap().map(RunStatus::as_str), Some("passed"));
     assert_eq!(h.integrity().unwrap(), "ok");
     let runs = h.runs(10).unwrap();
-    assert_eq!(runs[1].scenes, 8);
-    assert!(runs[0].scenes >= 1 && runs[0].scenes <= 8);
+    assert_eq!(runs[1].scenes, 15);
+    assert!(runs[0].scenes >= 1 && runs[0].scenes <= 15);
     assert!(runs[0].detail.as_deref().unwrap().contains("crash or kill"));
     drop(h);
     let o = tonegate(&["history", "--db", s(&db)]);
@@ -351,4 +372,38 @@ fn history_prints_a_metric_trend_and_refuses_unknown_metrics() {
     assert!(text(&o).contains("unknown metric"), "{}", text(&o));
     let o = tonegate(&["history", "--db", s(&dir.path().join("none.sqlite"))]);
     assert_eq!(o.status.code(), Some(2));
+}
+
+/// Issue 14: a deliberately broken TAA fails the TAA scenes' checks. Both
+/// faults keep every other stage right: the clipping box left out (the
+/// history's stale colours stay) and the history reprojected as if the
+/// sphere stood still. The same scenes pass without a fault, on the same
+/// adapter, in the same test.
+#[test]
+fn a_broken_taa_fails_the_ghosting_checks() {
+    let ghost = ["--scene", "taa-ghost-clip", "--scene", "taa-ghost-edge"];
+    let mut args = vec!["check", "--no-history"];
+    args.extend(ghost);
+    let o = tonegate(&args);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    for fault in ["no-clip", "wrong-rotation"] {
+        let mut args = vec!["check", "--no-history", "--taa-fault", fault];
+        args.extend(ghost);
+        let o = tonegate(&args);
+        let out = text(&o);
+        assert_eq!(o.status.code(), Some(1), "{fault}: {out}");
+        for scene in ["taa-ghost-clip", "taa-ghost-edge"] {
+            let line = out
+                .lines()
+                .find(|l| l.starts_with(scene))
+                .unwrap_or_else(|| panic!("{fault}: no {scene} row in {out}"));
+            assert!(line.ends_with("FAIL"), "{fault}: {line}");
+        }
+        assert!(out.contains("FAIL PSNR >= 19.5 dB"), "{fault}: {out}");
+        assert!(out.contains("FAIL SSIM >= 0.925"), "{fault}: {out}");
+    }
+    // A scene the suite lacks is named in the error.
+    let o = tonegate(&["check", "--no-history", "--scene", "no-such-scene"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("--scene no-such-scene"), "{}", text(&o));
 }

@@ -53,6 +53,15 @@ pub struct CheckArgs {
     /// gate catches a wrong tone mapper (e.g. 1.02 brightens by 2 %).
     #[arg(long)]
     pub fault_gain: Option<f32>,
+    /// Fault injection: break the TAA stage (no clipping, or the history
+    /// reprojected as if the sphere stood still), to prove the TAA scenes'
+    /// checks catch a broken TAA.
+    #[arg(long, value_enum)]
+    pub taa_fault: Option<tonegate::gpu::TaaFault>,
+    /// Only this scene of the suite (repeatable); the stress suite is then
+    /// skipped.
+    #[arg(long = "scene")]
+    pub scenes: Vec<String>,
 }
 
 #[derive(Args)]
@@ -95,6 +104,7 @@ pub fn check(a: CheckArgs) -> Result<ExitCode> {
     } else {
         let mut config = a.gpu.config();
         config.fault_gain = a.fault_gain;
+        config.taa_fault = a.taa_fault;
         Renderer::Gpu {
             adapter: a.gpu.adapter.clone(),
             config,
@@ -107,6 +117,7 @@ pub fn check(a: CheckArgs) -> Result<ExitCode> {
         artifacts: a.artifacts.clone(),
         db: (!a.no_history).then(|| a.db.db.clone()),
         started: None,
+        scenes: a.scenes.clone(),
     };
     let outcome = tonegate::gate::run(&opts, &Bar::new());
     match &outcome {

@@ -56,6 +56,8 @@ pub struct CheckOptions {
     /// Told the run's id as soon as the history has it (the HTTP API answers
     /// `POST /runs` with it while the run goes on).
     pub started: Option<std::sync::mpsc::Sender<i64>>,
+    /// Only these scenes of the suite (empty: all), and then no stress suite.
+    pub scenes: Vec<String>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -249,7 +251,29 @@ fn run_inner(
     started_at: String,
     progress: &dyn Progress,
 ) -> Result<CheckReport, CheckError> {
-    let suite = crate::suite::load_suite_file(&opts.suite)?;
+    let mut suite = crate::suite::load_suite_file(&opts.suite)?;
+    if !opts.scenes.is_empty() {
+        if let Some(missing) = opts
+            .scenes
+            .iter()
+            .find(|n| !suite.scenes.iter().any(|s| &&s.name == n))
+        {
+            return Err(CheckError::Suite(SceneError::Invalid {
+                path: opts.suite.clone(),
+                message: format!(
+                    "--scene {missing}: no such scene in the suite (it has {})",
+                    suite
+                        .scenes
+                        .iter()
+                        .map(|s| s.name.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            }));
+        }
+        suite.scenes.retain(|s| opts.scenes.contains(&s.name));
+        suite.stress = false;
+    }
     if let (Some(h), Some(id)) = (history.as_ref(), run_id) {
         h.set_suite_hash(id, &suite.hash)?;
     }

@@ -187,6 +187,7 @@ pub async fn start_run(
         artifacts: None,
         db: Some(st.db.clone()),
         started: Some(tx),
+        scenes: Vec::new(),
     };
     let state = st.clone();
     std::thread::Builder::new()
