@@ -244,16 +244,27 @@ impl StagePlan {
             scene.grade.as_ref(),
         );
         if let Some(taa) = scene.taa_active().filter(|_| spp == 1) {
-            let params = taa.params();
-            let mut stages = vec![plan.stages.remove(0)];
-            if params.variant == TaaVariant::EdgeAware {
-                stages.push(Stage::TaaSobel);
-            }
-            stages.push(Stage::Taa(params));
-            stages.append(&mut plan.stages);
-            plan.stages = stages;
+            plan = plan.with_taa(taa.params());
         }
         plan
+    }
+
+    /// The plan with the TAA stages (`taa_sobel` for the edge-aware variant,
+    /// then `taa`) right after `sphere`; unchanged without a `sphere` stage,
+    /// for `TaaVariant::Off`, or when the plan has TAA already.
+    pub fn with_taa(mut self, params: TaaParams) -> StagePlan {
+        let has_sphere = matches!(self.stages.first(), Some(Stage::Sphere { .. }));
+        if !has_sphere || params.variant == TaaVariant::Off || self.taa().is_some() {
+            return self;
+        }
+        let mut stages = vec![self.stages.remove(0)];
+        if params.variant == TaaVariant::EdgeAware {
+            stages.push(Stage::TaaSobel);
+        }
+        stages.push(Stage::Taa(params));
+        stages.append(&mut self.stages);
+        self.stages = stages;
+        self
     }
 
     /// The TAA stage's parameters, when the plan has one.
@@ -357,6 +368,29 @@ mod tests {
             colour: ColourPath::Ratio,
             pfs_compatible: false,
         }
+    }
+
+    #[test]
+    fn taa_stages_follow_the_sphere_only_when_asked() {
+        let params = |variant| TaaParams {
+            variant,
+            feedback_min: 0.88,
+            feedback_max: 0.97,
+            sharpen: 0.0,
+        };
+        let op = Operator::default();
+        let sphere = StagePlan::build(Input::Sphere { spp: 1 }, &op, None, None);
+        let clip = sphere.clone().with_taa(params(TaaVariant::Clip));
+        assert_eq!(
+            clip.names(),
+            ["sphere", "taa", "luminance_stats", "tonemap", "encode"]
+        );
+        let edge = sphere.clone().with_taa(params(TaaVariant::EdgeAware));
+        assert_eq!(&edge.names()[..3], ["sphere", "taa_sobel", "taa"]);
+        assert_eq!(edge.clone().with_taa(params(TaaVariant::Clip)), edge);
+        assert_eq!(sphere.clone().with_taa(params(TaaVariant::Off)), sphere);
+        let flat = StagePlan::build(Input::Flat, &op, None, None);
+        assert_eq!(flat.clone().with_taa(params(TaaVariant::Clip)), flat);
     }
 
     #[test]

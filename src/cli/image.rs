@@ -24,6 +24,10 @@ pub struct BenchArgs {
     pub frames: u32,
     #[arg(long, default_value_t = 10)]
     pub warmup: u32,
+    /// TAA stages after `sphere` (off, clip, edge-aware), timed with a
+    /// history to resolve every frame.
+    #[arg(long, value_enum, default_value = "off")]
+    pub taa: tonegate::scene::TaaVariant,
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
@@ -208,6 +212,7 @@ pub fn bench(a: BenchArgs) -> Result<ExitCode> {
         frames: a.frames,
         warmup: a.warmup,
         config: a.gpu.config(),
+        taa: a.taa,
     };
     let report = tonegate::gpu::bench::run(&ctx, &opts)?;
     if a.json {

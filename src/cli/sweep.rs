@@ -221,7 +221,7 @@ fn tradeoff_table(r: &TradeoffReport) -> String {
     );
     let _ = writeln!(
         out,
-        "{:<40} {:>10} {:>10} {:>9} {:>12} {:>7}",
+        "{:<56} {:>10} {:>10} {:>9} {:>12} {:>7}",
         "suite (time summed over scenes)", "ms", "PSNR dB", "SSIM", "Lavg rel err", "Pareto"
     );
     let mut rows = r.suite.clone();
@@ -229,7 +229,7 @@ fn tradeoff_table(r: &TradeoffReport) -> String {
     for p in &rows {
         let _ = writeln!(
             out,
-            "{:<40} {:>10.3} {:>10.2} {:>9.5} {:>12.2e} {:>7}",
+            "{:<56} {:>10.3} {:>10.2} {:>9.5} {:>12.2e} {:>7}",
             p.label,
             p.ms,
             p.psnr,
@@ -252,7 +252,7 @@ fn tradeoff_table(r: &TradeoffReport) -> String {
         for p in front {
             let _ = writeln!(
                 out,
-                "    {:<38} {:>8.3} ms {:>8.2} dB SSIM {:.5} Lavg {:.2e}",
+                "    {:<54} {:>8.3} ms {:>8.2} dB SSIM {:.5} Lavg {:.2e}",
                 p.label, p.ms, p.psnr, p.ssim, p.log_average_rel_error
             );
         }

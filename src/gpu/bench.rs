@@ -11,6 +11,7 @@ use crate::plan::StagePlan;
 use crate::reference::Pipeline;
 use crate::scene::{
     Bloom, BrightPass, ColourPath, Encoding, Factor, Key, NonNegative, Operator, Positive, Radius,
+    TaaParams, TaaVariant,
 };
 use serde::Serialize;
 
@@ -22,6 +23,9 @@ pub struct BenchOptions {
     pub frames: u32,
     pub warmup: u32,
     pub config: GpuConfig,
+    /// The TAA stages after `sphere` (`TaaVariant::Off`: none), resolving
+    /// against a history every measured frame.
+    pub taa: TaaVariant,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -126,12 +130,14 @@ fn floor_times(
 }
 
 /// A renderer of the bench's full plan at `width`×`height` over the built-in
-/// sky (2048×1024), shared by `tonegate bench` and the criterion bench.
+/// sky (2048×1024), shared by `tonegate bench` and the criterion bench; with
+/// a TAA variant, its stages after `sphere` at the scene defaults.
 pub fn full_plan_renderer(
     ctx: &GpuContext,
     width: u32,
     height: u32,
     config: GpuConfig,
+    taa: TaaVariant,
 ) -> Result<GpuRenderer<'_>, GpuError> {
     let (op, bloom) = bench_operator();
     let pipeline = Pipeline {
@@ -151,7 +157,13 @@ pub fn full_plan_renderer(
         &op,
         Some(&bloom),
         None,
-    );
+    )
+    .with_taa(TaaParams {
+        variant: taa,
+        feedback_min: 0.88,
+        feedback_max: 0.97,
+        sharpen: 0.0,
+    });
     GpuRenderer::new(
         ctx,
         plan,
@@ -167,12 +179,21 @@ pub fn full_plan_renderer(
 
 /// Runs the bench on `ctx`.
 pub fn run(ctx: &GpuContext, opts: &BenchOptions) -> Result<BenchReport, GpuError> {
-    let r = full_plan_renderer(ctx, opts.width, opts.height, opts.config)?;
+    let r = full_plan_renderer(ctx, opts.width, opts.height, opts.config, opts.taa)?;
     let plan = r.plan.clone();
     let angle = |n: u32| rotation_matrix([1.0, 0.0, 0.0], (n as f64 * 2.0).to_radians());
+    // Every frame, TAA included, is the full cost: a history to resolve.
+    let set = |n: u32| {
+        let now = angle(n);
+        r.set_frame(&now, crate::conventions::taa_jitter(n));
+        r.set_taa_history(Some(&crate::conventions::reprojection(
+            &angle(n.saturating_sub(1)),
+            &now,
+        )));
+    };
     // Warm-up: pipelines compiled, caches filled; excluded from everything.
     for n in 0..opts.warmup {
-        r.set_rotation(&angle(n));
+        set(n);
         r.render(false)?;
     }
     // No readback: batches of frames submitted back to back, timestamps kept per slot.
@@ -182,7 +203,7 @@ pub fn run(ctx: &GpuContext, opts: &BenchOptions) -> Result<BenchReport, GpuErro
     while done < opts.frames {
         let batch = (opts.frames - done).min(TIMING_SLOTS);
         for s in 0..batch {
-            r.set_rotation(&angle(done + s));
+            set(done + s);
             let mut encoder = ctx.device.create_command_encoder(&Default::default());
             r.encode(&mut encoder, s);
             ctx.queue.submit([encoder.finish()]);
@@ -200,7 +221,7 @@ pub fn run(ctx: &GpuContext, opts: &BenchOptions) -> Result<BenchReport, GpuErro
     let mut wall = Vec::with_capacity(opts.frames as usize);
     let start = std::time::Instant::now();
     for n in 0..opts.frames {
-        r.set_rotation(&angle(n));
+        set(n);
         wall.push(r.render(true)?.wall_ms);
     }
     let fps_with_readback = opts.frames as f64 / start.elapsed().as_secs_f64();

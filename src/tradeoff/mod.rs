@@ -11,7 +11,7 @@ use crate::history::TradeoffRecord;
 use crate::metrics::compare;
 use crate::perf::quantile;
 use crate::render::{scene_environment, RenderError, SceneRenderer};
-use crate::scene::{Factor, Positive, Radius, Scene};
+use crate::scene::{Factor, Feedback, Positive, Radius, Scene, Taa, TaaVariant, Unit};
 use serde::Serialize;
 
 /// One configuration of the knobs.
@@ -24,6 +24,49 @@ pub struct Knobs {
     /// rescaled to keep its full-resolution extent (see [`with_downsample`]).
     pub bloom_downsample: Option<u32>,
     pub spp: u32,
+    /// TAA on the 1-spp frames (None: the scene's own setting).
+    pub taa: Option<TaaKnob>,
+}
+
+/// The TAA knobs of a 1-spp configuration.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct TaaKnob {
+    pub variant: TaaVariant,
+    pub feedback_min: f64,
+    pub feedback_max: f64,
+    pub sharpen: f64,
+}
+
+/// The TAA configurations the sweep adds at 1 spp: no AA, and each variant
+/// at the default feedback (0.88..0.97) and a short one (0.5..0.7, less
+/// history: less blur in motion, less anti-aliasing when still), with the
+/// sharpen off and at the normalised kernel's 0.25.
+pub fn taa_knobs() -> Vec<TaaKnob> {
+    let mut all = vec![TaaKnob {
+        variant: TaaVariant::Off,
+        feedback_min: 0.88,
+        feedback_max: 0.97,
+        sharpen: 0.0,
+    }];
+    for variant in [TaaVariant::Clip, TaaVariant::EdgeAware] {
+        for (feedback_min, feedback_max) in [(0.88, 0.97), (0.5, 0.7)] {
+            for sharpen in [0.0, 0.25] {
+                all.push(TaaKnob {
+                    variant,
+                    feedback_min,
+                    feedback_max,
+                    sharpen,
+                });
+            }
+        }
+    }
+    all
+}
+
+/// The frames a TAA configuration is measured on: each asked-for frame, but
+/// not before frame 15, when the 16-frame jitter cycle has filled the history.
+fn taa_frame(n: u32, scene: &Scene) -> u32 {
+    n.max(15).min(scene.frames - 1)
 }
 
 impl Knobs {
@@ -45,7 +88,18 @@ impl Knobs {
             .bloom_downsample
             .map(|d| format!(" ds{d}"))
             .unwrap_or_default();
-        format!("{f} {r} {e}{ds} {}spp", self.spp)
+        let taa = match self.taa {
+            None => String::new(),
+            Some(t) if t.variant == TaaVariant::Off => " noaa".into(),
+            Some(t) => format!(
+                " taa {} fb{}-{} s{}",
+                t.variant.name(),
+                t.feedback_min,
+                t.feedback_max,
+                t.sharpen
+            ),
+        };
+        format!("{f} {r} {e}{ds} {}spp{taa}", self.spp)
     }
 }
 
@@ -68,13 +122,48 @@ pub fn sweep(scene: &Scene, spps: &[u32], downsamples: &[u32]) -> Vec<Knobs> {
                             env_filter,
                             bloom_downsample,
                             spp,
+                            taa: None,
                         });
                     }
                 }
             }
         }
     }
+    // TAA at 1 spp, the other knobs at their defaults: how close 1 spp +
+    // TAA gets to the many-sample reference, at what cost.
+    if spps.contains(&1) {
+        for taa in taa_knobs() {
+            all.push(Knobs {
+                hdr_format: HdrFormat::Rgba32Float,
+                reduction: ReductionMethod::BlockPartials,
+                env_filter: EnvFilter::Manual,
+                bloom_downsample: ds.first().copied().flatten(),
+                spp: 1,
+                taa: Some(taa),
+            });
+        }
+    }
     all
+}
+
+/// `scene` with `knob`'s TAA (a scene's reset frames are kept).
+pub fn with_taa(scene: &Scene, knob: Option<TaaKnob>) -> Result<Scene, String> {
+    let mut variant = scene.clone();
+    if let Some(k) = knob {
+        let resets = scene
+            .taa
+            .as_ref()
+            .map(|t| t.reset_frames.clone())
+            .unwrap_or_default();
+        variant.taa = Some(Taa {
+            variant: k.variant,
+            feedback_min: Feedback::try_from(k.feedback_min)?,
+            feedback_max: Feedback::try_from(k.feedback_max)?,
+            sharpen: Unit::try_from(k.sharpen)?,
+            reset_frames: resets,
+        });
+    }
+    Ok(variant)
 }
 
 /// One measured configuration of one scene.
@@ -187,21 +276,30 @@ pub fn measure_scene(
         f.dedup();
         f
     };
-    // The reference: the scene as written, at reference_spp, in f64.
+    // The reference: the scene as written, at reference_spp, in f64 (no
+    // TAA: at more than one sample a scene is its own accumulation buffer).
     let reference = SceneRenderer::cpu(scene, &env, opts.reference_spp);
-    let references = frames
+    let mut wanted: Vec<u32> = frames.clone();
+    wanted.extend(frames.iter().map(|&n| taa_frame(n, scene)));
+    wanted.sort_unstable();
+    wanted.dedup();
+    let references = wanted
         .iter()
-        .map(|&n| reference.frame(n))
-        .collect::<Result<Vec<_>, _>>()?;
+        .map(|&n| Ok((n, reference.frame(n)?)))
+        .collect::<Result<Vec<_>, RenderError>>()?;
     let mut points = Vec::new();
     for knobs in sweep(scene, &opts.spps, &opts.downsamples) {
         let label = knobs.label();
-        let variant = with_downsample(scene, knobs.bloom_downsample).map_err(|detail| {
-            TradeoffError::Invalid {
-                scene: scene.name.clone(),
-                detail,
-            }
-        })?;
+        let invalid = |detail| TradeoffError::Invalid {
+            scene: scene.name.clone(),
+            detail,
+        };
+        let variant = with_downsample(scene, knobs.bloom_downsample).map_err(invalid)?;
+        let variant = with_taa(&variant, knobs.taa).map_err(invalid)?;
+        let measured: Vec<u32> = match knobs.taa {
+            Some(_) => frames.iter().map(|&n| taa_frame(n, scene)).collect(),
+            None => frames.clone(),
+        };
         let failed = |e| match e {
             RenderError::Gpu { source, .. } => TradeoffError::Gpu {
                 scene: scene.name.clone(),
@@ -223,7 +321,10 @@ pub fn measure_scene(
         let r = SceneRenderer::gpu(&variant, &env, ctx, config, knobs.spp).map_err(failed)?;
         let mut times = Vec::new();
         let (mut psnr, mut ssim, mut rel): (f64, f64, f64) = (f64::INFINITY, 1.0, 0.0);
-        for (&n, reference) in frames.iter().zip(&references) {
+        for &n in &measured {
+            let Some((_, reference)) = references.iter().find(|(k, _)| *k == n) else {
+                continue;
+            };
             let out = r.frame(n).map_err(failed)?;
             let m = compare(out.image.raster(), reference.image.raster()).map_err(|source| {
                 TradeoffError::Metrics {
@@ -340,6 +441,7 @@ mod tests {
                 env_filter: EnvFilter::Manual,
                 bloom_downsample: None,
                 spp: 1,
+                taa: None,
             },
             ms,
             psnr,
@@ -372,8 +474,22 @@ mod tests {
         let plain = Scene::parse(&text, std::path::Path::new("x.toml")).unwrap();
         let a = sweep(&bloom, &[1, 4, 16], &[2, 4, 8]);
         let b = sweep(&plain, &[1, 4, 16], &[2, 4, 8]);
-        assert_eq!(a.len(), 2 * 2 * 2 * 3 * 3);
-        assert_eq!(b.len(), 2 * 2 * 2 * 3);
+        // Plus, at 1 spp, no AA and the two TAA variants at two feedback
+        // ranges and two sharpen strengths.
+        let taa = 1 + 2 * 2 * 2;
+        assert_eq!(taa_knobs().len(), taa);
+        assert_eq!(a.len(), 2 * 2 * 2 * 3 * 3 + taa);
+        assert_eq!(b.len(), 2 * 2 * 2 * 3 + taa);
+        assert_eq!(sweep(&plain, &[4, 16], &[2]).len(), 2 * 2 * 2 * 2);
+        let edge = b
+            .iter()
+            .find(|k| k.taa.is_some_and(|t| t.variant == TaaVariant::EdgeAware))
+            .unwrap();
+        let scene = with_taa(&plain, edge.taa).unwrap();
+        assert_eq!(
+            crate::plan::StagePlan::for_scene(&scene, 1).names()[..3],
+            ["sphere", "taa_sobel", "taa"]
+        );
         let mut labels: Vec<String> = a.iter().map(Knobs::label).collect();
         labels.sort();
         labels.dedup();
