@@ -179,3 +179,52 @@ fn the_dashboard_shows_runs_charts_and_image_comparisons_in_chromium() {
         );
     }
 }
+
+/// Issue 14: a run of the TAA scenes shows the no-AA / clip / edge-aware
+/// comparison: one table per test with every variant's best / worst / mean,
+/// and each variant's last frame and SSIM map beside the golden, decoded by
+/// the browser.
+#[test]
+fn the_dashboard_compares_the_taa_variants_in_chromium() {
+    let dir = tempfile::tempdir().unwrap();
+    let seeded = common::seed_empty(dir.path());
+    std::fs::write(
+        &seeded.suite,
+        "scenes = [\"scenes/taa-static-noaa.toml\", \"scenes/taa-static-clip.toml\", \"scenes/taa-static-edge.toml\", \"scenes/taa-ghost-noaa.toml\", \"scenes/taa-ghost-clip.toml\", \"scenes/taa-ghost-edge.toml\"]\n",
+    )
+    .unwrap();
+    let (suite, db) = (seeded.suite.to_str().unwrap(), seeded.db.to_str().unwrap());
+    let o = common::tonegate(&["check", "--suite", suite, "--db", db]);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let s = serve(&seeded, dir.path());
+    let dom = browse(&format!("{}/#/runs/1", s.base), "run-taa");
+    assert_eq!(
+        count(&dom, "class=\"taa-compare\""),
+        2,
+        "static and ghosting:\n{dom}"
+    );
+    assert_eq!(count(&dom, "class=\"taa-row\""), 6, "{dom}");
+    for variant in ["off", "clip", "edge_aware"] {
+        assert_eq!(
+            count(
+                &dom,
+                &format!("data-variant=\"{variant}\" data-loaded=\"1\"")
+            ),
+            4,
+            "{variant}: actual and SSIM map of both tests decoded:\n{dom}"
+        );
+    }
+    assert_eq!(
+        count(
+            &dom,
+            "data-kind=\"golden\" data-variant=\"golden\" data-loaded=\"1\""
+        ),
+        2
+    );
+    assert!(dom.contains("PSNR dB best @f"), "{dom}");
+}

@@ -21,6 +21,7 @@ fn scene(name: &str, sphere_ms: f64, fps: f64) -> SceneResult {
         summaries: BTreeMap::new(),
         checks: Vec::new(),
         problems: Vec::new(),
+        taa: None,
         timings: vec![
             TimingSummary {
                 name: "sphere".into(),

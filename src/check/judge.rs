@@ -112,6 +112,9 @@ pub struct Judging<'a> {
     /// scene (`Scene::default_spp`).
     pub reference_spp: u32,
     pub test: TestKind,
+    /// Keep the last frame's images as well (TAA scenes: the frame the
+    /// variants are compared on).
+    pub keep_last: bool,
 }
 
 /// What a renderer produced for one scene.
@@ -260,9 +263,10 @@ pub fn judge(
         .filter(|f| judged_frames.contains(&f.frame))
         .min_by(|a, b| a.metrics.psnr.total_cmp(&b.metrics.psnr))
         .map(|f| f.frame);
+    let last = frames.last().map(|f| f.frame).filter(|_| on.keep_last);
     let kept: Vec<KeptFrame> = frames
         .iter()
-        .filter(|f| !f.failed_checks.is_empty() || Some(f.frame) == worst)
+        .filter(|f| !f.failed_checks.is_empty() || Some(f.frame) == worst || Some(f.frame) == last)
         .map(|f| KeptFrame {
             frame: f.frame,
             failed: !f.failed_checks.is_empty(),
@@ -285,6 +289,7 @@ pub fn judge(
             problems,
             timings,
             fps,
+            taa: None,
         },
         kept,
     ))
@@ -424,6 +429,7 @@ mod tests {
             checks,
             reference_spp: 16,
             test: TestKind::Static,
+            keep_last: false,
         };
         let rendered = Rendered {
             renderer: "test".into(),

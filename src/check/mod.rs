@@ -14,5 +14,5 @@ pub mod spec;
 
 pub use figures::{FrameMetric, FRAME_METRICS};
 pub use judge::{evaluate, judge, JudgeError, Judging, KeptFrame, Rendered};
-pub use result::{CheckResult, FrameResult, SceneResult, Summary, TestKind};
+pub use result::{CheckResult, FrameResult, SceneResult, Summary, TaaTag, TestKind};
 pub use spec::{not_applied, Check, CheckSpec, Judged, Rule, Side, Subject};

@@ -161,6 +161,20 @@ pub struct SceneResult {
     pub timings: Vec<TimingSummary>,
     /// Frames per second with readback (GPU only).
     pub fps: Option<f64>,
+    /// A TAA scene's variant and the sequence it shares with the other
+    /// variants' scenes (the dashboard compares them side by side).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub taa: Option<TaaTag>,
+}
+
+/// Which TAA variant a scene ran, on which sequence.
+#[derive(Clone, Debug, Serialize)]
+pub struct TaaTag {
+    /// `off`, `clip` or `edge_aware`.
+    pub variant: String,
+    /// `Scene::sequence_key`: equal for scenes that differ only in their TAA
+    /// settings, name, description and checks (same frames, same goldens).
+    pub sequence: String,
 }
 
 impl SceneResult {

@@ -348,6 +348,10 @@ fn run_inner(
             .map(|n| crate::golden::read_frame(&root, &scene.name, n))
             .collect::<Result<Vec<_>, _>>()?;
         let (mut result, kept) = judge(scene.judging(), rendered, goldens)?;
+        result.taa = scene.taa.as_ref().map(|t| crate::check::TaaTag {
+            variant: t.variant.name().into(),
+            sequence: scene.sequence_key(),
+        });
         if let Some(dir) = &opts.artifacts {
             for f in &kept {
                 let names = artifacts::write_frame(dir, &scene.name, &slug, f)?;

@@ -300,7 +300,21 @@ impl Scene {
             checks: &self.checks,
             reference_spp: self.default_spp(),
             test: self.test_kind(),
+            keep_last: self.taa.is_some(),
         }
+    }
+
+    /// A key equal for scenes that differ only in name, description, checks
+    /// and TAA settings: the same sequence against the same goldens, the
+    /// rows of one no-AA / clip / edge-aware comparison.
+    pub fn sequence_key(&self) -> String {
+        let mut s = self.clone();
+        s.name.clear();
+        s.description.clear();
+        s.checks.clear();
+        s.taa = None;
+        let canonical = serde_json::to_vec(&s).unwrap_or_default();
+        hex::encode(&Sha256::digest(&canonical)[..8])
     }
 }
 

@@ -4,7 +4,7 @@
 "use strict";
 
 const API = "/api/v1";
-const STAGES = ["sphere", "luminance_stats", "tonemap", "bloom_bright", "bloom_downsample", "bloom_blur", "bloom_composite", "grade_stats", "grade", "encode"];
+const STAGES = ["sphere", "taa_sobel", "taa", "luminance_stats", "tonemap", "bloom_bright", "bloom_downsample", "bloom_blur", "bloom_composite", "grade_stats", "grade", "encode"];
 
 // ---- small DOM helpers ----------------------------------------------------
 function h(tag, attrs, ...children) {
@@ -188,6 +188,8 @@ async function runPage(id, params) {
       h("table", { class: "regressions" }, h("thead", {}, h("tr", {}, ["Scene", "Metric", "Value", "Median of earlier runs", "Bound", "Ratio", "Runs"].map((t) => h("th", {}, t)))),
         h("tbody", {}, report.regressions.map((g) => h("tr", { class: "bad" }, h("td", {}, g.scene), h("td", {}, g.metric), h("td", {}, num(g.value, 3)), h("td", {}, num(g.median, 3)), h("td", {}, num(g.bound, 3)), h("td", {}, num(g.ratio, 3)), h("td", {}, String(g.runs)))))));
   }
+  const taa = taaComparisons(id, report);
+  if (taa.length) parts.push(h("h2", { id: "taa" }, "Anti-aliasing: no AA / clip / edge-aware"), ...taa);
   if (scene) parts.push(...scenePanel(id, run, report, scene, params));
   if (report.stress) {
     const failed = report.stress.cases.filter((c) => !c.passed);
@@ -195,6 +197,56 @@ async function runPage(id, params) {
   }
   show(...parts);
 }
+// Seed 002's tables: the TAA scenes of one sequence side by side, best /
+// worst / mean of each metric over the judged frames with frame indices, and
+// the last frame of each variant (actual and SSIM map) beside the golden.
+const VARIANTS = ["off", "clip", "edge_aware"];
+function taaComparisons(id, report) {
+  const groups = new Map();
+  for (const s of report.scenes) {
+    if (!s.taa) continue;
+    const k = `${s.taa.sequence} ${s.test} ${s.spp}`;
+    if (!groups.has(k)) groups.set(k, []);
+    groups.get(k).push(s);
+  }
+  const out = [];
+  for (const scenes of groups.values()) {
+    if (scenes.length < 2) continue;
+    scenes.sort((a, b) => VARIANTS.indexOf(a.taa.variant) - VARIANTS.indexOf(b.taa.variant));
+    const stat = (s, key, higher) => {
+      const v = s.frames.filter((f) => s.judged_frames.includes(f.frame)).map((f) => [f.frame, f.metrics[key]]);
+      if (!v.length) return null;
+      const by = (a, b) => (higher ? b[1] - a[1] : a[1] - b[1]);
+      const sorted = [...v].sort(by);
+      return { best: sorted[0], worst: sorted[sorted.length - 1], mean: v.reduce((t, x) => t + x[1], 0) / v.length };
+    };
+    const cell = (st, digits) => st ? `${num(st.best[1], digits)} @${st.best[0]} · ${num(st.worst[1], digits)} @${st.worst[0]} · ${num(st.mean, digits)}` : "–";
+    const rows = scenes.map((s) => h("tr", { class: "taa-row", "data-variant": s.taa.variant },
+      h("td", {}, s.taa.variant === "off" ? "no AA" : s.taa.variant),
+      h("td", {}, h("a", { href: `#/runs/${id}?scene=${encodeURIComponent(s.scene)}` }, s.scene)),
+      h("td", {}, s.test), h("td", {}, String(s.judged_frames.length)),
+      h("td", {}, cell(stat(s, "psnr", true), 2)), h("td", {}, cell(stat(s, "ssim", true), 4)), h("td", {}, cell(stat(s, "flip_mean", false), 4))));
+    const last = Math.min(...scenes.map((s) => s.frames.length ? s.frames[s.frames.length - 1].frame : 0));
+    const art = (s, kind) => {
+      const f = s.frames.find((x) => x.frame === last);
+      const name = f && (f.artifacts || []).find((a) => a.endsWith(`-${kind}.png`));
+      if (!name) return h("div", { class: "missing" }, `no ${kind} image`);
+      const i = h("img", { src: `${API}/runs/${id}/artifacts/${encodeURIComponent(name)}`, alt: `${kind} of ${s.scene} frame ${last}`, "data-kind": kind, "data-variant": kind === "golden" ? "golden" : s.taa.variant });
+      i.addEventListener("load", () => i.setAttribute("data-loaded", "1"));
+      return i;
+    };
+    const label = (v) => (v === "off" ? "no AA" : v);
+    out.push(h("section", { class: "taa-compare", "data-test": scenes[0].test },
+      h("h3", {}, `${scenes[0].test === "static" ? "Static" : "Ghosting"} test: ${scenes[0].frames.length} frames at ${scenes[0].spp} spp, each variant against the accumulation reference`),
+      h("table", { class: "taa" }, h("thead", {}, h("tr", {}, ["Variant", "Scene", "Test", "Judged", "PSNR dB best @f · worst @f · mean", "SSIM best · worst · mean", "FLIP best · worst · mean"].map((t) => h("th", {}, t)))), h("tbody", {}, rows)),
+      h("div", { class: "side-by-side" },
+        h("figure", {}, art(scenes[0], "golden"), h("figcaption", {}, `golden, frame ${last}`)),
+        scenes.flatMap((s) => [h("figure", {}, art(s, "actual"), h("figcaption", {}, `${label(s.taa.variant)}, frame ${last}`)),
+          h("figure", {}, art(s, "ssim"), h("figcaption", {}, `${label(s.taa.variant)}: SSIM map`))]))));
+  }
+  return out;
+}
+
 function scenePanel(id, run, report, scene, params) {
   const out = [h("h2", { id: "scene" }, `Scene ${scene.scene}`), h("p", { class: "muted" }, `plan: ${scene.plan.join(" → ")} · judged frames: ${scene.judged_frames.join(", ")}`)];
   out.push(h("table", { class: "checks" },
