@@ -11,6 +11,8 @@ override FEEDBACK_MAX: f32 = 0.97;
 override SHARPEN: f32 = 0.25;
 // Fault injection (`check --taa-fault no-clip`): blend the unclipped history.
 override NO_CLIP: bool = false;
+// `history_filter = "catmull_rom"`: 4×4 Catmull-Rom instead of bilinear.
+override CATMULL_ROM: bool = false;
 
 struct TaaUniforms {
     // Rows of the reprojection matrix R(n−1)·R(n)ᵀ (xyz).
@@ -53,8 +55,49 @@ fn amount_at(x: i32, y: i32) -> f32 {
     return textureLoad(amount, vec2<i32>(clamp(x, 0, dims.x - 1), clamp(y, 0, dims.y - 1)), 0).r;
 }
 
-// The history at film point q, bilinear over texel centres, border clamped.
+// Catmull-Rom weights of the four taps around the fraction t.
+fn catmull_rom_weights(t: f32) -> vec4<f32> {
+    let t2 = t * t;
+    let t3 = t2 * t;
+    return vec4<f32>(
+        0.5 * (-t3 + 2.0 * t2 - t),
+        0.5 * (3.0 * t3 - 5.0 * t2 + 2.0),
+        0.5 * (-3.0 * t3 + 4.0 * t2 + t),
+        0.5 * (t3 - t2),
+    );
+}
+
+// One row of the 4×4 footprint, weighted along x.
+fn catmull_rom_row(x0: i32, y: i32, wx: vec4<f32>) -> vec3<f32> {
+    return wx.x * load_clamped(history_in, x0 - 1, y) + wx.y * load_clamped(history_in, x0, y)
+        + wx.z * load_clamped(history_in, x0 + 1, y) + wx.w * load_clamped(history_in, x0 + 2, y);
+}
+
+// The history at film point q over 4×4 texels, clamped at 0.
+fn history_catmull_rom(q: vec2<f32>) -> vec3<f32> {
+    let x = q.x - 0.5;
+    let y = q.y - 0.5;
+    let x0f = floor(x);
+    let y0f = floor(y);
+    let wx = catmull_rom_weights(x - x0f);
+    let wy = catmull_rom_weights(y - y0f);
+    let x0 = i32(x0f);
+    let y0 = i32(y0f);
+    let out = wy.x * catmull_rom_row(x0, y0 - 1, wx) + wy.y * catmull_rom_row(x0, y0, wx)
+        + wy.z * catmull_rom_row(x0, y0 + 1, wx) + wy.w * catmull_rom_row(x0, y0 + 2, wx);
+    return max(out, vec3<f32>(0.0));
+}
+
+// The history at film point q with the scene's filter.
 fn history_at(q: vec2<f32>) -> vec3<f32> {
+    if (CATMULL_ROM) {
+        return history_catmull_rom(q);
+    }
+    return history_bilinear(q);
+}
+
+// The history at film point q, bilinear over texel centres, border clamped.
+fn history_bilinear(q: vec2<f32>) -> vec3<f32> {
     let x = q.x - 0.5;
     let y = q.y - 0.5;
     let x0f = floor(x);

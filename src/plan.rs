@@ -377,6 +377,7 @@ mod tests {
             feedback_min: 0.88,
             feedback_max: 0.97,
             sharpen: 0.0,
+            history_filter: crate::scene::HistoryFilter::Bilinear,
         };
         let op = Operator::default();
         let sphere = StagePlan::build(Input::Sphere { spp: 1 }, &op, None, None);

@@ -163,6 +163,7 @@ pub fn full_plan_renderer(
         feedback_min: 0.88,
         feedback_max: 0.97,
         sharpen: 0.0,
+        history_filter: crate::scene::HistoryFilter::Bilinear,
     });
     GpuRenderer::new(
         ctx,

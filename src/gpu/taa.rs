@@ -8,7 +8,7 @@ use super::stages::{
     bind_group, dispatch_2d, hdr_texture, pipeline, uniform_buffer, Bind, Dispatch,
 };
 use super::{GpuContext, HdrFormat};
-use crate::scene::{TaaParams, TaaVariant};
+use crate::scene::{HistoryFilter, TaaParams, TaaVariant};
 
 /// Mirrors `TaaUniforms` in shaders/taa.wgsl.
 #[repr(C)]
@@ -64,6 +64,14 @@ pub fn taa(
         (
             "NO_CLIP",
             if fault == Some(TaaFault::NoClip) {
+                1.0
+            } else {
+                0.0
+            },
+        ),
+        (
+            "CATMULL_ROM",
+            if params.history_filter == HistoryFilter::CatmullRom {
                 1.0
             } else {
                 0.0

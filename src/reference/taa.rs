@@ -34,7 +34,7 @@ use super::taa_sobel::clamped;
 use crate::color::{luminance, SMALLEST_NORMAL};
 use crate::conventions::{reproject, Camera, Mat3};
 use crate::image::{Image, LinearImage};
-use crate::scene::{TaaParams, TaaVariant};
+use crate::scene::{HistoryFilter, TaaParams, TaaVariant};
 use rayon::prelude::*;
 
 /// What one TAA frame resolves against.
@@ -53,8 +53,51 @@ pub struct TaaOutput {
     pub output: LinearImage,
 }
 
+/// The history read at film point (px, py) with `filter`, border clamped.
+pub fn history_at(history: &LinearImage, px: f64, py: f64, filter: HistoryFilter) -> [f64; 3] {
+    match filter {
+        HistoryFilter::Bilinear => history_bilinear(history, px, py),
+        HistoryFilter::CatmullRom => history_catmull_rom(history, px, py),
+    }
+}
+
+/// Catmull-Rom weights of the four taps around a fraction t in [0, 1).
+pub(crate) fn catmull_rom_weights(t: f64) -> [f64; 4] {
+    let t2 = t * t;
+    let t3 = t2 * t;
+    [
+        0.5 * (-t3 + 2.0 * t2 - t),
+        0.5 * (3.0 * t3 - 5.0 * t2 + 2.0),
+        0.5 * (-3.0 * t3 + 4.0 * t2 + t),
+        0.5 * (t3 - t2),
+    ]
+}
+
+/// The history over 4×4 texels with separable Catmull-Rom weights, each
+/// channel clamped at 0 (the negative lobes can undershoot beside an edge).
+fn history_catmull_rom(history: &LinearImage, px: f64, py: f64) -> [f64; 3] {
+    let (x, y) = (px - 0.5, py - 0.5);
+    let (x0, y0) = (x.floor(), y.floor());
+    let (wx, wy) = (catmull_rom_weights(x - x0), catmull_rom_weights(y - y0));
+    let (x0, y0) = (x0 as i64, y0 as i64);
+    let mut out = [0.0; 3];
+    for (b, wyb) in wy.iter().enumerate() {
+        let mut row = [0.0; 3];
+        for (a, wxa) in wx.iter().enumerate() {
+            let p = clamped(history, x0 - 1 + a as i64, y0 - 1 + b as i64);
+            for c in 0..3 {
+                row[c] += wxa * p[c];
+            }
+        }
+        for c in 0..3 {
+            out[c] += wyb * row[c];
+        }
+    }
+    [out[0].max(0.0), out[1].max(0.0), out[2].max(0.0)]
+}
+
 /// The history read bilinearly at film point (px, py), border clamped.
-pub(crate) fn history_at(history: &LinearImage, px: f64, py: f64) -> [f64; 3] {
+fn history_bilinear(history: &LinearImage, px: f64, py: f64) -> [f64; 3] {
     let (x, y) = (px - 0.5, py - 0.5);
     let (x0, y0) = (x.floor(), y.floor());
     let (fx, fy) = (x - x0, y - y0);
@@ -190,7 +233,7 @@ pub fn taa(
             let c = current.pixels[j * w + i];
             let previous = frame.history.and_then(|hist| {
                 reproject(camera, &frame.reprojection, i as u32, j as u32)
-                    .map(|(px, py)| history_at(hist, px, py))
+                    .map(|(px, py)| history_at(hist, px, py, p.history_filter))
             });
             *out = match previous {
                 None => c,
@@ -258,6 +301,7 @@ mod tests {
             feedback_min: 0.88,
             feedback_max: 0.97,
             sharpen: 0.0,
+            history_filter: HistoryFilter::Bilinear,
         }
     }
 
@@ -417,6 +461,35 @@ mod tests {
             assert_eq!(got == now, *r, "row {j}: {got:?} vs {now:?}");
         }
         let _ = cur;
+    }
+
+    #[test]
+    fn catmull_rom_reproduces_the_texels_and_a_ramp_and_keeps_an_edge_sharper() {
+        let ramp = LinearImage::from_fn(8, 8, |x, _| [x as f64; 3]);
+        for &(px, py) in &[(3.5, 3.5), (3.25, 4.5), (4.8, 2.2)] {
+            let b = history_at(&ramp, px, py, HistoryFilter::Bilinear)[0];
+            let c = history_at(&ramp, px, py, HistoryFilter::CatmullRom)[0];
+            assert!(
+                (b - (px - 0.5)).abs() < 1e-12 && (c - (px - 0.5)).abs() < 1e-12,
+                "{b} {c}"
+            );
+        }
+        for t in [0.0, 0.3, 0.75] {
+            let w = catmull_rom_weights(t);
+            assert!((w.iter().sum::<f64>() - 1.0).abs() < 1e-15);
+        }
+        // A step between columns 3 and 4, read a quarter texel to either
+        // side of the middle: Catmull-Rom stays nearer the side it is on
+        // (bilinear's 0.25 / 0.75 are a blur), and never below 0.
+        let step = LinearImage::from_fn(8, 8, |x, _| [if x < 4 { 0.0 } else { 1.0 }; 3]);
+        for px in [3.75, 4.25] {
+            let b = history_at(&step, px, 4.5, HistoryFilter::Bilinear)[0];
+            let c = history_at(&step, px, 4.5, HistoryFilter::CatmullRom)[0];
+            assert!(
+                (c - 0.5).abs() > (b - 0.5).abs() && c >= 0.0,
+                "bilinear {b}, catmull-rom {c}"
+            );
+        }
     }
 
     #[test]

@@ -18,7 +18,7 @@ pub use crate::conventions::MAX_SPP;
 pub use display::{Bloom, BrightPass, Encoding, Grade};
 pub use operator::{ColourPath, Key, Operator, OperatorKind};
 pub use sequence::{Environment, Rotation, MAX_FRAMES};
-pub use taa::{Taa, TaaParams, TaaVariant};
+pub use taa::{HistoryFilter, Taa, TaaParams, TaaVariant};
 pub use units::{Factor, Feedback, NonNegative, Positive, Radius, Size, Unit, MAX_OUTPUT_PIXELS};
 
 use crate::check::{CheckSpec, Judging, TestKind};

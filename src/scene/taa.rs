@@ -31,6 +31,32 @@ impl TaaVariant {
     }
 }
 
+/// How the history is read at its reprojected position.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+#[serde(rename_all = "snake_case")]
+pub enum HistoryFilter {
+    /// Four texels (seed 002's and the issue's): each frame's resampling
+    /// blurs the history a little more, and in motion that blur accumulates
+    /// over the history's length.
+    #[default]
+    Bilinear,
+    /// Catmull-Rom over 4×4 texels (as Unreal's TAA reads its history,
+    /// Karis 2014): its negative lobes undo most of the per-frame blur.
+    /// Not in seed 002; measured against bilinear in the closing note of
+    /// issue 14. Negative results are clamped to 0.
+    CatmullRom,
+}
+
+impl HistoryFilter {
+    pub fn name(self) -> &'static str {
+        match self {
+            HistoryFilter::Bilinear => "bilinear",
+            HistoryFilter::CatmullRom => "catmull_rom",
+        }
+    }
+}
+
 /// `[taa]` of a scene: the scene renders one jittered sample per pixel per
 /// frame and resolves it against its reprojected history.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -51,9 +77,15 @@ pub struct Taa {
     /// 0 turns it off.
     #[serde(default = "default_sharpen")]
     pub sharpen: Unit,
+    #[serde(default, skip_serializing_if = "is_bilinear")]
+    pub history_filter: HistoryFilter,
     /// Frames (besides frame 0) whose history is discarded, e.g. a cut.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub reset_frames: Vec<u32>,
+}
+
+fn is_bilinear(f: &HistoryFilter) -> bool {
+    *f == HistoryFilter::Bilinear
 }
 
 /// Playdead's INSIDE TAA (Pedersen, GDC 2016, seed 002's [7]) blends with
@@ -84,6 +116,7 @@ pub struct TaaParams {
     pub feedback_min: f64,
     pub feedback_max: f64,
     pub sharpen: f64,
+    pub history_filter: HistoryFilter,
 }
 
 impl Taa {
@@ -93,6 +126,7 @@ impl Taa {
             feedback_min: self.feedback_min.get(),
             feedback_max: self.feedback_max.get(),
             sharpen: self.sharpen.get(),
+            history_filter: self.history_filter,
         }
     }
 

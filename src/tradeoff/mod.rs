@@ -11,7 +11,9 @@ use crate::history::TradeoffRecord;
 use crate::metrics::compare;
 use crate::perf::quantile;
 use crate::render::{scene_environment, RenderError, SceneRenderer};
-use crate::scene::{Factor, Feedback, Positive, Radius, Scene, Taa, TaaVariant, Unit};
+use crate::scene::{
+    Factor, Feedback, HistoryFilter, Positive, Radius, Scene, Taa, TaaVariant, Unit,
+};
 use serde::Serialize;
 
 /// One configuration of the knobs.
@@ -35,30 +37,35 @@ pub struct TaaKnob {
     pub feedback_min: f64,
     pub feedback_max: f64,
     pub sharpen: f64,
+    pub history_filter: HistoryFilter,
 }
 
 /// The TAA configurations the sweep adds at 1 spp: no AA, and each variant
 /// at the default feedback (0.88..0.97) and a short one (0.5..0.7, less
 /// history: less blur in motion, less anti-aliasing when still), with the
-/// sharpen off and at the normalised kernel's 0.25.
+/// sharpen off and at the normalised kernel's 0.25, reading the history
+/// bilinearly; and each variant at the defaults with the Catmull-Rom history.
 pub fn taa_knobs() -> Vec<TaaKnob> {
-    let mut all = vec![TaaKnob {
-        variant: TaaVariant::Off,
-        feedback_min: 0.88,
-        feedback_max: 0.97,
-        sharpen: 0.0,
-    }];
+    let knob = |variant, (feedback_min, feedback_max), sharpen, history_filter| TaaKnob {
+        variant,
+        feedback_min,
+        feedback_max,
+        sharpen,
+        history_filter,
+    };
+    let mut all = vec![knob(
+        TaaVariant::Off,
+        (0.88, 0.97),
+        0.0,
+        HistoryFilter::Bilinear,
+    )];
     for variant in [TaaVariant::Clip, TaaVariant::EdgeAware] {
-        for (feedback_min, feedback_max) in [(0.88, 0.97), (0.5, 0.7)] {
+        for feedback in [(0.88, 0.97), (0.5, 0.7)] {
             for sharpen in [0.0, 0.25] {
-                all.push(TaaKnob {
-                    variant,
-                    feedback_min,
-                    feedback_max,
-                    sharpen,
-                });
+                all.push(knob(variant, feedback, sharpen, HistoryFilter::Bilinear));
             }
         }
+        all.push(knob(variant, (0.88, 0.97), 0.0, HistoryFilter::CatmullRom));
     }
     all
 }
@@ -92,11 +99,15 @@ impl Knobs {
             None => String::new(),
             Some(t) if t.variant == TaaVariant::Off => " noaa".into(),
             Some(t) => format!(
-                " taa {} fb{}-{} s{}",
+                " taa {} fb{}-{} s{}{}",
                 t.variant.name(),
                 t.feedback_min,
                 t.feedback_max,
-                t.sharpen
+                t.sharpen,
+                match t.history_filter {
+                    HistoryFilter::Bilinear => "",
+                    HistoryFilter::CatmullRom => " cr",
+                }
             ),
         };
         format!("{f} {r} {e}{ds} {}spp{taa}", self.spp)
@@ -160,6 +171,7 @@ pub fn with_taa(scene: &Scene, knob: Option<TaaKnob>) -> Result<Scene, String> {
             feedback_min: Feedback::try_from(k.feedback_min)?,
             feedback_max: Feedback::try_from(k.feedback_max)?,
             sharpen: Unit::try_from(k.sharpen)?,
+            history_filter: k.history_filter,
             reset_frames: resets,
         });
     }
@@ -475,8 +487,8 @@ mod tests {
         let a = sweep(&bloom, &[1, 4, 16], &[2, 4, 8]);
         let b = sweep(&plain, &[1, 4, 16], &[2, 4, 8]);
         // Plus, at 1 spp, no AA and the two TAA variants at two feedback
-        // ranges and two sharpen strengths.
-        let taa = 1 + 2 * 2 * 2;
+        // ranges and two sharpen strengths, and with the Catmull-Rom history.
+        let taa = 1 + 2 * (2 * 2 + 1);
         assert_eq!(taa_knobs().len(), taa);
         assert_eq!(a.len(), 2 * 2 * 2 * 3 * 3 + taa);
         assert_eq!(b.len(), 2 * 2 * 2 * 3 + taa);
