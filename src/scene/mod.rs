@@ -463,6 +463,41 @@ degrees_per_frame = 5.0
     }
 
     #[test]
+    fn taa_keys_parse_and_bad_values_name_their_key() {
+        let text = format!(
+            "{MINIMAL}\n[taa]\nvariant = \"edge_aware\"\nsharpen = 0.25\nreset_frames = [1]\n"
+        );
+        let s = parse(&text).unwrap();
+        let t = s.taa_active().unwrap();
+        assert_eq!(t.variant, TaaVariant::EdgeAware);
+        assert_eq!((t.feedback_min.get(), t.feedback_max.get()), (0.88, 0.97));
+        assert!(t.resets_at(0) && t.resets_at(1));
+        assert_eq!(s.default_spp(), 1);
+        let off = parse(&format!("{MINIMAL}\n[taa]\nvariant = \"off\"\n")).unwrap();
+        assert!(off.taa_active().is_none() && off.default_spp() == 1);
+        assert_eq!(parse(MINIMAL).unwrap().default_spp(), 16);
+        for (extra, needle) in [
+            ("variant = \"fxaa\"", "fxaa"),
+            ("feedback_max = 1.0", "feedback_max"),
+            ("sharpen = 2.0", "sharpen"),
+            ("feedback_min = 0.99", "feedback_min 0.99 exceeds"),
+            ("reset_frames = [2]", "past the sequence's last frame 1"),
+            ("jitter = 8", "jitter"),
+        ] {
+            let e = parse(&format!("{MINIMAL}\n[taa]\n{extra}\n"))
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(needle) && e.contains("line"), "{extra}: {e}");
+        }
+        let one = MINIMAL.replace("frames = 2", "frames = 2\nreference_spp = 1");
+        let e = parse(&format!("{one}\n[taa]\n")).unwrap_err().to_string();
+        assert!(
+            e.contains("reference_spp") && e.contains("at least 2"),
+            "{e}"
+        );
+    }
+
+    #[test]
     fn hash_ignores_formatting_but_not_parameters() {
         let a = parse(MINIMAL).unwrap();
         let b = parse(&MINIMAL.replace("frames = 2", "frames   =   2 # two")).unwrap();
