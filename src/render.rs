@@ -76,6 +76,19 @@ pub struct RenderedFrame {
 }
 
 impl RenderedFrame {
+    /// The reference's frame `index`, rendered since `start`.
+    fn cpu(index: u32, out: crate::reference::FrameOutputs, start: Instant) -> RenderedFrame {
+        RenderedFrame {
+            index,
+            image: out.frame,
+            wall_ms: start.elapsed().as_secs_f64() * 1e3,
+            detail: FrameDetail::Cpu(FrameSummary {
+                stats: out.stats,
+                tone: out.tone,
+            }),
+        }
+    }
+
     /// The adaptation luminance the operator used (the log-average, or the
     /// fixed value that replaced it).
     pub fn adaptation(&self) -> f64 {
@@ -201,15 +214,7 @@ impl<'a> SceneRenderer<'a> {
                         source,
                     }
                 })?;
-                Ok(RenderedFrame {
-                    index: n,
-                    image: out.frame,
-                    wall_ms: start.elapsed().as_secs_f64() * 1e3,
-                    detail: FrameDetail::Cpu(FrameSummary {
-                        stats: out.stats,
-                        tone: out.tone,
-                    }),
-                })
+                Ok(RenderedFrame::cpu(n, out, start))
             }
             Engine::Gpu(r) => {
                 let out = self.gpu_frame(r, n, true)?;
@@ -294,15 +299,7 @@ impl<'a> SceneRenderer<'a> {
                     let (out, next) = render_taa_frame(self.scene, self.env, k, history.as_ref())
                         .map_err(plan_error)?;
                     track.cpu = Some(next);
-                    RenderedFrame {
-                        index: k,
-                        image: out.frame,
-                        wall_ms: start.elapsed().as_secs_f64() * 1e3,
-                        detail: FrameDetail::Cpu(FrameSummary {
-                            stats: out.stats,
-                            tone: out.tone,
-                        }),
-                    }
+                    RenderedFrame::cpu(k, out, start)
                 }
                 Engine::Gpu(r) => {
                     self.set_gpu_taa_frame(r, k, keep);

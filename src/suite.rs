@@ -80,6 +80,32 @@ pub struct Suite {
     pub hash: String,
 }
 
+impl Suite {
+    /// The scenes named (all when `names` is empty), in the suite's order;
+    /// an unknown name is an error that lists the suite's scenes.
+    pub fn select(&self, names: &[String]) -> Result<Vec<Scene>, String> {
+        if let Some(missing) = names
+            .iter()
+            .find(|n| !self.scenes.iter().any(|s| &&s.name == n))
+        {
+            return Err(format!(
+                "no scene {missing:?} in the suite; it has: {}",
+                self.scenes
+                    .iter()
+                    .map(|s| s.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
+        }
+        Ok(self
+            .scenes
+            .iter()
+            .filter(|s| names.is_empty() || names.contains(&s.name))
+            .cloned()
+            .collect())
+    }
+}
+
 /// Loads every scene a suite file lists (paths relative to the suite file).
 pub fn load_suite(path: &Path) -> Result<Vec<Scene>, SceneError> {
     load_suite_file(path).map(|s| s.scenes)

@@ -405,5 +405,9 @@ fn a_broken_taa_fails_the_ghosting_checks() {
     // A scene the suite lacks is named in the error.
     let o = tonegate(&["check", "--no-history", "--scene", "no-such-scene"]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
-    assert!(text(&o).contains("--scene no-such-scene"), "{}", text(&o));
+    assert!(
+        text(&o).contains("--scene: no scene \"no-such-scene\" in the suite; it has: sky-seed000"),
+        "{}",
+        text(&o)
+    );
 }

@@ -3,6 +3,8 @@
 //! two different renders: the GPU's output and the f64 reference fed the same
 //! input.
 
+mod common;
+
 use tonegate::conventions::{equirect_uv, rotation_matrix, sphere_direction};
 use tonegate::golden::read_frame;
 use tonegate::gpu::{
@@ -22,28 +24,16 @@ fn context() -> GpuContext {
         .unwrap_or_else(|e| panic!("{e}\n(ci/test.sh installs mesa-vulkan-drivers; run it once)"))
 }
 
+/// The suite's scenes whose frames stand alone: a TAA scene's frame depends
+/// on the frames before it, and tests/taa.rs compares those sequences (and
+/// each TAA stage) on both renderers.
 fn suite() -> Vec<Scene> {
-    load_suite(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("golden/suite.toml")).unwrap()
-}
-
-fn renderer<'a>(
-    ctx: &'a GpuContext,
-    scene: &Scene,
-    env: &tonegate::image::HdrImage,
-    config: GpuConfig,
-) -> GpuRenderer<'a> {
-    GpuRenderer::new(
-        ctx,
-        StagePlan::for_scene(scene, 1),
-        GpuInput::Sphere {
-            env,
-            camera: scene_camera(scene),
-            spp: 1,
-        },
-        &Pipeline::of_scene(scene),
-        config,
-    )
-    .unwrap()
+    let all =
+        load_suite(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("golden/suite.toml"))
+            .unwrap();
+    all.into_iter()
+        .filter(|s| s.taa_active().is_none())
+        .collect()
 }
 
 /// A renderer of `img` as a flat image (no sphere stage) with `pipeline`'s
@@ -122,7 +112,7 @@ fn final_frames_match_the_cpu_render_of_the_same_scene() {
     let ctx = context();
     for scene in suite() {
         let env = scene_environment(&scene).unwrap();
-        let r = renderer(&ctx, &scene, &env, GpuConfig::default());
+        let r = common::scene_renderer(&ctx, &scene, &env, GpuConfig::default());
         let mut worst_psnr = f64::INFINITY;
         let mut golden_psnr = Vec::new();
         for n in 0..scene.frames {
@@ -167,7 +157,7 @@ fn each_stage_matches_its_reference_on_the_same_input() {
     let ctx = context();
     for scene in suite() {
         let env = scene_environment(&scene).unwrap();
-        let r = renderer(&ctx, &scene, &env, GpuConfig::default());
+        let r = common::scene_renderer(&ctx, &scene, &env, GpuConfig::default());
         let n = 3.min(scene.frames - 1);
         r.set_rotation(&rotation_matrix(scene.rotation.axis, scene.angle(n)));
         let gpu = r.render(true).unwrap();
@@ -379,7 +369,7 @@ fn only_the_plans_stages_are_built_and_timed() {
     let ctx = context();
     for scene in suite() {
         let env = scene_environment(&scene).unwrap();
-        let r = renderer(&ctx, &scene, &env, GpuConfig::default());
+        let r = common::scene_renderer(&ctx, &scene, &env, GpuConfig::default());
         let plan = StagePlan::for_scene(&scene, 1);
         assert_eq!(r.stage_names(), plan.names(), "{}", scene.name);
         let frame = r.render(false).unwrap();
@@ -412,7 +402,7 @@ fn a_wrong_gpu_render_fails_the_comparison() {
     if let tonegate::scene::Operator::Seed000 { key, .. } = &mut scene.operator {
         *key = tonegate::scene::Positive::try_from(key.get() * 1.02).unwrap();
     }
-    let r = renderer(&ctx, &scene, &env, GpuConfig::default());
+    let r = common::scene_renderer(&ctx, &scene, &env, GpuConfig::default());
     r.set_rotation(&rotation_matrix(scene.rotation.axis, scene.angle(3)));
     let frame = r.render(true).unwrap().frame.unwrap();
     let over = fraction_over(frame.raster(), cpu.frame.raster(), 1).unwrap();
@@ -434,7 +424,7 @@ fn half_float_intermediates_render_within_a_few_lsb_where_in_range() {
         hdr_format: HdrFormat::Rgba16Float,
         ..Default::default()
     };
-    let r = renderer(&ctx, &scene, &env, config);
+    let r = common::scene_renderer(&ctx, &scene, &env, config);
     // The night map stays below 65504: f16 really is used, not promoted.
     assert_eq!(r.config.hdr_format, HdrFormat::Rgba16Float, "{:?}", r.notes);
     r.set_rotation(&rotation_matrix(scene.rotation.axis, scene.angle(2)));
@@ -531,7 +521,7 @@ fn hardware_filtering_is_an_option_with_its_error_measured() {
     };
     for scene in suite() {
         let env = scene_environment(&scene).unwrap();
-        let r = renderer(&ctx, &scene, &env, config);
+        let r = common::scene_renderer(&ctx, &scene, &env, config);
         let n = 3.min(scene.frames - 1);
         r.set_rotation(&rotation_matrix(scene.rotation.axis, scene.angle(n)));
         let frame = r.render(true).unwrap().frame.unwrap();
@@ -543,7 +533,7 @@ fn hardware_filtering_is_an_option_with_its_error_measured() {
         );
         assert!(m.psnr >= 40.0, "{}: {:.2} dB", scene.name, m.psnr);
         if ctx.adapter.name.contains("llvmpipe") {
-            let manual = renderer(&ctx, &scene, &env, GpuConfig::default());
+            let manual = common::scene_renderer(&ctx, &scene, &env, GpuConfig::default());
             manual.set_rotation(&rotation_matrix(scene.rotation.axis, scene.angle(n)));
             let manual = manual.render(true).unwrap().frame.unwrap();
             let d = compare(frame.raster(), manual.raster()).unwrap();
@@ -662,8 +652,8 @@ fn fused_execution_renders_the_staged_frames() {
     let mut from_toned = false;
     for scene in scenes {
         let env = scene_environment(&scene).unwrap();
-        let staged = renderer(&ctx, &scene, &env, GpuConfig::default());
-        let fused = renderer(&ctx, &scene, &env, fused_config);
+        let staged = common::scene_renderer(&ctx, &scene, &env, GpuConfig::default());
+        let fused = common::scene_renderer(&ctx, &scene, &env, fused_config);
         let has_grade = scene.grade.is_some();
         if has_grade {
             assert_eq!(fused.config.execution, Execution::Staged, "{}", scene.name);

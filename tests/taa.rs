@@ -2,14 +2,16 @@
 //! the same inputs, the whole recurrence frame after frame, and the
 //! sequencing (`SceneRenderer` replays from the last reset).
 
+mod common;
+
 use std::path::Path;
 use tonegate::conventions::{reprojection, rotation_matrix, taa_jitter};
-use tonegate::gpu::{AdapterChoice, GpuConfig, GpuContext, GpuInput, GpuRenderer};
-use tonegate::image::{HdrImage, LinearImage};
+use tonegate::gpu::{AdapterChoice, GpuConfig, GpuContext};
+use tonegate::image::LinearImage;
 use tonegate::plan::StagePlan;
 use tonegate::reference::taa::{taa, TaaFrame};
 use tonegate::reference::taa_sobel::taa_sobel;
-use tonegate::reference::{scene_camera, sphere, Pipeline};
+use tonegate::reference::{scene_camera, sphere};
 use tonegate::render::{scene_environment, SceneRenderer};
 use tonegate::scene::Scene;
 
@@ -43,21 +45,6 @@ min_psnr = 0.0
 "#
     );
     Scene::parse(&text, Path::new("taa-test.toml")).unwrap()
-}
-
-fn renderer<'a>(ctx: &'a GpuContext, scene: &Scene, env: &HdrImage) -> GpuRenderer<'a> {
-    GpuRenderer::new(
-        ctx,
-        StagePlan::for_scene(scene, 1),
-        GpuInput::Sphere {
-            env,
-            camera: scene_camera(scene),
-            spp: 1,
-        },
-        &Pipeline::of_scene(scene),
-        GpuConfig::default(),
-    )
-    .unwrap()
 }
 
 /// The largest |a − b| / (rel·|b| + abs) over every channel.
@@ -96,7 +83,7 @@ fn each_taa_stage_matches_its_reference_on_the_gpus_inputs() {
     ] {
         let sc = scene_with(variant, sharpen, 0.5, filter);
         let env = scene_environment(&sc).unwrap();
-        let r = renderer(&ctx, &sc, &env);
+        let r = common::scene_renderer(&ctx, &sc, &env, GpuConfig::default());
         let camera = scene_camera(&sc);
         let params = StagePlan::for_scene(&sc, 1).taa().unwrap();
         let taa_cfg = sc.taa.as_ref().unwrap();

@@ -53,29 +53,9 @@ pub fn tradeoff(a: TradeoffArgs) -> Result<ExitCode> {
         return Err(invalid("--repeats and --frames need at least one"));
     }
     let suite = tonegate::suite::load_suite_file(&a.suite)?;
-    let scenes: Vec<_> = if a.scenes.is_empty() {
-        suite.scenes.clone()
-    } else {
-        let mut out = Vec::new();
-        for name in &a.scenes {
-            match suite.scenes.iter().find(|s| &s.name == name) {
-                Some(s) => out.push(s.clone()),
-                None => {
-                    return Err(invalid(format!(
-                        "no scene {name:?} in {}; it has: {}",
-                        a.suite.display(),
-                        suite
-                            .scenes
-                            .iter()
-                            .map(|s| s.name.as_str())
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    )))
-                }
-            }
-        }
-        out
-    };
+    let scenes = suite
+        .select(&a.scenes)
+        .map_err(|e| invalid(format!("{}: {e}", a.suite.display())))?;
     let mut history = if a.no_history {
         None
     } else {

@@ -253,25 +253,12 @@ fn run_inner(
 ) -> Result<CheckReport, CheckError> {
     let mut suite = crate::suite::load_suite_file(&opts.suite)?;
     if !opts.scenes.is_empty() {
-        if let Some(missing) = opts
-            .scenes
-            .iter()
-            .find(|n| !suite.scenes.iter().any(|s| &&s.name == n))
-        {
-            return Err(CheckError::Suite(SceneError::Invalid {
+        suite.scenes = suite
+            .select(&opts.scenes)
+            .map_err(|message| SceneError::Invalid {
                 path: opts.suite.clone(),
-                message: format!(
-                    "--scene {missing}: no such scene in the suite (it has {})",
-                    suite
-                        .scenes
-                        .iter()
-                        .map(|s| s.name.as_str())
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                ),
-            }));
-        }
-        suite.scenes.retain(|s| opts.scenes.contains(&s.name));
+                message: format!("--scene: {message}"),
+            })?;
         suite.stress = false;
     }
     if let (Some(h), Some(id)) = (history.as_ref(), run_id) {

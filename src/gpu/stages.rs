@@ -67,6 +67,19 @@ pub fn hdr_texture(
     height: u32,
     format: HdrFormat,
 ) -> wgpu::Texture {
+    texture(ctx, label, width, height, format.texture_format())
+}
+
+/// An intermediate of any format, with every intermediate's usages (COPY_DST
+/// included: a storage texture without it made llvmpipe's GPU timestamps of
+/// the whole process meaningless).
+pub fn texture(
+    ctx: &GpuContext,
+    label: &str,
+    width: u32,
+    height: u32,
+    format: wgpu::TextureFormat,
+) -> wgpu::Texture {
     ctx.device.create_texture(&wgpu::TextureDescriptor {
         label: Some(label),
         size: wgpu::Extent3d {
@@ -77,7 +90,7 @@ pub fn hdr_texture(
         mip_level_count: 1,
         sample_count: 1,
         dimension: wgpu::TextureDimension::D2,
-        format: format.texture_format(),
+        format,
         usage: wgpu::TextureUsages::STORAGE_BINDING
             | wgpu::TextureUsages::TEXTURE_BINDING
             | wgpu::TextureUsages::COPY_SRC

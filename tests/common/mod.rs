@@ -120,3 +120,25 @@ pub fn hdr_bytes(dir: &Path, width: u32, height: u32) -> Vec<u8> {
     tonegate::io::write_image_hdr(&path, &img).unwrap();
     std::fs::read(path).unwrap()
 }
+
+/// A GPU renderer of `scene`'s 1-spp plan (its TAA stages included, when it
+/// has them) over `env`, on `ctx`.
+pub fn scene_renderer<'a>(
+    ctx: &'a tonegate::gpu::GpuContext,
+    scene: &tonegate::scene::Scene,
+    env: &tonegate::image::HdrImage,
+    config: tonegate::gpu::GpuConfig,
+) -> tonegate::gpu::GpuRenderer<'a> {
+    tonegate::gpu::GpuRenderer::new(
+        ctx,
+        tonegate::plan::StagePlan::for_scene(scene, 1),
+        tonegate::gpu::GpuInput::Sphere {
+            env,
+            camera: tonegate::reference::scene_camera(scene),
+            spp: 1,
+        },
+        &tonegate::reference::Pipeline::of_scene(scene),
+        config,
+    )
+    .unwrap()
+}
