@@ -37,8 +37,34 @@ fn the_sweep_measures_every_configuration_and_marks_a_consistent_front() {
     let text = String::from_utf8_lossy(&o.stdout).replace("1e999", "1e308");
     let report: serde_json::Value = serde_json::from_str(&text).unwrap();
     let points = report["points"].as_array().unwrap();
-    // f32/f16 x block/pingpong x manual/hardware x 1/4/16 spp; no bloom here.
-    assert_eq!(points.len(), 24);
+    // f32/f16 x block/pingpong x manual/hardware x 1/4/16 spp; no bloom
+    // here; then at 1 spp no AA and the TAA variants (issue 14): clip and
+    // edge-aware x two feedback ranges x two sharpen strengths, and each
+    // with the Catmull-Rom history.
+    assert_eq!(points.len(), 24 + 11);
+    let taa: Vec<&serde_json::Value> = points
+        .iter()
+        .filter(|p| !p["knobs"]["taa"].is_null())
+        .collect();
+    assert_eq!(taa.len(), 11);
+    let taa_psnr = |variant: &str, fb: f64, s: f64| {
+        taa.iter()
+            .find(|p| {
+                let t = &p["knobs"]["taa"];
+                t["variant"] == variant
+                    && t["feedback_max"].as_f64() == Some(fb)
+                    && t["sharpen"].as_f64() == Some(s)
+                    && t["history_filter"] == "bilinear"
+            })
+            .unwrap_or_else(|| panic!("no {variant} {fb} {s} point"))["psnr"]
+            .as_f64()
+            .unwrap()
+    };
+    // The static grid: the history of the 6 frames averages 6 jitter
+    // offsets, which beats one unjittered sample against the supersampled
+    // reference.
+    let (off, clip) = (taa_psnr("off", 0.97, 0.0), taa_psnr("clip", 0.97, 0.0));
+    assert!(clip > off + 3.0, "no AA {off} dB, clip {clip} dB");
     for p in points {
         assert!(p["ms"].as_f64().unwrap() > 0.0, "{p}");
         // At the reference's own spp in f32, the adaptation luminance is the
