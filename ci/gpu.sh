@@ -2,7 +2,8 @@
 # What anyone with a GPU runs: a release build, then on one adapter (default
 # the best hardware one, `--adapter hardware`) the gate (`check`), the stiff
 # inputs (`stress --json`) and the frame benchmark (`bench --json` at 720p,
-# 1080p and 2160p, staged and fused), all into one report folder:
+# 1080p and 2160p, staged and fused; with each TAA variant at 1600x900, seed
+# 002's size, and 1080p), all into one report folder:
 #   ci/gpu.sh [OUT_DIR] [ADAPTER]        (default: gpu-report, hardware)
 # Exits 0 only if check and stress pass; the bench never decides.
 # ADAPTER=default runs the same on lavapipe, to try the script without a GPU.
@@ -36,6 +37,18 @@ for size in 1280x720 1920x1080 3840x2160; do
   done
 done
 
+# Issue 14's target: `taa` (and `taa_sobel`) within 3x the floor pass.
+for size in 1600x900 1920x1080; do
+  for taa in clip edge-aware; do
+    for history in bilinear catmull-rom; do
+      name="$size-taa-$taa-$history"
+      "$TONEGATE" bench --adapter "$adapter" --size "$size" --taa "$taa" --taa-history "$history" \
+        --frames "${BENCH_FRAMES:-300}" --json >"$out/bench-$name.json" \
+        2>"$out/bench-$name.err" || echo "bench $name failed" >&2
+    done
+  done
+done
+
 python3 - "$out" "$check" "$stress" <<'PY'
 import glob, json, os, sys
 out, check, stress = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
@@ -62,6 +75,9 @@ for name, b in report["bench"].items():
         print(f"bench {name}: {b['error']}")
         continue
     print(f"bench {name}: {json.dumps({k: b[k] for k in b if k in ('frame_gpu_ms', 'frame_wall_ms_with_readback', 'fps', 'fps_with_readback', 'floor_ms')})}")
+    for s in b.get("stages", []):
+        if s["name"].startswith("taa"):
+            print(f"  {s['name']}: {s['median_ms']:.3f} ms median, {s['floor_multiple']:.2f}x floor")
 print(f"report: {os.path.join(out, 'report.json')}")
 PY
 exit $status

@@ -28,6 +28,9 @@ pub struct BenchArgs {
     /// history to resolve every frame.
     #[arg(long, value_enum, default_value = "off")]
     pub taa: tonegate::scene::TaaVariant,
+    /// How the TAA history is read (bilinear, catmull-rom).
+    #[arg(long, value_enum, default_value = "bilinear")]
+    pub taa_history: tonegate::scene::HistoryFilter,
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
@@ -213,6 +216,7 @@ pub fn bench(a: BenchArgs) -> Result<ExitCode> {
         warmup: a.warmup,
         config: a.gpu.config(),
         taa: a.taa,
+        history_filter: a.taa_history,
     };
     let report = tonegate::gpu::bench::run(&ctx, &opts)?;
     if a.json {

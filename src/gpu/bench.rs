@@ -10,8 +10,8 @@ use crate::perf::{quantile, summarise, StageTiming};
 use crate::plan::StagePlan;
 use crate::reference::Pipeline;
 use crate::scene::{
-    Bloom, BrightPass, ColourPath, Encoding, Factor, Key, NonNegative, Operator, Positive, Radius,
-    TaaParams, TaaVariant,
+    Bloom, BrightPass, ColourPath, Encoding, Factor, HistoryFilter, Key, NonNegative, Operator,
+    Positive, Radius, TaaParams, TaaVariant,
 };
 use serde::Serialize;
 
@@ -26,6 +26,8 @@ pub struct BenchOptions {
     /// The TAA stages after `sphere` (`TaaVariant::Off`: none), resolving
     /// against a history every measured frame.
     pub taa: TaaVariant,
+    /// How the TAA history is read.
+    pub history_filter: HistoryFilter,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -138,6 +140,7 @@ pub fn full_plan_renderer(
     height: u32,
     config: GpuConfig,
     taa: TaaVariant,
+    history_filter: HistoryFilter,
 ) -> Result<GpuRenderer<'_>, GpuError> {
     let (op, bloom) = bench_operator();
     let pipeline = Pipeline {
@@ -163,7 +166,7 @@ pub fn full_plan_renderer(
         feedback_min: 0.88,
         feedback_max: 0.97,
         sharpen: 0.0,
-        history_filter: crate::scene::HistoryFilter::Bilinear,
+        history_filter,
     });
     GpuRenderer::new(
         ctx,
@@ -180,7 +183,14 @@ pub fn full_plan_renderer(
 
 /// Runs the bench on `ctx`.
 pub fn run(ctx: &GpuContext, opts: &BenchOptions) -> Result<BenchReport, GpuError> {
-    let r = full_plan_renderer(ctx, opts.width, opts.height, opts.config, opts.taa)?;
+    let r = full_plan_renderer(
+        ctx,
+        opts.width,
+        opts.height,
+        opts.config,
+        opts.taa,
+        opts.history_filter,
+    )?;
     let plan = r.plan.clone();
     let angle = |n: u32| rotation_matrix([1.0, 0.0, 0.0], (n as f64 * 2.0).to_radians());
     // Every frame, TAA included, is the full cost: a history to resolve.
