@@ -5,6 +5,7 @@
 //! outputs; `gate` runs the CI gate over a suite; `server` serves the history.
 //! ARCHITECTURE.md draws the layers. The command line lives in the binary.
 
+pub mod changepoint;
 pub mod check;
 pub mod color;
 pub mod conventions;

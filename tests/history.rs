@@ -225,3 +225,47 @@ fn a_version_1_file_is_migrated_without_losing_its_runs() {
     assert_eq!(flip.len(), 1, "{flip:?}");
     assert_eq!((flip[0].run_id, flip[0].value), (new_id, 0.002));
 }
+
+/// Issue 15 (change points): a 6 % level shift in a stage's time, under the
+/// regression window's 10 % floor run by run, is marked at the run where it
+/// began, per adapter: another adapter's faster runs interleaved with it are
+/// another series, with no shift of its own, and are marked nowhere.
+#[test]
+fn a_level_shift_is_marked_at_its_run_and_per_adapter() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = History::open(&dir.path().join("h.sqlite")).unwrap();
+    let llvm = adapter("llvmpipe", "{}");
+    let other = adapter("other gpu", "{}");
+    let wobble = [0.0, 0.15, -0.1, 0.2, -0.2, 0.05, -0.15, 0.1];
+    let mut first_shifted = 0;
+    for i in 0..40 {
+        let ms = if i < 20 { 10.0 } else { 10.6 } + wobble[i % wobble.len()];
+        let id = record(&mut h, &llvm, &scene("sky", ms, 100.0 / ms));
+        if i == 20 {
+            first_shifted = id;
+        }
+        record(
+            &mut h,
+            &other,
+            &scene("sky", 2.0 + wobble[(i + 3) % 8] * 0.1, 500.0),
+        );
+    }
+    let filter = tonegate::history::TrendFilter {
+        scene: Some("sky"),
+        limit: 200,
+        ..Default::default()
+    };
+    let trend = h.trend("sphere", &filter).unwrap();
+    let marked: Vec<(i64, Option<String>)> = trend
+        .iter()
+        .filter(|p| p.change.is_some())
+        .map(|p| (p.run_id, p.adapter.clone()))
+        .collect();
+    assert_eq!(marked.len(), 1, "{marked:?}");
+    let (run, on) = &marked[0];
+    assert_eq!(on.as_deref(), Some("llvmpipe"));
+    // Within one run of where the shift began (runs alternate adapters).
+    assert!((run - first_shifted).abs() <= 2, "{run} vs {first_shifted}");
+    let ratio = trend.iter().find_map(|p| p.change).unwrap();
+    assert!(ratio > 1.04 && ratio < 1.08, "{ratio}");
+}

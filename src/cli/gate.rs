@@ -244,13 +244,16 @@ pub fn history(a: HistoryArgs) -> Result<ExitCode> {
                 "#".repeat(20)
             };
             println!(
-                "  run {:>4} {:<24} {:<8} {:>12.4} {:<40}{}",
+                "  run {:>4} {:<24} {:<8} {:>12.4} {:<40}{}{}",
                 p.run_id,
                 p.started_at,
                 p.status,
                 p.value,
                 bar,
-                if p.regression { " REGRESSION" } else { "" }
+                if p.regression { " REGRESSION" } else { "" },
+                p.change
+                    .map(|r| format!(" LEVEL SHIFT x{r:.3} (E-Divisive)"))
+                    .unwrap_or_default()
             );
         }
     }

@@ -55,6 +55,33 @@ pub struct TrendPoint {
     pub value: f64,
     /// Whether this run flagged this metric of this scene as a regression.
     pub regression: bool,
+    /// Where E-Divisive (`changepoint`) finds that this (scene, adapter)
+    /// series shifted level at this run: the new level over the old one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub change: Option<f64>,
+}
+
+/// Marks each (scene, adapter) series' change points (`TrendPoint::change`),
+/// the series in run order. Runs on different adapters are different series:
+/// a fleet's mix of GPUs is not a level shift.
+fn mark_changes(points: &mut [TrendPoint]) {
+    let mut keys: Vec<(String, Option<String>)> = points
+        .iter()
+        .map(|p| (p.scene.clone(), p.adapter.clone()))
+        .collect();
+    keys.sort();
+    keys.dedup();
+    for (scene, adapter) in keys {
+        let mut idx: Vec<usize> = (0..points.len())
+            .filter(|&i| points[i].scene == scene && points[i].adapter == adapter)
+            .collect();
+        idx.sort_by_key(|&i| points[i].run_id);
+        let series: Vec<f64> = idx.iter().map(|&i| points[i].value).collect();
+        let options = crate::changepoint::Options::default();
+        for c in crate::changepoint::e_divisive(&series, &options) {
+            points[idx[c.index]].change = Some(c.ratio);
+        }
+    }
 }
 
 /// How one metric of a scene is read out of a run: worst frame for image
@@ -254,11 +281,14 @@ impl History {
                         scene: r.get(4)?,
                         value: r.get(5)?,
                         regression: r.get(6)?,
+                        change: None,
                     })
                 },
             )
             .and_then(|rows| rows.collect())
             .map_err(|e| self.err(e))?;
+        let mut rows: Vec<TrendPoint> = rows;
+        mark_changes(&mut rows);
         Ok(rows)
     }
 
