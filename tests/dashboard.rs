@@ -228,3 +228,32 @@ fn the_dashboard_compares_the_taa_variants_in_chromium() {
     );
     assert!(dom.contains("PSNR dB best @f"), "{dom}");
 }
+
+/// Issue 15 (change points): twelve check runs whose last six have a tone
+/// mapper 2 % too bright shift the SSIM series' level; the trends page draws
+/// a dashed rule at the first of them and lists the shift. (Eight runs, four
+/// and four, cannot reach p <= 0.01: only 70 orderings exist.)
+#[test]
+fn the_trend_charts_mark_a_level_shift_in_chromium() {
+    let dir = tempfile::tempdir().unwrap();
+    let seeded = common::seed_empty(dir.path());
+    std::fs::write(&seeded.suite, "scenes = [\"scenes/sky-seed000.toml\"]\n").unwrap();
+    let (suite, db) = (seeded.suite.to_str().unwrap(), seeded.db.to_str().unwrap());
+    for run in 1..=12 {
+        let mut args = vec!["check", "--suite", suite, "--db", db];
+        if run > 6 {
+            args.extend(["--fault-gain", "1.02"]);
+        }
+        common::tonegate(&args);
+    }
+    let s = serve(&seeded, dir.path());
+    let dom = browse(
+        &format!("{}/#/trends?scene=sky-seed000", s.base),
+        "trends-shift",
+    );
+    assert!(
+        dom.contains("class=\"change\""),
+        "no level-shift rule:\n{dom}"
+    );
+    assert!(dom.contains("SSIM ×") && dom.contains("at run 7"), "{dom}");
+}

@@ -323,15 +323,18 @@ async function trendsPage(params) {
     for (const p of points) {
       const k = p.adapter || "?";
       if (!groups.has(k)) groups.set(k, []);
-      groups.get(k).push({ x: p.run_id, y: p.value, regression: p.regression, label: `run ${p.run_id} (${p.status})` });
+      groups.get(k).push({ x: p.run_id, y: p.value, regression: p.regression, change: p.change, label: `run ${p.run_id} (${p.status})` });
     }
     return [...groups].map(([name, points]) => ({ name, points }));
   };
   const chart = (title, points, yLabel, extra) => h("figure", { class: "chart-box" }, h("figcaption", {}, title), lineChart(byAdapter(points), { title, yLabel, xLabel: "run", legend: true, ...(extra || {}) }));
-  const stageSeries = STAGES.map((s, i) => ({ name: s, points: stages[i].map((p) => ({ x: p.run_id, y: p.value, regression: p.regression, label: `run ${p.run_id} · ${p.adapter}` })) })).filter((s) => s.points.length);
+  const stageSeries = STAGES.map((s, i) => ({ name: s, points: stages[i].map((p) => ({ x: p.run_id, y: p.value, regression: p.regression, change: p.change, label: `run ${p.run_id} · ${p.adapter}` })) })).filter((s) => s.points.length);
+  const shifts = [["FPS", fps], ["PSNR", psnr], ["SSIM", ssim], ["FLIP", flip], ...STAGES.map((s, i) => [s, stages[i]])]
+    .flatMap(([name, pts]) => pts.filter((p) => p.change).map((p) => `${name} ×${p.change.toFixed(3)} at run ${p.run_id} (${p.adapter || "?"})`));
   const regressions = [...fps, ...stages.flat()].filter((p) => p.regression);
   show(h("h1", {}, `Trends · ${scene}`), controls,
-    h("p", { class: "muted" }, "Red points are runs flagged as performance regressions against the median of earlier runs on the same adapter and configuration."),
+    h("p", { class: "muted" }, "Red points are runs flagged as performance regressions against the median of earlier runs on the same adapter and configuration; a dashed rule is where a series' level shifted (E-Divisive change point, per adapter)."),
+    shifts.length ? h("p", { class: "shifts" }, `Level shifts: ${shifts.join("; ")}`) : null,
     h("div", { class: "charts" },
       chart("FPS (with readback)", fps, "FPS", { zero: true }),
       chart("Worst-frame PSNR against the golden (dB)", psnr, "dB"),

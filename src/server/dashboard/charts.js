@@ -36,7 +36,7 @@ function fmt(v) {
 
 const PALETTE = ["#4e79a7", "#f28e2b", "#59a14f", "#b07aa1", "#76b7b2", "#edc948", "#ff9da7", "#9c755f", "#bab0ac", "#e15759"];
 
-// series: [{name, points: [{x, y, label, regression}]}]; infinite y values are
+// series: [{name, points: [{x, y, label, regression, change}]}]; infinite y values are
 // drawn on a band above the plot and labelled ∞.
 function lineChart(series, opts) {
   const W = opts.width || 640, H = opts.height || 260;
@@ -77,6 +77,12 @@ function lineChart(series, opts) {
     const d = pts.map((p, k) => `${k ? "L" : "M"}${X(p.x).toFixed(1)},${Y(p.y).toFixed(1)}`).join("");
     svg.appendChild(svgEl("path", { d, class: "series", stroke: colour, "data-series": s.name }));
     for (const p of pts) {
+      if (p.change) {
+        // A level shift (E-Divisive) begins at this run: a dashed rule.
+        const l = svgEl("line", { x1: X(p.x).toFixed(1), x2: X(p.x).toFixed(1), y1: top, y2: H - m.b, class: "change", stroke: colour, "stroke-dasharray": "4 3", "data-series": s.name });
+        l.appendChild(svgEl("title", {}, `${s.name}: level shift at run ${p.x}, new level ×${p.change.toFixed(3)} of the old`));
+        svg.appendChild(l);
+      }
       const c = svgEl("circle", {
         cx: X(p.x).toFixed(1), cy: Y(p.y).toFixed(1), r: p.regression ? 5 : 3,
         class: p.regression ? "point regression" : "point", fill: p.regression ? "#d62728" : colour,
