@@ -5,6 +5,7 @@
 #   pfstools, pfstmo   - the peer tone mapper the reinhard02 preset is locked to
 #   python3-venv       - the scikit-image venv that regenerates tests/skimage/vectors.json
 #   chromium           - the real browser the dashboard tests (tests/dashboard.rs) drive
+#   postgresql         - the real server the shared-history tests (tests/postgres.rs) start
 set -euo pipefail
 
 need=()
@@ -12,6 +13,7 @@ ls /usr/share/vulkan/icd.d/lvp_icd*.json >/dev/null 2>&1 || need+=(mesa-vulkan-d
 command -v pfstmo_reinhard02 >/dev/null 2>&1 || need+=(pfstools pfstmo)
 python3 -c 'import ensurepip, venv' >/dev/null 2>&1 || need+=(python3-venv)
 command -v chromium >/dev/null 2>&1 || command -v chromium-browser >/dev/null 2>&1 || need+=(chromium)
+ls /usr/lib/postgresql/*/bin/initdb >/dev/null 2>&1 || need+=(postgresql)
 if [ "${#need[@]}" -gt 0 ]; then
   sudo=""
   [ "$(id -u)" -eq 0 ] || sudo="sudo"

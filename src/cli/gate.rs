@@ -13,9 +13,22 @@ use tonegate::scene::MAX_SPP;
 /// Where the history lives.
 #[derive(Args, Clone)]
 pub struct DbArgs {
-    /// The history database (SQLite, created when absent).
+    /// The history database: a SQLite file (created when absent), or a
+    /// PostgreSQL database shared by a fleet (postgres://user@host/db).
     #[arg(long, env = "TONEGATE_DB", default_value = ".tonegate/history.sqlite")]
     pub db: PathBuf,
+}
+
+impl DbArgs {
+    /// Whether the history is a PostgreSQL database.
+    pub fn is_url(&self) -> bool {
+        tonegate::history::is_url(&self.db.to_string_lossy())
+    }
+
+    /// The history as the console shows it: a PostgreSQL address without its password.
+    pub fn shown(&self) -> String {
+        tonegate::history::redacted(&self.db.to_string_lossy())
+    }
 }
 
 #[derive(Args)]
@@ -139,10 +152,7 @@ pub fn check(a: CheckArgs) -> Result<ExitCode> {
         CheckOutcome::Error(e, run) => {
             eprintln!("error: {e}");
             if let Some(id) = run {
-                eprintln!(
-                    "recorded as run {id} (status error) in {}",
-                    a.db.db.display()
-                );
+                eprintln!("recorded as run {id} (status error) in {}", a.db.shown());
             }
             if let Some(path) = &a.junit {
                 let xml = tonegate::gate::junit::render_error(&e.to_string())?;
@@ -161,10 +171,10 @@ pub fn check(a: CheckArgs) -> Result<ExitCode> {
 }
 
 pub fn history(a: HistoryArgs) -> Result<ExitCode> {
-    if !a.db.db.exists() {
+    if !a.db.is_url() && !a.db.db.exists() {
         return Err(invalid(format!(
             "no history at {} (run `tonegate check` first, or pass --db)",
-            a.db.db.display()
+            a.db.shown()
         )));
     }
     let h = History::open_read_only(&a.db.db)?;
@@ -221,7 +231,7 @@ pub fn history(a: HistoryArgs) -> Result<ExitCode> {
         return Ok(ExitCode::SUCCESS);
     }
     if points.is_empty() {
-        println!("no values of {metric} in {}", a.db.db.display());
+        println!("no values of {metric} in {}", a.db.shown());
         return Ok(ExitCode::SUCCESS);
     }
     let mut scenes: Vec<&str> = points.iter().map(|p| p.scene.as_str()).collect();

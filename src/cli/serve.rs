@@ -71,11 +71,14 @@ pub fn serve(a: ServeArgs) -> Result<ExitCode> {
             "--timeout: must be at least 1 second".into(),
         ));
     }
+    // Beside a SQLite history; a PostgreSQL one has no folder.
     let token_file = a.token_file.clone().unwrap_or_else(|| {
-        a.db.db
-            .parent()
-            .unwrap_or(std::path::Path::new("."))
-            .join("token")
+        let dir = if a.db.is_url() {
+            std::path::Path::new(".tonegate")
+        } else {
+            a.db.db.parent().unwrap_or(std::path::Path::new("."))
+        };
+        dir.join("token")
     });
     let token = tonegate::server::load_or_make_token(&token_file)?;
     let opts = ServeOptions {
@@ -117,7 +120,7 @@ pub fn serve(a: ServeArgs) -> Result<ExitCode> {
         })?;
         println!(
             "tonegate serving http://{addr}/  (history {}, token in {})",
-            a.db.db.display(),
+            a.db.shown(),
             token_file.display()
         );
         if a.run_suite {

@@ -201,7 +201,7 @@ pub fn run(opts: &CheckOptions, progress: &dyn Progress) -> CheckOutcome {
     let mut opts = opts.clone();
     if opts.artifacts.is_none() {
         if let (Some(db), Some(id)) = (&opts.db, run_id) {
-            opts.artifacts = Some(artifacts_dir_of(db, id));
+            opts.artifacts = artifacts_dir_of(db, id);
         }
     }
     let result = run_inner(&opts, &meta, &mut history, run_id, started_at, progress);
@@ -236,11 +236,18 @@ fn spp_json(spp: Option<u32>) -> serde_json::Value {
 }
 
 /// Where a recorded run's artifacts go by default: `<db folder>/artifacts/run-<id>`.
-pub fn artifacts_dir_of(db: &Path, run: i64) -> PathBuf {
-    db.parent()
-        .unwrap_or(Path::new("."))
-        .join("artifacts")
-        .join(format!("run-{run}"))
+/// None for a PostgreSQL history, which has no folder: its runs keep images
+/// only where `--artifacts` says.
+pub fn artifacts_dir_of(db: &Path, run: i64) -> Option<PathBuf> {
+    if crate::history::is_url(&db.to_string_lossy()) {
+        return None;
+    }
+    Some(
+        db.parent()
+            .unwrap_or(Path::new("."))
+            .join("artifacts")
+            .join(format!("run-{run}")),
+    )
 }
 
 fn run_inner(
@@ -380,7 +387,11 @@ fn run_inner(
         && stress.as_ref().is_none_or(|s| s.passed);
     Ok(CheckReport {
         run_id,
-        db: opts.db.clone(),
+        // A PostgreSQL address is reported without its password.
+        db: opts
+            .db
+            .as_deref()
+            .map(|d| crate::history::redacted(&d.to_string_lossy()).into()),
         passed,
         started_at,
         ended_at: crate::history::now(),

@@ -1,6 +1,8 @@
-//! Run history: an embedded SQLite file (WAL mode, versioned migrations) that
-//! records every `check` and `tradeoff` run, per-frame metrics, per-stage
-//! timings and FPS.
+//! Run history: every `check` and `tradeoff` run, per-frame metrics,
+//! per-stage timings and FPS, with versioned migrations. Kept in an embedded
+//! SQLite file (WAL mode; the default) or, for a fleet of runners, in one
+//! PostgreSQL database (`--db postgres://…`): the same schema and the same
+//! statements on both (`backend`).
 //!
 //! A run is inserted as `running` before anything is rendered and finished in
 //! one statement at the end; everything in between is written a scene at a
@@ -8,14 +10,20 @@
 //! leaves a consistent file with the run still `running`, and the next open
 //! marks it `aborted` when the process that owned it is gone.
 
+pub(crate) mod backend;
+mod postgres;
 pub mod query;
 mod record;
 mod schema;
+mod sqlite;
+
+pub use postgres::{is_url, redacted};
 
 pub use query::{RunRow, TradeoffRow, TrendFilter, TrendPoint};
 pub use record::{CheckRecord, FrameRecord, Regression, SceneRecord, TradeoffRecord};
 
-use rusqlite::{params, Connection, OptionalExtension};
+use backend::{args, Backend};
+use rusqlite::Connection;
 use schema::MIGRATIONS;
 pub use schema::SCHEMA_VERSION;
 use serde::{Deserialize, Serialize};
@@ -29,6 +37,12 @@ pub enum HistoryError {
     Sqlite {
         path: PathBuf,
         source: rusqlite::Error,
+    },
+    /// The PostgreSQL history could not be reached, read or written.
+    #[error("history database {url}: {}", postgres::describe(source))]
+    Postgres {
+        url: String,
+        source: ::postgres::Error,
     },
     /// The file was written by a newer tonegate whose schema this build does not know.
     #[error("history database {path} has schema version {found}; this tonegate knows up to {known}: use a newer tonegate or another --db")]
@@ -46,6 +60,12 @@ pub enum HistoryError {
     /// A query asked for something that does not exist.
     #[error("{0}")]
     Invalid(String),
+}
+
+/// A value stored as one of a fixed set of words.
+pub trait StoredWord: Sized {
+    const WHAT: &'static str;
+    fn parse(text: &str) -> Option<Self>;
 }
 
 /// What a run is.
@@ -89,18 +109,11 @@ macro_rules! stored_as_words {
             }
         }
 
-        impl rusqlite::types::FromSql for $t {
-            fn column_result(v: rusqlite::types::ValueRef<'_>) -> rusqlite::types::FromSqlResult<Self> {
-                let text = v.as_str()?;
-                $t::ALL
-                    .iter()
-                    .copied()
-                    .find(|k| k.as_str() == text)
-                    .ok_or_else(|| {
-                        rusqlite::types::FromSqlError::Other(
-                            format!(concat!("unknown ", stringify!($t), " {:?}"), text).into(),
-                        )
-                    })
+        impl StoredWord for $t {
+            const WHAT: &'static str = stringify!($t);
+
+            fn parse(text: &str) -> Option<Self> {
+                $t::ALL.iter().copied().find(|k| k.as_str() == text)
             }
         }
     };
@@ -137,9 +150,10 @@ pub struct RunAdapter {
     pub config: String,
 }
 
-/// An open history file.
+/// An open history: a SQLite file or a PostgreSQL database.
 pub struct History {
-    conn: Connection,
+    db: Box<dyn Backend>,
+    /// The file, or the database's address without its password.
     path: PathBuf,
 }
 
@@ -192,19 +206,14 @@ pub fn git_commit(dir: &Path) -> Option<String> {
     (out.status.success() && !s.trim().is_empty()).then(|| s.trim().to_owned())
 }
 
-/// Maps a rusqlite error to one that names the file; owned, so it can be used
-/// while a transaction borrows the connection.
-pub(super) fn sqlite_error(path: PathBuf) -> impl Fn(rusqlite::Error) -> HistoryError {
-    move |source| HistoryError::Sqlite {
-        path: path.clone(),
-        source,
-    }
-}
-
 /// Why a run cannot be recorded in the history at `path`, if it cannot: the
 /// file, or the folder SQLite writes its `-wal` and `-shm` files in, is not
 /// writable. Takes (and at once releases) the write lock, writing nothing.
 pub fn write_problem(path: &Path) -> Option<String> {
+    if is_url(&path.to_string_lossy()) {
+        // A database server: its permissions show when a run opens it.
+        return None;
+    }
     let dir = path
         .parent()
         .filter(|d| !d.as_os_str().is_empty())
@@ -235,9 +244,20 @@ pub fn write_problem(path: &Path) -> Option<String> {
 }
 
 impl History {
-    /// Opens (creating when absent) the history at `path`, migrates it to
-    /// this build's schema and marks dead runs `aborted`.
+    /// Opens (creating when absent) the history at `path` (a SQLite file, or
+    /// a `postgres://` address), migrates it to this build's schema and
+    /// marks dead runs `aborted`.
     pub fn open(path: &Path) -> Result<History, HistoryError> {
+        let url = path.to_string_lossy();
+        if is_url(&url) {
+            let h = History {
+                db: Box::new(postgres::Postgres::connect(&url, false)?),
+                path: redacted(&url).into(),
+            };
+            h.db.migrate(MIGRATIONS)?;
+            h.mark_aborted()?;
+            return Ok(h);
+        }
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).map_err(|source| HistoryError::Folder {
                 path: dir.to_owned(),
@@ -263,12 +283,16 @@ impl History {
                 }
             }
         })?;
-        let mut h = History {
+        let db = sqlite::Sqlite {
             conn,
             path: path.to_owned(),
         };
-        h.configure()?;
-        h.migrate()?;
+        configure(&db)?;
+        let h = History {
+            db: Box::new(db),
+            path: path.to_owned(),
+        };
+        h.db.migrate(MIGRATIONS)?;
         h.mark_aborted()?;
         Ok(h)
     }
@@ -276,6 +300,15 @@ impl History {
     /// Opens an existing history for reading only (no migration, no abort
     /// marking): `history` and the API must not change what they show.
     pub fn open_read_only(path: &Path) -> Result<History, HistoryError> {
+        let url = path.to_string_lossy();
+        if is_url(&url) {
+            let h = History {
+                db: Box::new(postgres::Postgres::connect(&url, true)?),
+                path: redacted(&url).into(),
+            };
+            h.check_version()?;
+            return Ok(h);
+        }
         match Self::open_read_only_with(path, false) {
             // A WAL database whose folder this process cannot write (so
             // SQLite cannot make the -shm file) and that no writer has open
@@ -310,65 +343,23 @@ impl History {
             path: path.to_owned(),
             source,
         })?;
-        let h = History {
+        let db = sqlite::Sqlite {
             conn,
             path: path.to_owned(),
         };
-        h.conn
+        db.conn
             .busy_timeout(Duration::from_secs(5))
-            .map_err(|e| h.err(e))?;
-        let version = h.schema_version()?;
-        if version > SCHEMA_VERSION {
-            return Err(HistoryError::NewerSchema {
-                path: path.to_owned(),
-                found: version,
-                known: SCHEMA_VERSION,
-            });
-        }
-        if version < SCHEMA_VERSION {
-            return Err(HistoryError::Invalid(format!(
-                "history database {} has schema version {version}, older than this tonegate's {SCHEMA_VERSION}: run `tonegate check` once to migrate it",
-                path.display()
-            )));
-        }
+            .map_err(|e| db.err(e))?;
+        let h = History {
+            db: Box::new(db),
+            path: path.to_owned(),
+        };
+        h.check_version()?;
         Ok(h)
     }
 
-    pub fn path(&self) -> &Path {
-        &self.path
-    }
-
-    fn err(&self, source: rusqlite::Error) -> HistoryError {
-        HistoryError::Sqlite {
-            path: self.path.clone(),
-            source,
-        }
-    }
-
-    fn configure(&self) -> Result<(), HistoryError> {
-        let c = &self.conn;
-        c.busy_timeout(Duration::from_secs(10))
-            .map_err(|e| self.err(e))?;
-        // WAL: readers (the dashboard) never block the writer, and a killed
-        // writer leaves the last committed transaction intact. NORMAL sync is
-        // durable against process death; only a power cut can lose the last
-        // transaction, never corrupt the file.
-        c.pragma_update_and_check(None, "journal_mode", "WAL", |_| Ok(()))
-            .map_err(|e| self.err(e))?;
-        c.pragma_update(None, "synchronous", "NORMAL")
-            .map_err(|e| self.err(e))?;
-        c.pragma_update(None, "foreign_keys", "ON")
-            .map_err(|e| self.err(e))?;
-        Ok(())
-    }
-
-    pub fn schema_version(&self) -> Result<i64, HistoryError> {
-        self.conn
-            .query_row("PRAGMA user_version", [], |r| r.get(0))
-            .map_err(|e| self.err(e))
-    }
-
-    fn migrate(&mut self) -> Result<(), HistoryError> {
+    /// Refuses a history whose schema is not exactly this build's.
+    fn check_version(&self) -> Result<(), HistoryError> {
         let version = self.schema_version()?;
         if version > SCHEMA_VERSION {
             return Err(HistoryError::NewerSchema {
@@ -377,47 +368,54 @@ impl History {
                 known: SCHEMA_VERSION,
             });
         }
-        for (i, sql) in MIGRATIONS.iter().enumerate().skip(version as usize) {
-            let err = sqlite_error(self.path.clone());
-            // Each migration and its version bump commit together.
-            let tx = self.conn.transaction().map_err(&err)?;
-            tx.execute_batch(sql).map_err(&err)?;
-            tx.pragma_update(None, "user_version", (i + 1) as i64)
-                .map_err(&err)?;
-            tx.commit().map_err(&err)?;
+        if version < SCHEMA_VERSION {
+            return Err(HistoryError::Invalid(format!(
+                "history database {} has schema version {version}, older than this tonegate's {SCHEMA_VERSION}: run `tonegate check` once to migrate it",
+                self.path.display()
+            )));
         }
         Ok(())
+    }
+
+    /// The file, or the database's address without its password.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Whether this history is a shared PostgreSQL database.
+    pub fn is_shared(&self) -> bool {
+        self.db.dialect() == backend::Dialect::Postgres
+    }
+
+    pub fn schema_version(&self) -> Result<i64, HistoryError> {
+        self.db.schema_version()
     }
 
     /// Marks `running` runs of this host whose process is gone as `aborted`;
     /// returns how many. Runs of other hosts are left alone: their process
     /// cannot be looked at from here.
     pub fn mark_aborted(&self) -> Result<usize, HistoryError> {
-        let host = host_name();
-        let mut stmt = self
-            .conn
-            .prepare("SELECT id, pid, pid_start FROM runs WHERE status = 'running' AND host = ?1")
-            .map_err(|e| self.err(e))?;
-        let rows: Vec<(i64, i64, Option<String>)> = stmt
-            .query_map([&host], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))
-            .and_then(|rows| rows.collect())
-            .map_err(|e| self.err(e))?;
+        let rows = self.db.query(
+            "SELECT id, pid, pid_start FROM runs WHERE status = 'running' AND host = $1",
+            args![host_name()],
+        )?;
         let mut n = 0;
-        for (id, pid, start) in rows {
+        for row in rows {
+            let (id, pid, start) = (row.int(0)?, row.int(1)?, row.opt_text(2)?);
             let alive = u32::try_from(pid)
                 .ok()
                 .and_then(process_start)
                 .is_some_and(|s| Some(s) == start);
             if !alive {
-                n += self
-                    .conn
-                    .execute(
-                        "UPDATE runs SET status = 'aborted', ended_at = ?2,
-                         detail = 'the process ended before the run finished (crash or kill); found ' || ?2
-                         WHERE id = ?1 AND status = 'running'",
-                        params![id, now()],
-                    )
-                    .map_err(|e| self.err(e))?;
+                let at = now();
+                let detail = format!(
+                    "the process ended before the run finished (crash or kill); found {at}"
+                );
+                n += self.db.execute(
+                    "UPDATE runs SET status = 'aborted', ended_at = $2, detail = $3
+                     WHERE id = $1 AND status = 'running'",
+                    args![id, at, detail],
+                )? as usize;
             }
         }
         Ok(n)
@@ -425,22 +423,37 @@ impl History {
 
     /// The status of run `id`, if it exists.
     pub fn status(&self, id: i64) -> Result<Option<RunStatus>, HistoryError> {
-        self.conn
-            .query_row("SELECT status FROM runs WHERE id = ?1", [id], |r| r.get(0))
-            .optional()
-            .map_err(|e| self.err(e))
+        self.db
+            .query_opt("SELECT status FROM runs WHERE id = $1", args![id])?
+            .map(|r| r.word(0))
+            .transpose()
     }
 
-    /// `PRAGMA integrity_check`: "ok" for a sound file.
+    /// `PRAGMA integrity_check` of a SQLite history: "ok" for a sound file.
     pub fn integrity(&self) -> Result<String, HistoryError> {
-        self.conn
-            .query_row("PRAGMA integrity_check", [], |r| r.get(0))
-            .map_err(|e| self.err(e))
+        self.db.integrity()
     }
 
-    pub(crate) fn conn(&self) -> &Connection {
-        &self.conn
+    pub(crate) fn db(&self) -> &dyn Backend {
+        &*self.db
     }
+}
+
+fn configure(db: &sqlite::Sqlite) -> Result<(), HistoryError> {
+    let c = &db.conn;
+    c.busy_timeout(Duration::from_secs(10))
+        .map_err(|e| db.err(e))?;
+    // WAL: readers (the dashboard) never block the writer, and a killed
+    // writer leaves the last committed transaction intact. NORMAL sync is
+    // durable against process death; only a power cut can lose the last
+    // transaction, never corrupt the file.
+    c.pragma_update_and_check(None, "journal_mode", "WAL", |_| Ok(()))
+        .map_err(|e| db.err(e))?;
+    c.pragma_update(None, "synchronous", "NORMAL")
+        .map_err(|e| db.err(e))?;
+    c.pragma_update(None, "foreign_keys", "ON")
+        .map_err(|e| db.err(e))?;
+    Ok(())
 }
 
 #[cfg(test)]

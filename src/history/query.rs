@@ -1,7 +1,7 @@
 //! Reading the history: run lists and per-scene metric trends.
 
+use super::backend::args;
 use super::{History, HistoryError, RunKind, RunStatus};
-use rusqlite::{params, OptionalExtension};
 use serde::Serialize;
 
 /// One run as the run list shows it.
@@ -95,9 +95,9 @@ fn metric_sql(metric: &str) -> Result<String, HistoryError> {
         "mse" | "rmse" | "max_abs_diff" | "mean_abs_diff" | "fraction_over_1lsb"
         | "flip_mean" => frame("MAX", metric),
         "fps" => "s.fps".into(),
-        // A stage's median time; the metric name is bound as ?7.
+        // A stage's median time; the metric name is bound as $7.
         stage if stage.chars().all(|c| c.is_ascii_lowercase() || c == '_') && !stage.is_empty() => {
-            "(SELECT median_ms FROM stage_timings t WHERE t.run_id = s.run_id AND t.scene = s.scene AND t.stage = ?7)"
+            "(SELECT median_ms FROM stage_timings t WHERE t.run_id = s.run_id AND t.scene = s.scene AND t.stage = $7)"
                 .into()
         }
         other => {
@@ -126,105 +126,101 @@ pub struct TrendFilter<'a> {
 impl History {
     /// The newest `limit` runs, newest first.
     pub fn runs(&self, limit: u32) -> Result<Vec<RunRow>, HistoryError> {
-        self.select_runs("ORDER BY r.id DESC LIMIT ?1", limit as i64)
+        self.select_runs("ORDER BY r.id DESC LIMIT $1", limit.into())
     }
 
     /// One run, when it exists.
     pub fn run(&self, id: i64) -> Result<Option<RunRow>, HistoryError> {
-        Ok(self.select_runs("WHERE r.id = ?1", id)?.pop())
+        Ok(self.select_runs("WHERE r.id = $1", id)?.pop())
     }
 
     /// The full JSON report a finished run stored (None while running, or
     /// when the run ended in an error).
     pub fn report(&self, id: i64) -> Result<Option<String>, HistoryError> {
-        self.conn()
-            .query_row("SELECT report FROM runs WHERE id = ?1", [id], |r| r.get(0))
-            .optional()
-            .map(Option::flatten)
-            .map_err(|e| self.err(e))
+        match self
+            .db()
+            .query_opt("SELECT report FROM runs WHERE id = $1", args![id])?
+        {
+            Some(r) => r.opt_text(0),
+            None => Ok(None),
+        }
     }
 
     /// How many runs there are of each status.
     pub fn status_counts(&self) -> Result<Vec<(RunStatus, i64)>, HistoryError> {
-        let mut stmt = self
-            .conn()
-            .prepare("SELECT status, COUNT(*) FROM runs GROUP BY status ORDER BY status")
-            .map_err(|e| self.err(e))?;
-        let rows = stmt
-            .query_map([], |r| Ok((r.get(0)?, r.get(1)?)))
-            .and_then(|rows| rows.collect())
-            .map_err(|e| self.err(e))?;
-        Ok(rows)
+        self.db()
+            .query(
+                "SELECT status, COUNT(*) FROM runs GROUP BY status ORDER BY status",
+                &[],
+            )?
+            .iter()
+            .map(|r| Ok((r.word(0)?, r.int(1)?)))
+            .collect()
     }
 
     /// The points a tradeoff run stored, in the order they were measured.
     pub fn tradeoff_points(&self, run: i64) -> Result<Vec<TradeoffRow>, HistoryError> {
-        let mut stmt = self
-            .conn()
-            .prepare(
-                "SELECT scene, label, config, ms, psnr, ssim, log_average_rel_error, pareto
-                 FROM tradeoff_points WHERE run_id = ?1 ORDER BY rowid",
-            )
-            .map_err(|e| self.err(e))?;
-        let rows = stmt
-            .query_map([run], |r| {
-                let config: String = r.get(2)?;
+        let sql = format!(
+            "SELECT scene, label, config, ms, psnr, ssim, log_average_rel_error, pareto
+             FROM tradeoff_points WHERE run_id = $1 ORDER BY {}",
+            self.db().dialect().insertion_order()
+        );
+        self.db()
+            .query(&sql, args![run])?
+            .iter()
+            .map(|r| {
+                let config = r.text(2)?;
                 Ok(TradeoffRow {
-                    scene: r.get(0)?,
-                    label: r.get(1)?,
+                    scene: r.text(0)?,
+                    label: r.text(1)?,
                     config: serde_json::from_str(&config)
                         .unwrap_or(serde_json::Value::String(config)),
-                    ms: r.get(3)?,
-                    psnr: r.get::<_, Option<f64>>(4)?.unwrap_or(f64::NAN),
-                    ssim: r.get::<_, Option<f64>>(5)?.unwrap_or(f64::NAN),
-                    log_average_rel_error: r.get(6)?,
-                    pareto: r.get(7)?,
+                    ms: r.real(3)?,
+                    psnr: r.opt_real(4)?.unwrap_or(f64::NAN),
+                    ssim: r.opt_real(5)?.unwrap_or(f64::NAN),
+                    log_average_rel_error: r.opt_real(6)?,
+                    pareto: r.bool(7)?,
                 })
             })
-            .and_then(|rows| rows.collect())
-            .map_err(|e| self.err(e))?;
-        Ok(rows)
+            .collect()
     }
 
     fn select_runs(&self, tail: &str, arg: i64) -> Result<Vec<RunRow>, HistoryError> {
-        let mut stmt = self
-            .conn()
-            .prepare(&format!(
-                "SELECT r.id, r.kind, r.status, r.started_at, r.ended_at, r.tonegate_version,
-                        r.git_commit, r.suite, r.suite_hash, r.adapter, r.backend, r.driver,
-                        r.driver_info, r.host, r.detail,
-                        (SELECT COUNT(*) FROM scene_results s WHERE s.run_id = r.id),
-                        (SELECT COUNT(*) FROM scene_results s WHERE s.run_id = r.id AND NOT s.passed),
-                        (SELECT COUNT(*) FROM regressions g WHERE g.run_id = r.id)
-                 FROM runs r {tail}"
-            ))
-            .map_err(|e| self.err(e))?;
-        let rows = stmt
-            .query_map([arg], |r| {
+        let sql = format!(
+            "SELECT r.id, r.kind, r.status, r.started_at, r.ended_at, r.tonegate_version,
+                    r.git_commit, r.suite, r.suite_hash, r.adapter, r.backend, r.driver,
+                    r.driver_info, r.host, r.detail,
+                    (SELECT COUNT(*) FROM scene_results s WHERE s.run_id = r.id),
+                    (SELECT COUNT(*) FROM scene_results s WHERE s.run_id = r.id AND s.passed = 0),
+                    (SELECT COUNT(*) FROM regressions g WHERE g.run_id = r.id)
+             FROM runs r {tail}"
+        );
+        self.db()
+            .query(&sql, args![arg])?
+            .iter()
+            .map(|r| {
                 Ok(RunRow {
-                    id: r.get(0)?,
-                    kind: r.get(1)?,
-                    status: r.get(2)?,
-                    started_at: r.get(3)?,
-                    ended_at: r.get(4)?,
-                    tonegate_version: r.get(5)?,
-                    git_commit: r.get(6)?,
-                    suite: r.get(7)?,
-                    suite_hash: r.get(8)?,
-                    adapter: r.get(9)?,
-                    backend: r.get(10)?,
-                    driver: r.get(11)?,
-                    driver_info: r.get(12)?,
-                    host: r.get(13)?,
-                    detail: r.get(14)?,
-                    scenes: r.get(15)?,
-                    scenes_failed: r.get(16)?,
-                    regressions: r.get(17)?,
+                    id: r.int(0)?,
+                    kind: r.word(1)?,
+                    status: r.word(2)?,
+                    started_at: r.text(3)?,
+                    ended_at: r.opt_text(4)?,
+                    tonegate_version: r.text(5)?,
+                    git_commit: r.opt_text(6)?,
+                    suite: r.opt_text(7)?,
+                    suite_hash: r.opt_text(8)?,
+                    adapter: r.opt_text(9)?,
+                    backend: r.opt_text(10)?,
+                    driver: r.opt_text(11)?,
+                    driver_info: r.opt_text(12)?,
+                    host: r.text(13)?,
+                    detail: r.opt_text(14)?,
+                    scenes: r.int(15)?,
+                    scenes_failed: r.int(16)?,
+                    regressions: r.int(17)?,
                 })
             })
-            .and_then(|rows| rows.collect())
-            .map_err(|e| self.err(e))?;
-        Ok(rows)
+            .collect()
     }
 
     /// `metric` of every scene (or one) over check runs, oldest first.
@@ -237,86 +233,81 @@ impl History {
         let sql = format!(
             "SELECT * FROM (
                SELECT r.id, r.started_at, r.status, r.adapter, s.scene, {value},
-                      EXISTS (SELECT 1 FROM regressions g WHERE g.run_id = r.id AND g.scene = s.scene AND g.metric = ?7)
+                      CASE WHEN EXISTS (SELECT 1 FROM regressions g WHERE g.run_id = r.id AND g.scene = s.scene AND g.metric = $7) THEN 1 ELSE 0 END
                FROM runs r JOIN scene_results s ON s.run_id = r.id
                WHERE r.kind = 'check'
-                 AND (?1 IS NULL OR s.scene = ?1)
-                 AND (?2 IS NULL OR r.adapter = ?2)
-                 AND (?3 IS NULL OR r.id < ?3)
-                 AND (?4 = 0 OR r.status IN ('passed', 'failed'))
-                 AND (?8 IS NULL OR r.config = ?8)
+                 AND (CAST($1 AS TEXT) IS NULL OR s.scene = $1)
+                 AND (CAST($2 AS TEXT) IS NULL OR r.adapter = $2)
+                 AND (CAST($3 AS BIGINT) IS NULL OR r.id < $3)
+                 AND ($4 = 0 OR r.status IN ('passed', 'failed'))
+                 AND (CAST($8 AS TEXT) IS NULL OR r.config = $8)
                  AND ({value}) IS NOT NULL
-               ORDER BY r.id DESC LIMIT ?5 * (CASE WHEN ?1 IS NULL THEN ?6 ELSE 1 END)
-             ) ORDER BY 1 ASC, 5 ASC"
+               ORDER BY r.id DESC LIMIT $5 * (CASE WHEN CAST($1 AS TEXT) IS NULL THEN $6 ELSE 1 END)
+             ) AS newest ORDER BY 1 ASC, 5 ASC"
         );
         // With no scene filter the limit counts runs, so it is scaled by the
         // number of scenes a run can have.
-        let scenes_per_run: i64 = self
-            .conn()
-            .query_row(
-                "SELECT COALESCE(MAX(n), 1) FROM (SELECT COUNT(*) AS n FROM scene_results GROUP BY run_id)",
-                [],
-                |r| r.get(0),
-            )
-            .map_err(|e| self.err(e))?;
-        let mut stmt = self.conn().prepare(&sql).map_err(|e| self.err(e))?;
-        let rows = stmt
-            .query_map(
-                params![
-                    filter.scene,
-                    filter.adapter,
-                    filter.before,
-                    filter.finished_only,
-                    filter.limit as i64,
-                    scenes_per_run,
-                    metric,
-                    filter.config
-                ],
-                |r| {
-                    Ok(TrendPoint {
-                        run_id: r.get(0)?,
-                        started_at: r.get(1)?,
-                        status: r.get(2)?,
-                        adapter: r.get(3)?,
-                        scene: r.get(4)?,
-                        value: r.get(5)?,
-                        regression: r.get(6)?,
-                        change: None,
-                    })
-                },
-            )
-            .and_then(|rows| rows.collect())
-            .map_err(|e| self.err(e))?;
-        let mut rows: Vec<TrendPoint> = rows;
-        mark_changes(&mut rows);
-        Ok(rows)
+        let scenes_per_run = self
+            .db()
+            .query_opt(
+                "SELECT COALESCE(MAX(n), 1) FROM (SELECT COUNT(*) AS n FROM scene_results GROUP BY run_id) AS per_run",
+                &[],
+            )?
+            .map_or(Ok(1), |r| r.int(0))?;
+        let rows = self.db().query(
+            &sql,
+            args![
+                filter.scene,
+                filter.adapter,
+                filter.before,
+                filter.finished_only,
+                filter.limit,
+                scenes_per_run,
+                metric,
+                filter.config
+            ],
+        )?;
+        let mut points = rows
+            .iter()
+            .map(|r| {
+                Ok(TrendPoint {
+                    run_id: r.int(0)?,
+                    started_at: r.text(1)?,
+                    status: r.word(2)?,
+                    adapter: r.opt_text(3)?,
+                    scene: r.text(4)?,
+                    value: r.real(5)?,
+                    regression: r.bool(6)?,
+                    change: None,
+                })
+            })
+            .collect::<Result<Vec<_>, HistoryError>>()?;
+        mark_changes(&mut points);
+        Ok(points)
     }
 
     /// The scene names the history knows, sorted.
     pub fn scenes(&self) -> Result<Vec<String>, HistoryError> {
-        let mut stmt = self
-            .conn()
-            .prepare("SELECT DISTINCT scene FROM scene_results ORDER BY scene")
-            .map_err(|e| self.err(e))?;
-        let rows = stmt
-            .query_map([], |r| r.get(0))
-            .and_then(|rows| rows.collect())
-            .map_err(|e| self.err(e))?;
-        Ok(rows)
+        self.db()
+            .query(
+                "SELECT DISTINCT scene FROM scene_results ORDER BY scene",
+                &[],
+            )?
+            .iter()
+            .map(|r| r.text(0))
+            .collect()
     }
 
     /// The stage names timed for `scene` in run `run`.
     pub fn stages(&self, run: i64, scene: &str) -> Result<Vec<String>, HistoryError> {
-        let mut stmt = self
-            .conn()
-            .prepare(
-                "SELECT stage FROM stage_timings WHERE run_id = ?1 AND scene = ?2 ORDER BY rowid",
-            )
-            .map_err(|e| self.err(e))?;
-        let rows = stmt
-            .query_map(params![run, scene], |r| r.get(0))
-            .and_then(|rows| rows.collect())
-            .map_err(|e| self.err(e))?;
-        Ok(rows)
+        let sql = format!(
+            "SELECT stage FROM stage_timings WHERE run_id = $1 AND scene = $2 ORDER BY {}",
+            self.db().dialect().insertion_order()
+        );
+        self.db()
+            .query(&sql, args![run, scene])?
+            .iter()
+            .map(|r| r.text(0))
+            .collect()
     }
 }

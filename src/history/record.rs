@@ -1,11 +1,11 @@
 //! What the history stores, as plain data its callers fill in, and the
 //! writes: a run's start, its scenes, regressions, trade-off points, its end.
 
-use super::{host_name, now, process_start, sqlite_error, History, HistoryError};
+use super::backend::args;
+use super::{host_name, now, process_start, History, HistoryError};
 use super::{RunAdapter, RunKind, RunMeta, RunStatus};
 use crate::metrics::Metrics;
 use crate::perf::TimingSummary;
-use rusqlite::params;
 use serde::Serialize;
 
 /// One frame's metrics against its golden.
@@ -79,122 +79,100 @@ impl History {
     /// Inserts a `running` run owned by this process; returns its id.
     pub fn start_run(&self, kind: RunKind, meta: &RunMeta) -> Result<i64, HistoryError> {
         let pid = std::process::id();
-        self.conn
-            .execute(
-                "INSERT INTO runs (kind, status, started_at, tonegate_version, git_commit, suite,
-                                   suite_hash, host, pid, pid_start)
-                 VALUES (?1, 'running', ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)",
-                params![
-                    kind.as_str(),
-                    now(),
-                    env!("CARGO_PKG_VERSION"),
-                    meta.git_commit,
-                    meta.suite,
-                    meta.suite_hash,
-                    host_name(),
-                    pid as i64,
-                    process_start(pid),
-                ],
-            )
-            .map_err(|e| self.err(e))?;
-        Ok(self.conn.last_insert_rowid())
+        let row = self.db().query_opt(
+            "INSERT INTO runs (kind, status, started_at, tonegate_version, git_commit, suite,
+                               suite_hash, host, pid, pid_start)
+             VALUES ($1, 'running', $2, $3, $4, $5, $6, $7, $8, $9)
+             RETURNING id",
+            args![
+                kind.as_str(),
+                now(),
+                env!("CARGO_PKG_VERSION"),
+                &meta.git_commit,
+                &meta.suite,
+                &meta.suite_hash,
+                host_name(),
+                pid,
+                process_start(pid),
+            ],
+        )?;
+        row.ok_or_else(|| HistoryError::Invalid("inserting a run returned no id".into()))?
+            .int(0)
     }
 
     /// Records the suite's hash once the suite has been read.
     pub fn set_suite_hash(&self, run: i64, hash: &str) -> Result<(), HistoryError> {
-        self.conn
-            .execute(
-                "UPDATE runs SET suite_hash = ?2 WHERE id = ?1",
-                params![run, hash],
-            )
-            .map_err(|e| self.err(e))?;
+        self.db().execute(
+            "UPDATE runs SET suite_hash = $2 WHERE id = $1",
+            args![run, hash],
+        )?;
         Ok(())
     }
 
     /// Records the adapter (or CPU reference) once it is known.
     pub fn set_adapter(&self, run: i64, a: &RunAdapter) -> Result<(), HistoryError> {
-        self.conn
-            .execute(
-                "UPDATE runs SET adapter = ?2, backend = ?3, driver = ?4, driver_info = ?5, config = ?6
-                 WHERE id = ?1",
-                params![run, a.name, a.backend, a.driver, a.driver_info, a.config],
-            )
-            .map_err(|e| self.err(e))?;
+        self.db().execute(
+            "UPDATE runs SET adapter = $2, backend = $3, driver = $4, driver_info = $5, config = $6
+             WHERE id = $1",
+            args![
+                run,
+                &a.name,
+                &a.backend,
+                &a.driver,
+                &a.driver_info,
+                &a.config
+            ],
+        )?;
         Ok(())
     }
 
     /// Records one scene's result, frames, timings and checks in one transaction.
     pub fn record_scene(&mut self, run: i64, r: &SceneRecord) -> Result<(), HistoryError> {
-        let err = sqlite_error(self.path.clone());
-        let tx = self.conn.transaction().map_err(&err)?;
-        tx.execute(
-            "INSERT INTO scene_results (run_id, scene, test, passed, fps, frames, result)
-             VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)",
-            params![
-                run,
-                r.scene,
-                r.test,
-                r.passed,
-                r.fps,
-                r.frames.len() as i64,
-                r.result_json
-            ],
-        )
-        .map_err(&err)?;
-        {
-            let mut frame = tx
-                .prepare(
+        self.db().transaction(&mut |tx| {
+            tx.execute(
+                "INSERT INTO scene_results (run_id, scene, test, passed, fps, frames, result)
+                 VALUES ($1, $2, $3, $4, $5, $6, $7)",
+                args![run, &r.scene, &r.test, r.passed, r.fps, r.frames.len(), &r.result_json],
+            )?;
+            for f in &r.frames {
+                let m = &f.metrics;
+                tx.execute(
                     "INSERT INTO frame_metrics (run_id, scene, frame, mse, rmse, psnr, snr, ssim,
                                                 max_abs_diff, fraction_over_1lsb, mean_abs_diff,
                                                 flip_mean)
-                     VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12)",
-                )
-                .map_err(&err)?;
-            for f in &r.frames {
-                let m = &f.metrics;
-                frame
-                    .execute(params![
+                     VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12)",
+                    args![
                         run,
-                        r.scene,
+                        &r.scene,
                         f.frame,
                         m.mse,
                         m.rmse,
                         m.psnr,
                         m.snr,
                         m.ssim,
-                        m.max_abs_diff,
+                        i64::from(m.max_abs_diff),
                         m.fraction_over_1lsb,
                         m.mean_abs_diff,
                         m.flip_mean
-                    ])
-                    .map_err(&err)?;
+                    ],
+                )?;
             }
-            let mut stage = tx
-                .prepare(
-                    "INSERT INTO stage_timings (run_id, scene, stage, median_ms, p95_ms)
-                     VALUES (?1, ?2, ?3, ?4, ?5)",
-                )
-                .map_err(&err)?;
             for t in &r.timings {
-                stage
-                    .execute(params![run, r.scene, t.name, t.median_ms, t.p95_ms])
-                    .map_err(&err)?;
+                tx.execute(
+                    "INSERT INTO stage_timings (run_id, scene, stage, median_ms, p95_ms)
+                     VALUES ($1, $2, $3, $4, $5)",
+                    args![run, &r.scene, &t.name, t.median_ms, t.p95_ms],
+                )?;
             }
-            let mut check = tx
-                .prepare(
-                    "INSERT INTO check_results (run_id, scene, idx, label, passed, detail, adapter, set_by)
-                     VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)",
-                )
-                .map_err(&err)?;
             for (i, c) in r.checks.iter().enumerate() {
-                check
-                    .execute(params![
-                        run, r.scene, i as i64, c.label, c.passed, c.detail, c.adapter, c.set_by
-                    ])
-                    .map_err(&err)?;
+                tx.execute(
+                    "INSERT INTO check_results (run_id, scene, idx, label, passed, detail, adapter, set_by)
+                     VALUES ($1, $2, $3, $4, $5, $6, $7, $8)",
+                    args![run, &r.scene, i, &c.label, c.passed, &c.detail, &c.adapter, &c.set_by],
+                )?;
             }
-        }
-        tx.commit().map_err(&err)
+            Ok(())
+        })
     }
 
     /// Records the regressions flagged for a run.
@@ -203,26 +181,16 @@ impl History {
         run: i64,
         found: &[Regression],
     ) -> Result<(), HistoryError> {
-        let err = sqlite_error(self.path.clone());
-        let tx = self.conn.transaction().map_err(&err)?;
-        for g in found {
-            tx.execute(
-                "INSERT INTO regressions (run_id, scene, metric, value, median, mad, bound, runs)
-                 VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)",
-                params![
-                    run,
-                    g.scene,
-                    g.metric,
-                    g.value,
-                    g.median,
-                    g.mad,
-                    g.bound,
-                    g.runs as i64
-                ],
-            )
-            .map_err(&err)?;
-        }
-        tx.commit().map_err(&err)
+        self.db().transaction(&mut |tx| {
+            for g in found {
+                tx.execute(
+                    "INSERT INTO regressions (run_id, scene, metric, value, median, mad, bound, runs)
+                     VALUES ($1, $2, $3, $4, $5, $6, $7, $8)",
+                    args![run, &g.scene, &g.metric, g.value, g.median, g.mad, g.bound, g.runs],
+                )?;
+            }
+            Ok(())
+        })
     }
 
     /// Records a trade-off sweep's points (every scene's, in one transaction).
@@ -231,28 +199,27 @@ impl History {
         run: i64,
         points: &[TradeoffRecord],
     ) -> Result<(), HistoryError> {
-        let err = sqlite_error(self.path.clone());
-        let tx = self.conn.transaction().map_err(&err)?;
-        for p in points {
-            tx.execute(
-                "INSERT INTO tradeoff_points (run_id, scene, label, config, ms, psnr, ssim,
-                                              log_average_rel_error, pareto)
-                 VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)",
-                params![
-                    run,
-                    p.scene,
-                    p.label,
-                    p.config,
-                    p.ms,
-                    p.psnr,
-                    p.ssim,
-                    p.log_average_rel_error,
-                    p.pareto
-                ],
-            )
-            .map_err(&err)?;
-        }
-        tx.commit().map_err(&err)
+        self.db().transaction(&mut |tx| {
+            for p in points {
+                tx.execute(
+                    "INSERT INTO tradeoff_points (run_id, scene, label, config, ms, psnr, ssim,
+                                                  log_average_rel_error, pareto)
+                     VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9)",
+                    args![
+                        run,
+                        &p.scene,
+                        &p.label,
+                        &p.config,
+                        p.ms,
+                        p.psnr,
+                        p.ssim,
+                        p.log_average_rel_error,
+                        p.pareto
+                    ],
+                )?;
+            }
+            Ok(())
+        })
     }
 
     /// Ends a run: its status, an optional message and the full JSON report.
@@ -263,12 +230,10 @@ impl History {
         detail: Option<&str>,
         report: Option<&str>,
     ) -> Result<(), HistoryError> {
-        self.conn
-            .execute(
-                "UPDATE runs SET status = ?2, ended_at = ?3, detail = ?4, report = ?5 WHERE id = ?1",
-                params![run, status.as_str(), now(), detail, report],
-            )
-            .map_err(|e| self.err(e))?;
+        self.db().execute(
+            "UPDATE runs SET status = $2, ended_at = $3, detail = $4, report = $5 WHERE id = $1",
+            args![run, status.as_str(), now(), detail, report],
+        )?;
         Ok(())
     }
 }

@@ -282,7 +282,9 @@ pub async fn get_artifact(
             "run {id} has no artifact {name:?}"
         )));
     }
-    let dir = dir.unwrap_or_else(|| crate::gate::artifacts_dir_of(&st.db, id));
+    let dir = dir
+        .or_else(|| crate::gate::artifacts_dir_of(&st.db, id))
+        .ok_or_else(|| ApiError::not_found(format!("run {id} kept no artifact folder")))?;
     let path = dir.join(&name);
     let bytes = tokio::fs::read(&path)
         .await

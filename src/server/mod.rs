@@ -289,6 +289,28 @@ pub struct Server {
     conn: listen::ConnLimits,
 }
 
+/// Opens (and migrates) the history the server records runs in. A history
+/// that exists but cannot be written is served read-only (a copied history,
+/// a read-only mount): reads work, runs are refused with the reason, and
+/// healthz says so. One that cannot be created, or read, stops the server
+/// here with its path.
+fn check_history(db: &std::path::Path) -> Result<(), crate::Error> {
+    if let Err(e) = crate::history::History::open(db) {
+        let problem = db
+            .exists()
+            .then(|| crate::history::write_problem(db))
+            .flatten();
+        let Some(problem) = problem else {
+            return Err(e.into());
+        };
+        crate::history::History::open_read_only(db)?;
+        tracing::warn!("{problem}; serving it read-only, runs are refused");
+    } else if let Some(problem) = crate::history::write_problem(db) {
+        tracing::warn!("{problem}; runs are refused until it is writable");
+    }
+    Ok(())
+}
+
 impl Server {
     /// Opens (and migrates) the history, starts the tone-map workers and
     /// binds the address; port 0 picks a free port (see `local_addr`).
@@ -297,20 +319,12 @@ impl Server {
         // (a copied history, a read-only mount): reads work, runs are
         // refused with the reason, and healthz says so. One that cannot be
         // created, or read, stops the server here with its path.
-        if let Err(e) = crate::history::History::open(&opts.db) {
-            let problem = opts
-                .db
-                .exists()
-                .then(|| crate::history::write_problem(&opts.db))
-                .flatten();
-            let Some(problem) = problem else {
-                return Err(e.into());
-            };
-            crate::history::History::open_read_only(&opts.db)?;
-            tracing::warn!("{problem}; serving it read-only, runs are refused");
-        } else if let Some(problem) = crate::history::write_problem(&opts.db) {
-            tracing::warn!("{problem}; runs are refused until it is writable");
-        }
+        // Off the async threads: a PostgreSQL history is reached through a
+        // blocking client.
+        let db = opts.db.clone();
+        tokio::task::spawn_blocking(move || check_history(&db))
+            .await
+            .map_err(|e| crate::Error::Invalid(format!("opening the history: {e}")))??;
         let file = |source| crate::Error::Service {
             what: "starting a tone-map worker".into(),
             source,

@@ -1,0 +1,349 @@
+//! The shared engine: a PostgreSQL database every runner and the server reach
+//! (`--db postgres://…`), through the rust-postgres client (the blocking
+//! wrapper of tokio-postgres; the history's callers are synchronous, and the
+//! server calls it off its async threads).
+//!
+//! Connections are kept for reuse: a history dropped returns its connection
+//! to a small idle list keyed by address and access, so the API does not
+//! connect (and authenticate) once per request.
+
+use super::backend::{ddl_for_postgres, Backend, Dialect, Row, Sql, Value};
+use super::{HistoryError, SCHEMA_VERSION};
+use bytes::BytesMut;
+use postgres::types::{IsNull, ToSql, Type};
+use postgres::{Client, GenericClient, NoTls};
+use std::sync::{Mutex, MutexGuard};
+
+/// The address as errors and the console show it: without a password.
+pub fn redacted(url: &str) -> String {
+    let Some((scheme, rest)) = url.split_once("://") else {
+        return url.to_owned();
+    };
+    match rest.split_once('@') {
+        Some((user, host)) if user.contains(':') => {
+            let name = user.split(':').next().unwrap_or("");
+            format!("{scheme}://{name}:***@{host}")
+        }
+        _ => url.to_owned(),
+    }
+}
+
+/// What went wrong, in the server's own words when it answered: the client's
+/// Display says only "db error" for those.
+pub fn describe(e: &postgres::Error) -> String {
+    match e.as_db_error() {
+        Some(db) => {
+            let mut s = format!("{} {}: {}", db.severity(), db.code().code(), db.message());
+            if let Some(d) = db.detail() {
+                s += &format!(" ({d})");
+            }
+            if let Some(h) = db.hint() {
+                s += &format!("; hint: {h}");
+            }
+            s
+        }
+        None => match std::error::Error::source(e) {
+            Some(cause) => format!("{e}: {cause}"),
+            None => e.to_string(),
+        },
+    }
+}
+
+/// Whether `db` names a PostgreSQL database rather than a SQLite file.
+pub fn is_url(db: &str) -> bool {
+    db.starts_with("postgres://") || db.starts_with("postgresql://")
+}
+
+/// Statements PostgreSQL needs beside a shared migration: the identity
+/// column that keeps insertion order (SQLite's rowid) where it is read.
+fn postgres_extra(version: usize) -> &'static str {
+    match version {
+        1 => {
+            "ALTER TABLE stage_timings ADD COLUMN seq BIGINT GENERATED ALWAYS AS IDENTITY;
+             ALTER TABLE tradeoff_points ADD COLUMN seq BIGINT GENERATED ALWAYS AS IDENTITY;"
+        }
+        _ => "",
+    }
+}
+
+/// A key no other program is likely to lock: serialises migrations when
+/// several runners open a fresh database at once.
+const MIGRATION_LOCK: i64 = 0x746f_6e65_6761_7465; // "tonegate"
+
+static IDLE: Mutex<Vec<(String, bool, Client)>> = Mutex::new(Vec::new());
+const IDLE_MAX: usize = 16;
+
+pub struct Postgres {
+    client: Mutex<Option<Client>>,
+    url: String,
+    read_only: bool,
+}
+
+impl Postgres {
+    pub fn connect(url: &str, read_only: bool) -> Result<Postgres, HistoryError> {
+        let reused = {
+            let mut idle = IDLE.lock().unwrap_or_else(|p| p.into_inner());
+            idle.iter()
+                .position(|(u, r, c)| u == url && *r == read_only && !c.is_closed())
+                .map(|i| idle.swap_remove(i).2)
+        };
+        let client = match reused {
+            Some(c) => c,
+            None => {
+                let mut c =
+                    Client::connect(url, NoTls).map_err(|source| HistoryError::Postgres {
+                        url: redacted(url),
+                        source,
+                    })?;
+                if read_only {
+                    c.batch_execute("SET default_transaction_read_only = on")
+                        .map_err(|source| HistoryError::Postgres {
+                            url: redacted(url),
+                            source,
+                        })?;
+                }
+                c
+            }
+        };
+        Ok(Postgres {
+            client: Mutex::new(Some(client)),
+            url: url.to_owned(),
+            read_only,
+        })
+    }
+
+    fn err(&self, source: postgres::Error) -> HistoryError {
+        HistoryError::Postgres {
+            url: redacted(&self.url),
+            source,
+        }
+    }
+
+    fn lock(&self) -> Result<MutexGuard<'_, Option<Client>>, HistoryError> {
+        self.client
+            .lock()
+            .map_err(|_| HistoryError::Invalid("history connection poisoned by a panic".into()))
+    }
+
+    fn with<T>(
+        &self,
+        f: impl FnOnce(&mut Client) -> Result<T, postgres::Error>,
+    ) -> Result<T, HistoryError> {
+        let mut guard = self.lock()?;
+        let client = guard
+            .as_mut()
+            .ok_or_else(|| HistoryError::Invalid("history connection closed".into()))?;
+        f(client).map_err(|e| self.err(e))
+    }
+}
+
+impl Drop for Postgres {
+    fn drop(&mut self) {
+        let Some(client) = self.client.get_mut().ok().and_then(Option::take) else {
+            return;
+        };
+        if client.is_closed() {
+            return;
+        }
+        let mut idle = IDLE.lock().unwrap_or_else(|p| p.into_inner());
+        if idle.len() < IDLE_MAX {
+            idle.push((self.url.clone(), self.read_only, client));
+        }
+    }
+}
+
+/// Binds a value as the parameter's own type: PostgreSQL infers each `$N`'s
+/// type from the statement, and the history's integers and reals are bound
+/// to whatever width the column or expression has there.
+impl ToSql for Value {
+    fn to_sql(
+        &self,
+        ty: &Type,
+        out: &mut BytesMut,
+    ) -> Result<IsNull, Box<dyn std::error::Error + Sync + Send>> {
+        match self {
+            Value::Null => Ok(IsNull::Yes),
+            Value::Int(v) => match *ty {
+                Type::INT8 => v.to_sql(ty, out),
+                Type::INT4 => i32::try_from(*v)?.to_sql(ty, out),
+                Type::INT2 => i16::try_from(*v)?.to_sql(ty, out),
+                Type::BOOL => (*v != 0).to_sql(ty, out),
+                Type::FLOAT8 => (*v as f64).to_sql(ty, out),
+                Type::FLOAT4 => (*v as f32).to_sql(ty, out),
+                _ => v.to_string().to_sql(ty, out),
+            },
+            Value::Real(v) => match *ty {
+                Type::FLOAT4 => (*v as f32).to_sql(ty, out),
+                _ => v.to_sql(ty, out),
+            },
+            Value::Text(s) => s.as_str().to_sql(ty, out),
+        }
+    }
+
+    fn accepts(_: &Type) -> bool {
+        true
+    }
+
+    postgres::types::to_sql_checked!();
+}
+
+fn row_of(r: &postgres::Row) -> Result<Row, postgres::Error> {
+    let mut out = Vec::with_capacity(r.len());
+    for (i, col) in r.columns().iter().enumerate() {
+        let v = match *col.type_() {
+            Type::INT8 => r.try_get::<_, Option<i64>>(i)?.map(Value::Int),
+            Type::INT4 => r
+                .try_get::<_, Option<i32>>(i)?
+                .map(|v| Value::Int(v.into())),
+            Type::INT2 => r
+                .try_get::<_, Option<i16>>(i)?
+                .map(|v| Value::Int(v.into())),
+            Type::BOOL => r.try_get::<_, Option<bool>>(i)?.map(Value::from),
+            Type::FLOAT8 => r.try_get::<_, Option<f64>>(i)?.map(Value::from),
+            Type::FLOAT4 => r
+                .try_get::<_, Option<f32>>(i)?
+                .map(|v| Value::from(f64::from(v))),
+            _ => r.try_get::<_, Option<String>>(i)?.map(Value::Text),
+        };
+        out.push(v.unwrap_or(Value::Null));
+    }
+    Ok(Row(out))
+}
+
+fn params(args: &[Value]) -> Vec<&(dyn ToSql + Sync)> {
+    args.iter().map(|a| a as &(dyn ToSql + Sync)).collect()
+}
+
+fn run_query(
+    c: &mut impl GenericClient,
+    sql: &str,
+    args: &[Value],
+) -> Result<Vec<Row>, postgres::Error> {
+    c.query(sql, &params(args))?.iter().map(row_of).collect()
+}
+
+impl Sql for Postgres {
+    fn execute(&self, sql: &str, args: &[Value]) -> Result<u64, HistoryError> {
+        self.with(|c| c.execute(sql, &params(args)))
+    }
+
+    fn query(&self, sql: &str, args: &[Value]) -> Result<Vec<Row>, HistoryError> {
+        self.with(|c| run_query(c, sql, args))
+    }
+}
+
+/// A transaction in progress, its statements run one at a time.
+struct InTransaction<'a, 'b> {
+    tx: std::cell::RefCell<&'a mut postgres::Transaction<'b>>,
+    db: &'a Postgres,
+}
+
+impl Sql for InTransaction<'_, '_> {
+    fn execute(&self, sql: &str, args: &[Value]) -> Result<u64, HistoryError> {
+        self.tx
+            .borrow_mut()
+            .execute(sql, &params(args))
+            .map_err(|e| self.db.err(e))
+    }
+
+    fn query(&self, sql: &str, args: &[Value]) -> Result<Vec<Row>, HistoryError> {
+        run_query(*self.tx.borrow_mut(), sql, args).map_err(|e| self.db.err(e))
+    }
+}
+
+impl Backend for Postgres {
+    fn dialect(&self) -> Dialect {
+        Dialect::Postgres
+    }
+
+    fn transaction(
+        &self,
+        f: &mut dyn FnMut(&dyn Sql) -> Result<(), HistoryError>,
+    ) -> Result<(), HistoryError> {
+        let mut guard = self.lock()?;
+        let client = guard
+            .as_mut()
+            .ok_or_else(|| HistoryError::Invalid("history connection closed".into()))?;
+        let mut tx = client.transaction().map_err(|e| self.err(e))?;
+        f(&InTransaction {
+            tx: std::cell::RefCell::new(&mut tx),
+            db: self,
+        })?;
+        tx.commit().map_err(|e| self.err(e))
+    }
+
+    fn schema_version(&self) -> Result<i64, HistoryError> {
+        self.with(|c| {
+            let exists: Option<String> = c
+                .query_one("SELECT to_regclass('tonegate_schema')::text", &[])?
+                .get(0);
+            if exists.is_none() {
+                return Ok(0);
+            }
+            Ok(c.query_opt("SELECT version FROM tonegate_schema", &[])?
+                .map_or(0, |r| r.get(0)))
+        })
+    }
+
+    fn migrate(&self, migrations: &[&str]) -> Result<(), HistoryError> {
+        let newer = self.with(|c| {
+            let mut tx = c.transaction()?;
+            tx.execute("SELECT pg_advisory_xact_lock($1)", &[&MIGRATION_LOCK])?;
+            tx.batch_execute(
+                "CREATE TABLE IF NOT EXISTS tonegate_schema (version BIGINT NOT NULL)",
+            )?;
+            let version: i64 = match tx.query_opt("SELECT version FROM tonegate_schema", &[])? {
+                Some(r) => r.get(0),
+                None => {
+                    tx.execute("INSERT INTO tonegate_schema (version) VALUES (0)", &[])?;
+                    0
+                }
+            };
+            if version > SCHEMA_VERSION {
+                return Ok(Some(version));
+            }
+            // PostgreSQL's DDL is transactional: every pending migration and
+            // the version commit together, or none does.
+            for (i, sql) in migrations.iter().enumerate().skip(version as usize) {
+                tx.batch_execute(&ddl_for_postgres(sql))?;
+                tx.batch_execute(postgres_extra(i + 1))?;
+            }
+            tx.execute(
+                "UPDATE tonegate_schema SET version = $1",
+                &[&(migrations.len() as i64).max(version)],
+            )?;
+            tx.commit()?;
+            Ok(None)
+        })?;
+        match newer {
+            Some(found) => Err(HistoryError::NewerSchema {
+                path: redacted(&self.url).into(),
+                found,
+                known: SCHEMA_VERSION,
+            }),
+            None => Ok(()),
+        }
+    }
+
+    fn integrity(&self) -> Result<String, HistoryError> {
+        Err(HistoryError::Invalid(format!(
+            "{}: an integrity check is SQLite's (PRAGMA integrity_check); PostgreSQL checks its own pages",
+            redacted(&self.url)
+        )))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn passwords_are_not_shown() {
+        assert_eq!(
+            redacted("postgres://ci:s3cret@db.example:5432/tonegate"),
+            "postgres://ci:***@db.example:5432/tonegate"
+        );
+        assert_eq!(redacted("postgres://ci@db/t"), "postgres://ci@db/t");
+        assert!(is_url("postgresql://localhost/t") && !is_url("history.sqlite"));
+    }
+}
