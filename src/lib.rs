@@ -24,6 +24,7 @@ pub mod plan;
 pub mod progress;
 pub mod reference;
 pub mod render;
+pub mod runner;
 pub mod scene;
 pub mod server;
 pub mod stress;

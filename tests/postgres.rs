@@ -524,3 +524,80 @@ fn check_history_and_serve_work_on_postgres() {
         assert_eq!(one["report"]["passed"], false);
     });
 }
+
+/// The fleet's queue on both engines: a job's selector is matched against
+/// the runner's adapter (a case-insensitive substring) and labels, the
+/// oldest matching job goes first, a lost runner's job is queued again once
+/// and aborted the second time, and a lost runner cannot finish its job.
+#[test]
+fn claims_follow_selectors_and_a_job_lost_twice_is_aborted() {
+    use tonegate::history::{JobSpec, RunnerInfo};
+    let dir = tempfile::tempdir().unwrap();
+    let url = pg::database();
+    for db in [dir.path().join("h.sqlite"), PathBuf::from(&url)] {
+        let h = History::open(&db).unwrap();
+        let job = |adapter: Option<&str>, label: Option<&str>| {
+            h.enqueue(&JobSpec {
+                suite: "golden/suite.toml".into(),
+                adapter: adapter.map(Into::into),
+                label: label.map(Into::into),
+                ..Default::default()
+            })
+            .unwrap()
+        };
+        let nvidia_only = job(Some("nvidia"), None);
+        let gpu_label = job(None, Some("gpu"));
+        let any = job(None, None);
+        let runner = |adapter: &str, labels: &[&str]| {
+            let info = RunnerInfo {
+                name: adapter.into(),
+                adapter: adapter.into(),
+                driver: "d".into(),
+                labels: labels.iter().map(|l| (*l).to_owned()).collect(),
+            };
+            (h.register_runner(&info).unwrap(), info)
+        };
+        let (lvp, lvp_info) = runner("llvmpipe (LLVM 15.0.6, 256 bits)", &["cpu", "gpux"]);
+        let claim = |(id, info): &(i64, RunnerInfo)| {
+            h.claim(*id, &info.adapter, &info.labels)
+                .unwrap()
+                .map(|j| j.id)
+        };
+        // Not the NVIDIA job, not the `gpu` one (`gpux` is another label).
+        assert_eq!(claim(&(lvp, lvp_info.clone())), Some(any), "{db:?}");
+        assert_eq!(claim(&(lvp, lvp_info.clone())), None);
+        let h100 = runner("NVIDIA H100 80GB HBM3", &["gpu"]);
+        assert_eq!(claim(&h100), Some(nvidia_only));
+        assert!(h.finish_job(h100.0, nvidia_only, "run 2 passed").unwrap());
+        assert_eq!(claim(&h100), Some(gpu_label));
+        // The H100 runner goes silent holding its job: queued again, once.
+        std::thread::sleep(Duration::from_millis(20));
+        h.heartbeat(lvp).unwrap();
+        let expired = h.expire_runners(Duration::from_millis(10)).unwrap();
+        assert_eq!(expired.runners, [h100.0]);
+        assert_eq!(expired.requeued, [gpu_label]);
+        assert!(!h.heartbeat(h100.0).unwrap(), "a lost runner is told so");
+        assert!(!h.finish_job(h100.0, gpu_label, "late").unwrap());
+        let again = runner("NVIDIA H100 80GB HBM3", &["gpu"]);
+        assert_eq!(claim(&again), Some(gpu_label));
+        std::thread::sleep(Duration::from_millis(20));
+        h.heartbeat(lvp).unwrap();
+        let expired = h.expire_runners(Duration::from_millis(10)).unwrap();
+        assert_eq!(expired.aborted, [gpu_label]);
+        let jobs = h.jobs(None, 10).unwrap();
+        let state = |id| jobs.iter().find(|j| j.id == id).unwrap().state.clone();
+        assert_eq!(state(gpu_label), "aborted");
+        assert_eq!(state(nvidia_only), "done");
+        assert!(h.finish_job(lvp, any, "run 1 passed").unwrap());
+        assert_eq!(h.jobs(Some("done"), 10).unwrap().len(), 2);
+        // A bad label is refused with what is wrong.
+        let err = h
+            .enqueue(&JobSpec {
+                suite: "s".into(),
+                label: Some("a,b".into()),
+                ..Default::default()
+            })
+            .unwrap_err();
+        assert!(err.to_string().contains("label \"a,b\""), "{err}");
+    }
+}

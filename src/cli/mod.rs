@@ -11,6 +11,7 @@ use std::process::ExitCode;
 use tonegate::error::{Error, Result};
 use tonegate::gpu::{AdapterChoice, EnvFilter, Execution, GpuConfig, HdrFormat, ReductionMethod};
 
+mod fleet;
 mod gate;
 mod golden;
 mod image;
@@ -58,6 +59,12 @@ pub enum Command {
     Env(image::EnvArgs),
     /// Serve the HTTP API (/api/v1), Prometheus metrics (/metrics) and the dashboard (/).
     Serve(serve::ServeArgs),
+    /// Take queued check runs from a shared history (--db postgres://...) and run them on this machine's adapter.
+    Runner(fleet::RunnerArgs),
+    /// Queue check runs for the fleet's runners.
+    Enqueue(fleet::EnqueueArgs),
+    /// Print the fleet: runners (adapter, labels, heartbeat, job) and the queue.
+    Fleet(fleet::FleetArgs),
 }
 
 /// Parses a knob by its serde name (the words reports and the API use), so
@@ -148,6 +155,9 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         Command::Golden(c) => golden::golden(c),
         Command::Env(a) => image::env(a),
         Command::Serve(a) => serve::serve(a),
+        Command::Runner(a) => fleet::runner(a),
+        Command::Enqueue(a) => fleet::enqueue(a),
+        Command::Fleet(a) => fleet::fleet(a),
     }
 }
 

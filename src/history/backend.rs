@@ -172,6 +172,16 @@ impl Dialect {
             Dialect::Postgres => "seq",
         }
     }
+
+    /// What makes a claim's inner SELECT pass over rows another transaction
+    /// holds: PostgreSQL's row locks. SQLite has one writer at a time, so
+    /// the claim statement is already atomic there.
+    pub fn skip_locked(self) -> &'static str {
+        match self {
+            Dialect::Sqlite => "",
+            Dialect::Postgres => " FOR UPDATE SKIP LOCKED",
+        }
+    }
 }
 
 /// Running statements: an open connection or a transaction on one.

@@ -11,12 +11,16 @@
 //! marks it `aborted` when the process that owned it is gone.
 
 pub(crate) mod backend;
+mod fleet;
 mod postgres;
 pub mod query;
 mod record;
 mod schema;
 mod sqlite;
 
+pub use fleet::{
+    valid_label, ClaimedJob, Expired, JobRow, JobSpec, RunnerInfo, RunnerRow, MAX_ATTEMPTS,
+};
 pub use postgres::{is_url, redacted};
 
 pub use query::{RunRow, TradeoffRow, TrendFilter, TrendPoint};

@@ -223,6 +223,8 @@ impl History {
     }
 
     /// Ends a run: its status, an optional message and the full JSON report.
+    /// A run already ended (aborted because its runner was declared lost
+    /// while it went on) keeps its end: the job's next claim is its run.
     pub fn finish_run(
         &self,
         run: i64,
@@ -231,7 +233,8 @@ impl History {
         report: Option<&str>,
     ) -> Result<(), HistoryError> {
         self.db().execute(
-            "UPDATE runs SET status = $2, ended_at = $3, detail = $4, report = $5 WHERE id = $1",
+            "UPDATE runs SET status = $2, ended_at = $3, detail = $4, report = $5
+             WHERE id = $1 AND status = 'running'",
             args![run, status.as_str(), now(), detail, report],
         )?;
         Ok(())

@@ -104,6 +104,45 @@ pub(super) const MIGRATIONS: &[&str] = &[
     r#"
     ALTER TABLE frame_metrics ADD COLUMN flip_mean REAL;
     "#,
+    // 4: a fleet (issue 15). Runners register themselves and heartbeat;
+    //    jobs are queued check runs a runner claims when its adapter and
+    //    labels match the job's selector; a run says which job it ran.
+    //    Times are RFC 3339 UTC text with milliseconds, which sorts as time.
+    r#"
+    CREATE TABLE runners (
+        id         INTEGER PRIMARY KEY,
+        name       TEXT NOT NULL,
+        host       TEXT NOT NULL,
+        pid        INTEGER NOT NULL,
+        adapter    TEXT NOT NULL,
+        driver     TEXT NOT NULL,
+        labels     TEXT NOT NULL,
+        started_at TEXT NOT NULL,
+        heartbeat  TEXT NOT NULL,
+        state      TEXT NOT NULL CHECK (state IN ('idle', 'busy', 'stopped', 'lost')),
+        job_id     INTEGER
+    );
+    CREATE INDEX runners_by_state ON runners (state, heartbeat);
+    CREATE TABLE jobs (
+        id          INTEGER PRIMARY KEY,
+        state       TEXT NOT NULL CHECK (state IN ('queued', 'claimed', 'done', 'aborted')),
+        suite       TEXT NOT NULL,
+        scenes      TEXT NOT NULL,
+        renderer    TEXT NOT NULL,
+        want_adapter TEXT,
+        want_label  TEXT,
+        queued_at   TEXT NOT NULL,
+        claimed_at  TEXT,
+        finished_at TEXT,
+        runner_id   INTEGER REFERENCES runners (id),
+        run_id      INTEGER REFERENCES runs (id),
+        attempts    INTEGER NOT NULL,
+        detail      TEXT
+    );
+    CREATE INDEX jobs_by_state ON jobs (state, id);
+    ALTER TABLE runs ADD COLUMN job_id INTEGER REFERENCES jobs (id);
+    CREATE INDEX runs_by_job ON runs (job_id);
+    "#,
 ];
 
 /// The schema version this build writes.

@@ -6,7 +6,8 @@ use super::error::{ApiError, ErrorBody};
 use super::{AppState, RunSlot};
 use crate::gate::StoredArtifacts;
 use crate::history::{
-    History, HistoryError, RunKind, RunRow, RunStatus, TradeoffRow, TrendFilter, TrendPoint,
+    History, HistoryError, JobRow, JobSpec, RunKind, RunRow, RunStatus, RunnerRow, TradeoffRow,
+    TrendFilter, TrendPoint,
 };
 use axum::body::Bytes;
 use axum::extract::{RawQuery, State};
@@ -14,6 +15,7 @@ use axum::http::{header, HeaderMap, HeaderValue, StatusCode};
 use axum::response::{IntoResponse, Response};
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::sync::Arc;
 use utoipa::{IntoParams, ToSchema};
 
@@ -165,8 +167,77 @@ pub async fn get_run(
 pub struct RunRequest {
     /// gpu (default) or cpu (the reference itself, to check the gate).
     pub renderer: Option<String>,
-    /// Samples per pixel (default: each scene's goldens' spp).
+    /// Samples per pixel (default: each scene's goldens' spp). Not with a
+    /// fleet's queue: its runners render at the scenes' defaults.
     pub spp: Option<u32>,
+    /// With a shared (PostgreSQL) history: only a runner whose adapter name
+    /// contains this (case-insensitive) takes the run.
+    pub adapter: Option<String>,
+    /// With a shared history: only a runner with this label takes the run.
+    pub label: Option<String>,
+    /// With a shared history: only these scenes of the suite.
+    pub scenes: Option<Vec<String>>,
+}
+
+/// What a `POST /runs` body asks for, as a queued job (a shared history).
+pub fn job_request(body: &[u8], suite: &std::path::Path) -> Result<JobSpec, ApiError> {
+    let req = parse_run_request(body)?;
+    if req.spp.is_some() {
+        return Err(ApiError::bad(
+            "spp: a queued run renders at the scenes' defaults; leave spp out",
+        ));
+    }
+    let cpu = match req.renderer.as_deref() {
+        None | Some("gpu") => false,
+        Some("cpu") => true,
+        Some(other) => {
+            return Err(ApiError::bad(format!(
+                "renderer: expected gpu or cpu, got {}",
+                super::error::clip(other)
+            )))
+        }
+    };
+    if let Some(l) = req
+        .label
+        .as_deref()
+        .filter(|l| !crate::history::valid_label(l))
+    {
+        return Err(ApiError::bad(format!(
+            "label: use letters, digits, '-', '_', '.' or ':' (at most 64), got {}",
+            super::error::clip(l)
+        )));
+    }
+    if let Some(a) = req
+        .adapter
+        .as_deref()
+        .filter(|a| a.is_empty() || a.len() > 200)
+    {
+        return Err(ApiError::bad(format!(
+            "adapter: a name substring of 1 to 200 characters, got {:?}",
+            super::error::clip(a)
+        )));
+    }
+    let scenes = req.scenes.unwrap_or_default();
+    if scenes.len() > 1000 || scenes.iter().any(|s| s.is_empty() || s.len() > 200) {
+        return Err(ApiError::bad(
+            "scenes: at most 1000 names of 1 to 200 characters",
+        ));
+    }
+    Ok(JobSpec {
+        suite: suite.display().to_string(),
+        scenes,
+        cpu,
+        adapter: req.adapter,
+        label: req.label,
+    })
+}
+
+fn parse_run_request(body: &[u8]) -> Result<RunRequest, ApiError> {
+    if body.iter().all(|b| b.is_ascii_whitespace()) {
+        Ok(RunRequest::default())
+    } else {
+        serde_json::from_slice(body).map_err(|e| ApiError::bad(format!("body: {e}")))
+    }
 }
 
 /// What a `POST /runs` body asks for, checked: empty means the defaults.
@@ -175,11 +246,12 @@ pub fn run_request(
     adapter: &crate::gpu::AdapterChoice,
     config: crate::gpu::GpuConfig,
 ) -> Result<crate::gate::Renderer, ApiError> {
-    let req: RunRequest = if body.iter().all(|b| b.is_ascii_whitespace()) {
-        RunRequest::default()
-    } else {
-        serde_json::from_slice(body).map_err(|e| ApiError::bad(format!("body: {e}")))?
-    };
+    let req = parse_run_request(body)?;
+    if req.adapter.is_some() || req.label.is_some() || req.scenes.is_some() {
+        return Err(ApiError::bad(
+            "adapter, label and scenes select a fleet's runner; this server's history is a SQLite file, so its runs are its own (serve --db postgres://... queues them)",
+        ));
+    }
     let spp = match req.spp {
         None => None,
         Some(n @ 1..=256) => Some(n),
@@ -223,6 +295,9 @@ pub async fn post_run(
     body: Bytes,
 ) -> Result<Response, ApiError> {
     st.authorize_write(&headers)?;
+    if crate::history::is_url(&st.db.to_string_lossy()) {
+        return queue_run(&st, &body).await;
+    }
     let renderer = run_request(&body, &st.adapter, st.gpu_config)?;
     if let Some(problem) = st.history_problem().await {
         return Err(ApiError::unavailable("history_read_only", problem, 60));
@@ -238,6 +313,128 @@ pub async fn post_run(
         r.headers_mut().insert(header::LOCATION, v);
     }
     Ok(r)
+}
+
+/// What `POST /runs` answers when it queued the run for the fleet.
+#[derive(Serialize, ToSchema)]
+pub struct RunQueued {
+    pub job: i64,
+    /// Always `queued`.
+    pub status: String,
+    /// Where to follow it.
+    pub url: String,
+}
+
+/// Queues a check run of the server's suite for the fleet's runners.
+async fn queue_run(st: &Arc<AppState>, body: &[u8]) -> Result<Response, ApiError> {
+    let spec = job_request(body, &st.suite)?;
+    let db = st.db.clone();
+    let job = tokio::task::spawn_blocking(move || History::open(&db)?.enqueue(&spec))
+        .await
+        .map_err(|e| ApiError::internal(e.to_string()))?
+        .map_err(|e| match e {
+            HistoryError::Invalid(d) => ApiError::bad(d),
+            e => ApiError::of_history(&e),
+        })?;
+    let url = format!("/api/v1/queue?job={job}");
+    let mut r = (
+        StatusCode::ACCEPTED,
+        axum::Json(RunQueued {
+            job,
+            status: "queued".into(),
+            url: url.clone(),
+        }),
+    )
+        .into_response();
+    if let Ok(v) = HeaderValue::from_str(&url) {
+        r.headers_mut().insert(header::LOCATION, v);
+    }
+    Ok(r)
+}
+
+#[derive(Deserialize, IntoParams)]
+#[serde(deny_unknown_fields)]
+#[into_params(parameter_in = Query)]
+pub struct QueueQuery {
+    /// queued, claimed, done or aborted.
+    state: Option<String>,
+    /// One job.
+    job: Option<i64>,
+    /// Newest jobs returned (default 100, at most 1000).
+    limit: Option<u32>,
+}
+
+/// The fleet's queue: jobs, newest first, and how many are in each state.
+#[derive(Serialize, ToSchema)]
+pub struct Queue {
+    pub counts: BTreeMap<String, i64>,
+    pub jobs: Vec<JobRow>,
+}
+
+/// The fleet's queue (a shared history's jobs; empty on a SQLite one).
+#[utoipa::path(get, path = "/api/v1/queue", tag = "fleet", params(QueueQuery),
+    responses((status = 200, description = "OK", body = Queue), (status = 400, description = "Unknown or bad parameter", body = ErrorBody)))]
+pub async fn queue(
+    State(st): State<Arc<AppState>>,
+    headers: HeaderMap,
+    RawQuery(q): RawQuery,
+) -> Result<Response, ApiError> {
+    st.authorize_read(&headers)?;
+    let q: QueueQuery = query(q)?;
+    let limit = q.limit.unwrap_or(100);
+    if !(1..=1000).contains(&limit) {
+        return Err(ApiError::bad(format!(
+            "limit: must be 1 to 1000, got {limit}"
+        )));
+    }
+    if let Some(s) = q.state.as_deref() {
+        if !["queued", "claimed", "done", "aborted"].contains(&s) {
+            return Err(ApiError::bad(format!(
+                "state: expected queued, claimed, done or aborted, got {}",
+                super::error::clip(s)
+            )));
+        }
+    }
+    let (state, job) = (q.state, q.job);
+    let out = read(st.as_ref(), move |h| {
+        let jobs = h.jobs(
+            state.as_deref(),
+            if job.is_some() { 1_000_000 } else { limit },
+        )?;
+        let jobs = jobs
+            .into_iter()
+            .filter(|j| job.is_none_or(|id| j.id == id))
+            .collect();
+        Ok(Queue {
+            counts: h.job_counts()?.into_iter().collect(),
+            jobs,
+        })
+    })
+    .await?;
+    Ok(axum::Json(out).into_response())
+}
+
+#[derive(Deserialize, IntoParams)]
+#[serde(deny_unknown_fields)]
+#[into_params(parameter_in = Query)]
+pub struct RunnersQuery {
+    /// Stopped and lost runners too (default: only live ones).
+    all: Option<bool>,
+}
+
+/// The fleet's runners: adapter, labels, last heartbeat, current job.
+#[utoipa::path(get, path = "/api/v1/runners", tag = "fleet", params(RunnersQuery),
+    responses((status = 200, description = "OK", body = Vec<RunnerRow>), (status = 400, description = "Unknown or bad parameter", body = ErrorBody)))]
+pub async fn runners(
+    State(st): State<Arc<AppState>>,
+    headers: HeaderMap,
+    RawQuery(q): RawQuery,
+) -> Result<Response, ApiError> {
+    st.authorize_read(&headers)?;
+    let q: RunnersQuery = query(q)?;
+    let all = q.all.unwrap_or(false);
+    let out = read(st.as_ref(), move |h| h.runners(all)).await?;
+    Ok(axum::Json(out).into_response())
 }
 
 /// Whether `name` can be an artifact's file name: letters, digits, '-', '_'

@@ -222,7 +222,7 @@ pub async fn start_run(
     info(title = "tonegate", description = "HDR tone-mapper validation: runs, metrics, trends, tradeoffs, tone-mapping."),
     paths(
         api::list_runs, api::get_run, api::post_run, api::get_artifact, api::trends,
-        api::tradeoff, api::healthz, api::sample, tonemap::tonemap
+        api::tradeoff, api::healthz, api::sample, tonemap::tonemap, api::queue, api::runners
     ),
     components(schemas(error::ErrorBody)),
     modifiers(&BearerAuth)
@@ -255,6 +255,8 @@ pub fn router(st: Arc<AppState>) -> Router {
         .route("/runs/{id}", get(api::get_run))
         .route("/runs/{id}/artifacts/{name}", get(api::get_artifact))
         .route("/trends", get(api::trends))
+        .route("/queue", get(api::queue))
+        .route("/runners", get(api::runners))
         .route("/tradeoff/{run}", get(api::tradeoff))
         .route("/healthz", get(api::healthz))
         .route("/samples/{name}", get(api::sample))

@@ -1,0 +1,421 @@
+//! A fleet on one history: runners register and heartbeat, check runs are
+//! queued as jobs, and a runner claims the oldest queued job its adapter and
+//! labels match. On PostgreSQL the claim is `SELECT … FOR UPDATE SKIP
+//! LOCKED`, so runners never wait on, or take, each other's job; on SQLite the
+//! database's single writer serialises the same statement.
+//!
+//! A runner whose heartbeat is older than the lost-after time is marked
+//! `lost` by whichever runner looks next; its job's run is marked aborted and
+//! the job queued again, once (a job claimed twice and lost twice is
+//! aborted, so a job that kills its runner cannot take the fleet down).
+
+use super::backend::args;
+use super::{host_name, now, History, HistoryError};
+use serde::{Deserialize, Serialize};
+use std::time::Duration;
+
+/// How many times a job may be claimed: the first claim and one requeue.
+pub const MAX_ATTEMPTS: i64 = 2;
+
+/// What a queued check run asks for.
+#[derive(Clone, Debug, Default, Serialize, Deserialize, utoipa::ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct JobSpec {
+    /// The suite file, as the runners see it (relative to their folder).
+    pub suite: String,
+    /// Only these scenes (empty: the whole suite).
+    #[serde(default)]
+    pub scenes: Vec<String>,
+    /// Render with the CPU reference instead of the runner's GPU.
+    #[serde(default)]
+    pub cpu: bool,
+    /// Only a runner whose adapter name contains this (case-insensitive).
+    #[serde(default)]
+    pub adapter: Option<String>,
+    /// Only a runner with this label.
+    #[serde(default)]
+    pub label: Option<String>,
+}
+
+/// A queued, running or finished job.
+#[derive(Clone, Debug, Serialize, utoipa::ToSchema)]
+pub struct JobRow {
+    pub id: i64,
+    /// queued, claimed, done or aborted.
+    pub state: String,
+    pub suite: String,
+    pub scenes: Vec<String>,
+    pub cpu: bool,
+    pub want_adapter: Option<String>,
+    pub want_label: Option<String>,
+    pub queued_at: String,
+    pub claimed_at: Option<String>,
+    pub finished_at: Option<String>,
+    pub runner_id: Option<i64>,
+    /// The run of its latest claim.
+    pub run_id: Option<i64>,
+    pub attempts: i64,
+    pub detail: Option<String>,
+}
+
+/// A registered runner.
+#[derive(Clone, Debug, Serialize, utoipa::ToSchema)]
+pub struct RunnerRow {
+    pub id: i64,
+    pub name: String,
+    pub host: String,
+    pub pid: i64,
+    pub adapter: String,
+    pub driver: String,
+    pub labels: Vec<String>,
+    pub started_at: String,
+    pub heartbeat: String,
+    /// idle, busy, stopped or lost.
+    pub state: String,
+    /// The job it is running.
+    pub job_id: Option<i64>,
+}
+
+/// What a runner says of itself when it registers.
+#[derive(Clone, Debug, Default)]
+pub struct RunnerInfo {
+    pub name: String,
+    pub adapter: String,
+    pub driver: String,
+    pub labels: Vec<String>,
+}
+
+/// A job as a runner receives it.
+#[derive(Clone, Debug)]
+pub struct ClaimedJob {
+    pub id: i64,
+    pub suite: String,
+    pub scenes: Vec<String>,
+    pub cpu: bool,
+    pub attempt: i64,
+}
+
+/// What an expiry pass did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Expired {
+    pub runners: Vec<i64>,
+    pub requeued: Vec<i64>,
+    pub aborted: Vec<i64>,
+}
+
+/// The current time less `d`, in the stored form (RFC 3339 UTC, ms).
+fn ago(d: Duration) -> String {
+    let t = chrono::Utc::now() - chrono::Duration::from_std(d).unwrap_or(chrono::Duration::zero());
+    t.to_rfc3339_opts(chrono::SecondsFormat::Millis, true)
+}
+
+fn scenes_json(scenes: &[String]) -> String {
+    serde_json::to_string(scenes).unwrap_or_else(|_| "[]".into())
+}
+
+fn scenes_of(text: &str) -> Vec<String> {
+    serde_json::from_str(text).unwrap_or_default()
+}
+
+fn labels_of(text: &str) -> Vec<String> {
+    text.split(',')
+        .filter(|l| !l.is_empty())
+        .map(str::to_owned)
+        .collect()
+}
+
+/// A label: letters, digits, `-`, `_`, `.` and `:` (no commas, which
+/// separate them in storage).
+pub fn valid_label(l: &str) -> bool {
+    !l.is_empty()
+        && l.len() <= 64
+        && l.chars()
+            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.' | ':'))
+}
+
+impl History {
+    /// Queues a check run; returns the job's id.
+    pub fn enqueue(&self, spec: &JobSpec) -> Result<i64, HistoryError> {
+        if let Some(l) = spec.label.as_deref().filter(|l| !valid_label(l)) {
+            return Err(HistoryError::Invalid(format!(
+                "label {l:?}: use letters, digits, '-', '_', '.' or ':' (at most 64)"
+            )));
+        }
+        self.db()
+            .query_opt(
+                "INSERT INTO jobs (state, suite, scenes, renderer, want_adapter, want_label,
+                                   queued_at, attempts)
+                 VALUES ('queued', $1, $2, $3, $4, $5, $6, 0) RETURNING id",
+                args![
+                    &spec.suite,
+                    scenes_json(&spec.scenes),
+                    if spec.cpu { "cpu" } else { "gpu" },
+                    spec.adapter.as_deref().filter(|a| !a.is_empty()),
+                    spec.label.as_deref(),
+                    now()
+                ],
+            )?
+            .ok_or_else(|| HistoryError::Invalid("queueing a job returned no id".into()))?
+            .int(0)
+    }
+
+    /// Registers a runner of this process; returns its id.
+    pub fn register_runner(&self, r: &RunnerInfo) -> Result<i64, HistoryError> {
+        if let Some(l) = r.labels.iter().find(|l| !valid_label(l)) {
+            return Err(HistoryError::Invalid(format!(
+                "label {l:?}: use letters, digits, '-', '_', '.' or ':' (at most 64)"
+            )));
+        }
+        let at = now();
+        self.db()
+            .query_opt(
+                "INSERT INTO runners (name, host, pid, adapter, driver, labels, started_at,
+                                      heartbeat, state)
+                 VALUES ($1, $2, $3, $4, $5, $6, $7, $7, 'idle') RETURNING id",
+                args![
+                    &r.name,
+                    host_name(),
+                    std::process::id(),
+                    &r.adapter,
+                    &r.driver,
+                    r.labels.join(","),
+                    at
+                ],
+            )?
+            .ok_or_else(|| HistoryError::Invalid("registering a runner returned no id".into()))?
+            .int(0)
+    }
+
+    /// Says the runner is alive. False when it was already declared lost
+    /// (its job has gone back to the queue): it must stop and register anew.
+    pub fn heartbeat(&self, runner: i64) -> Result<bool, HistoryError> {
+        Ok(self.db().execute(
+            "UPDATE runners SET heartbeat = $2 WHERE id = $1 AND state IN ('idle', 'busy')",
+            args![runner, now()],
+        )? == 1)
+    }
+
+    /// Claims the oldest queued job this runner matches, if any.
+    pub fn claim(
+        &self,
+        runner: i64,
+        adapter: &str,
+        labels: &[String],
+    ) -> Result<Option<ClaimedJob>, HistoryError> {
+        let sql = format!(
+            "UPDATE jobs SET state = 'claimed', runner_id = $1, claimed_at = $2,
+                             attempts = attempts + 1, finished_at = NULL, run_id = NULL
+             WHERE state = 'queued' AND id = (
+               SELECT id FROM jobs
+               WHERE state = 'queued'
+                 AND (want_adapter IS NULL OR LOWER($3) LIKE '%' || LOWER(want_adapter) || '%')
+                 AND (want_label IS NULL OR ',' || $4 || ',' LIKE '%,' || want_label || ',%')
+               ORDER BY id LIMIT 1{}
+             )
+             RETURNING id, suite, scenes, renderer, attempts",
+            self.db().dialect().skip_locked()
+        );
+        let mut claimed = None;
+        self.db().transaction(&mut |tx| {
+            claimed = None;
+            let Some(row) = tx.query_opt(&sql, args![runner, now(), adapter, labels.join(",")])?
+            else {
+                return Ok(());
+            };
+            let job = ClaimedJob {
+                id: row.int(0)?,
+                suite: row.text(1)?,
+                scenes: scenes_of(&row.text(2)?),
+                cpu: row.text(3)? == "cpu",
+                attempt: row.int(4)?,
+            };
+            tx.execute(
+                "UPDATE runners SET state = 'busy', job_id = $2, heartbeat = $3 WHERE id = $1",
+                args![runner, job.id, now()],
+            )?;
+            claimed = Some(job);
+            Ok(())
+        })?;
+        Ok(claimed)
+    }
+
+    /// Links a claimed job and the run it started.
+    pub fn job_started(&self, job: i64, run: i64) -> Result<(), HistoryError> {
+        self.db().transaction(&mut |tx| {
+            tx.execute("UPDATE jobs SET run_id = $2 WHERE id = $1", args![job, run])?;
+            tx.execute("UPDATE runs SET job_id = $2 WHERE id = $1", args![run, job])?;
+            Ok(())
+        })
+    }
+
+    /// Ends a job this runner holds (`done`, with what the run said). False
+    /// when the runner no longer holds it (declared lost and requeued): its
+    /// result is then not the job's.
+    pub fn finish_job(&self, runner: i64, job: i64, detail: &str) -> Result<bool, HistoryError> {
+        let mut held = false;
+        self.db().transaction(&mut |tx| {
+            held = tx.execute(
+                "UPDATE jobs SET state = 'done', finished_at = $3, detail = $4
+                 WHERE id = $1 AND runner_id = $2 AND state = 'claimed'",
+                args![job, runner, now(), detail],
+            )? == 1;
+            tx.execute(
+                "UPDATE runners SET state = 'idle', job_id = NULL
+                 WHERE id = $1 AND state = 'busy'",
+                args![runner],
+            )?;
+            Ok(())
+        })?;
+        Ok(held)
+    }
+
+    /// Marks a runner stopped (it exits on purpose).
+    pub fn stop_runner(&self, runner: i64) -> Result<(), HistoryError> {
+        self.db().execute(
+            "UPDATE runners SET state = 'stopped', job_id = NULL, heartbeat = $2
+             WHERE id = $1 AND state IN ('idle', 'busy')",
+            args![runner, now()],
+        )?;
+        Ok(())
+    }
+
+    /// Declares runners silent for longer than `lost_after` lost: each job
+    /// one held is queued again (or aborted once it has had its
+    /// [`MAX_ATTEMPTS`]), and the run it had started is marked aborted.
+    pub fn expire_runners(&self, lost_after: Duration) -> Result<Expired, HistoryError> {
+        let cutoff = ago(lost_after);
+        let mut out = Expired::default();
+        self.db().transaction(&mut |tx| {
+            out = Expired::default();
+            let silent = tx.query(
+                "SELECT id, name, heartbeat FROM runners
+                 WHERE state IN ('idle', 'busy') AND heartbeat < $1",
+                args![&cutoff],
+            )?;
+            for r in silent {
+                let (id, name, beat) = (r.int(0)?, r.text(1)?, r.text(2)?);
+                // Another runner may have declared it first.
+                if tx.execute(
+                    "UPDATE runners SET state = 'lost', job_id = NULL
+                     WHERE id = $1 AND state IN ('idle', 'busy') AND heartbeat < $2",
+                    args![id, &cutoff],
+                )? != 1
+                {
+                    continue;
+                }
+                out.runners.push(id);
+                let held = tx.query(
+                    "SELECT id, run_id, attempts FROM jobs WHERE runner_id = $1 AND state = 'claimed'",
+                    args![id],
+                )?;
+                for j in held {
+                    let (job, run, attempts) = (j.int(0)?, j.opt_int(1)?, j.int(2)?);
+                    let why = format!(
+                        "runner {name} (id {id}) stopped heartbeating (last {beat}); declared lost at {}",
+                        now()
+                    );
+                    if let Some(run) = run {
+                        tx.execute(
+                            "UPDATE runs SET status = 'aborted', ended_at = $2, detail = $3
+                             WHERE id = $1 AND status = 'running'",
+                            args![run, now(), &why],
+                        )?;
+                    }
+                    let again = attempts < MAX_ATTEMPTS;
+                    tx.execute(
+                        "UPDATE jobs SET state = $2, runner_id = NULL, detail = $3,
+                                         finished_at = $4
+                         WHERE id = $1",
+                        args![
+                            job,
+                            if again { "queued" } else { "aborted" },
+                            &why,
+                            (!again).then(now)
+                        ],
+                    )?;
+                    if again {
+                        out.requeued.push(job);
+                    } else {
+                        out.aborted.push(job);
+                    }
+                }
+            }
+            Ok(())
+        })?;
+        Ok(out)
+    }
+
+    /// The newest `limit` jobs, newest first (`state` filters).
+    pub fn jobs(&self, state: Option<&str>, limit: u32) -> Result<Vec<JobRow>, HistoryError> {
+        self.db()
+            .query(
+                "SELECT id, state, suite, scenes, renderer, want_adapter, want_label, queued_at,
+                        claimed_at, finished_at, runner_id, run_id, attempts, detail
+                 FROM jobs WHERE (CAST($1 AS TEXT) IS NULL OR state = $1)
+                 ORDER BY id DESC LIMIT $2",
+                args![state, limit],
+            )?
+            .iter()
+            .map(|r| {
+                Ok(JobRow {
+                    id: r.int(0)?,
+                    state: r.text(1)?,
+                    suite: r.text(2)?,
+                    scenes: scenes_of(&r.text(3)?),
+                    cpu: r.text(4)? == "cpu",
+                    want_adapter: r.opt_text(5)?,
+                    want_label: r.opt_text(6)?,
+                    queued_at: r.text(7)?,
+                    claimed_at: r.opt_text(8)?,
+                    finished_at: r.opt_text(9)?,
+                    runner_id: r.opt_int(10)?,
+                    run_id: r.opt_int(11)?,
+                    attempts: r.int(12)?,
+                    detail: r.opt_text(13)?,
+                })
+            })
+            .collect()
+    }
+
+    /// How many jobs are in each state.
+    pub fn job_counts(&self) -> Result<Vec<(String, i64)>, HistoryError> {
+        self.db()
+            .query(
+                "SELECT state, COUNT(*) FROM jobs GROUP BY state ORDER BY state",
+                &[],
+            )?
+            .iter()
+            .map(|r| Ok((r.text(0)?, r.int(1)?)))
+            .collect()
+    }
+
+    /// Every registered runner, newest first; stopped and lost ones only
+    /// when `all`.
+    pub fn runners(&self, all: bool) -> Result<Vec<RunnerRow>, HistoryError> {
+        self.db()
+            .query(
+                "SELECT id, name, host, pid, adapter, driver, labels, started_at, heartbeat,
+                        state, job_id
+                 FROM runners WHERE $1 = 1 OR state IN ('idle', 'busy')
+                 ORDER BY id DESC LIMIT 1000",
+                args![all],
+            )?
+            .iter()
+            .map(|r| {
+                Ok(RunnerRow {
+                    id: r.int(0)?,
+                    name: r.text(1)?,
+                    host: r.text(2)?,
+                    pid: r.int(3)?,
+                    adapter: r.text(4)?,
+                    driver: r.text(5)?,
+                    labels: labels_of(&r.text(6)?),
+                    started_at: r.text(7)?,
+                    heartbeat: r.text(8)?,
+                    state: r.text(9)?,
+                    job_id: r.opt_int(10)?,
+                })
+            })
+            .collect()
+    }
+}
