@@ -257,3 +257,75 @@ fn the_trend_charts_mark_a_level_shift_in_chromium() {
     );
     assert!(dom.contains("SSIM ×") && dom.contains("at run 7"), "{dom}");
 }
+
+/// Issue 15: the fleet page lists the runners (a stopped one and a live,
+/// idle one) and the queue (two jobs done, one waiting for a label no
+/// runner has), from a history the real `runner` wrote.
+#[test]
+fn the_fleet_page_shows_runners_and_the_queue_in_chromium() {
+    let dir = tempfile::tempdir().unwrap();
+    let seeded = common::seed_empty(dir.path());
+    let (suite, db) = (seeded.suite.to_str().unwrap(), seeded.db.to_str().unwrap());
+    let enqueue = |extra: &[&str]| {
+        let mut args = vec![
+            "enqueue",
+            "--db",
+            db,
+            "--suite",
+            suite,
+            "--scene",
+            "grid-static",
+            "--cpu",
+        ];
+        args.extend(extra);
+        let o = common::tonegate(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    enqueue(&["--count", "2"]);
+    enqueue(&["--want-label", "nvidia"]);
+    let runner = |name: &str, extra: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_tonegate"))
+            .args([
+                "runner", "--db", db, "--cpu", "--name", name, "--labels", "small",
+            ])
+            .args(["--poll-ms", "100", "--heartbeat-ms", "500"])
+            .args(extra)
+            .current_dir(common::repo())
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap()
+    };
+    let done = runner("first", &["--max-jobs", "2"]).wait().unwrap();
+    assert!(done.success());
+    let mut live = runner("second", &["--exit-when-idle-s", "120"]);
+    let s = serve(&seeded, dir.path());
+    let dom = browse(&format!("{}/#/fleet?all=1", s.base), "fleet");
+    let _ = live.kill();
+    let _ = live.wait();
+    assert_eq!(count(&dom, "class=\"runner-row\""), 2, "{dom}");
+    assert_eq!(
+        count(&dom, "class=\"runner-row\" data-state=\"stopped\""),
+        1,
+        "{dom}"
+    );
+    assert_eq!(
+        count(&dom, "class=\"runner-row\" data-state=\"idle\""),
+        1,
+        "{dom}"
+    );
+    assert_eq!(
+        count(&dom, "class=\"job-row\" data-state=\"done\""),
+        2,
+        "{dom}"
+    );
+    assert_eq!(
+        count(&dom, "class=\"job-row\" data-state=\"queued\""),
+        1,
+        "{dom}"
+    );
+    assert!(
+        dom.contains("label nvidia") && dom.contains("2 done") && dom.contains("1 queued"),
+        "{dom}"
+    );
+}

@@ -90,6 +90,7 @@ async function route() {
     else if (parts[0] === "trends") await trendsPage(params);
     else if (parts[0] === "tradeoff") await tradeoffPage(parts[1], params);
     else if (parts[0] === "tonemap") tonemapPage(params);
+    else if (parts[0] === "fleet") await fleetPage(params);
     else await runsPage(params);
   } catch (e) {
     show(failure(e));
@@ -140,10 +141,66 @@ async function startRun() {
   const msg = document.getElementById("start-msg");
   try {
     const r = await api("/runs", { method: "POST", headers: { "Content-Type": "application/json" }, body: "{}" });
-    location.hash = `/runs/${r.id}`;
+    // A shared history queues the run for the fleet's runners.
+    location.hash = r.job ? `/fleet?job=${r.job}` : `/runs/${r.id}`;
   } catch (e) {
     msg.replaceChildren(failure(e));
   }
+}
+
+// ---- fleet: runners and the queue -------------------------------------------
+function ago(iso) {
+  if (!iso) return "–";
+  const s = (Date.now() - new Date(iso)) / 1000;
+  return s < 120 ? `${Math.max(0, s).toFixed(0)} s ago` : s < 7200 ? `${(s / 60).toFixed(0)} min ago` : when(iso);
+}
+async function fleetPage(params) {
+  const all = params.get("all") === "1";
+  const state = params.get("state") || "";
+  const q = new URLSearchParams({ limit: "200" });
+  if (state) q.set("state", state);
+  const [runners, queue] = await Promise.all([api("/runners" + (all ? "?all=true" : "")), api("/queue?" + q)]);
+  const runnerRows = runners.map((r) =>
+    h("tr", { class: "runner-row", "data-state": r.state },
+      h("td", {}, r.name),
+      h("td", {}, badge(r.state)),
+      h("td", {}, r.adapter),
+      h("td", {}, r.labels.join(", ") || "–"),
+      h("td", { title: r.heartbeat }, ago(r.heartbeat)),
+      h("td", {}, r.job_id ? `job ${r.job_id}` : "–"),
+      h("td", {}, r.host)));
+  const counts = Object.entries(queue.counts).map(([k, n]) => h("span", { class: "count", "data-state": k }, `${n} ${k}`));
+  const jobRows = queue.jobs.map((j) =>
+    h("tr", { class: "job-row", "data-state": j.state },
+      h("td", {}, `${j.id}`),
+      h("td", {}, badge(j.state)),
+      h("td", {}, j.suite + (j.scenes.length ? ` (${j.scenes.join(", ")})` : "")),
+      h("td", {}, [j.want_adapter && `adapter ~ ${j.want_adapter}`, j.want_label && `label ${j.want_label}`, j.cpu && "cpu"].filter(Boolean).join(", ") || "any runner"),
+      h("td", {}, when(j.queued_at)),
+      h("td", {}, j.claimed_at ? duration(j.queued_at, j.claimed_at) : "–"),
+      h("td", {}, String(j.attempts)),
+      h("td", {}, j.run_id ? h("a", { href: `#/runs/${j.run_id}` }, `#${j.run_id}`) : "–"),
+      h("td", {}, j.detail ? h("span", { class: "detail", title: j.detail }, j.detail.slice(0, 60)) : "")));
+  const stateSelect = h("select", { name: "state", onchange: (ev) => setParams("/fleet", { all: all ? "1" : "", state: ev.target.value }) },
+    ["", "queued", "claimed", "done", "aborted"].map((o) => h("option", { value: o, selected: state === o }, o || "any state")));
+  const allBox = h("label", {}, h("input", { type: "checkbox", checked: all, onchange: (ev) => setParams("/fleet", { all: ev.target.checked ? "1" : "", state }) }), " stopped and lost runners too");
+  show(
+    h("h1", {}, "Fleet"),
+    h("h2", {}, `Runners (${runners.length})`),
+    h("div", { class: "toolbar" }, allBox),
+    runners.length
+      ? h("table", { class: "runners" },
+          h("thead", {}, h("tr", {}, ["Runner", "State", "Adapter", "Labels", "Heartbeat", "Running", "Host"].map((t) => h("th", {}, t)))),
+          h("tbody", {}, runnerRows))
+      : h("p", { class: "empty" }, "No runner is registered. `tonegate runner --db postgres://…` starts one."),
+    h("h2", {}, "Queue"),
+    h("div", { class: "toolbar" }, stateSelect, h("span", { class: "counts" }, counts.length ? counts : "no jobs")),
+    queue.jobs.length
+      ? h("table", { class: "jobs" },
+          h("thead", {}, h("tr", {}, ["Job", "State", "Suite", "For", "Queued", "Waited", "Attempts", "Run", ""].map((t) => h("th", {}, t)))),
+          h("tbody", {}, jobRows))
+      : h("p", { class: "empty" }, "No jobs. `POST /api/v1/runs` or `tonegate enqueue` queues one when the history is shared."));
+  timer = setTimeout(route, 3000);
 }
 
 // ---- one run ----------------------------------------------------------------
