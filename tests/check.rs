@@ -411,3 +411,51 @@ fn a_broken_taa_fails_the_ghosting_checks() {
         text(&o)
     );
 }
+
+/// Issue 15: a recorded run's images are in the history (content-addressed)
+/// and in the folder beside it; `history prune` drops both for old runs and
+/// keeps the run's metrics.
+#[test]
+fn history_prune_drops_old_runs_images_and_keeps_their_metrics() {
+    let dir = tempfile::tempdir().unwrap();
+    let seeded = common::seed_empty(dir.path());
+    let db = s(&seeded.db);
+    let o = tonegate(&[
+        "check",
+        "--db",
+        db,
+        "--suite",
+        s(&seeded.suite),
+        "--fault-gain",
+        "1.02",
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    let folder = dir.path().join("artifacts/run-1");
+    let files = std::fs::read_dir(&folder).unwrap().count();
+    let h = History::open_read_only(&seeded.db).unwrap();
+    let stats = h.artifact_stats().unwrap();
+    assert_eq!(stats.names as usize, files, "{stats:?}");
+    assert!(stats.blobs > 0 && stats.bytes > 0);
+    drop(h);
+    // Within the kept days: nothing goes.
+    let o = tonegate(&["history", "prune", "--db", db, "--keep-days", "30"]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(text(&o).contains("of 0 run(s)"), "{}", text(&o));
+    assert!(folder.is_dir());
+    // Everything older than now goes; the run and its metrics stay.
+    let o = tonegate(&["history", "prune", "--db", db, "--keep-days", "0"]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(
+        text(&o).contains("of 1 run(s)") && text(&o).contains("1 folder(s)"),
+        "{}",
+        text(&o)
+    );
+    assert!(!folder.exists());
+    let h = History::open_read_only(&seeded.db).unwrap();
+    assert_eq!(h.artifact_stats().unwrap().blobs, 0);
+    assert_eq!(h.status(1).unwrap(), Some(RunStatus::Failed));
+    assert_eq!(h.run(1).unwrap().unwrap().scenes, 2);
+    // A --db before the subcommand is refused, not silently ignored.
+    let o = tonegate(&["history", "--db", db, "prune", "--keep-days", "1"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+}

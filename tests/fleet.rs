@@ -373,7 +373,10 @@ fn runners_share_a_sqlite_history_too() {
     );
     let runs = h.runs(100).unwrap();
     assert_eq!(runs.len(), 12);
-    assert!(runs.iter().all(|r| r.status == RunStatus::Passed));
+    assert!(
+        runs.iter().all(|r| r.status == RunStatus::Passed),
+        "{runs:?}"
+    );
     let o = tonegate(&["fleet", "--db", url, "--all"]);
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success() && out.contains("jobs: 12 done"), "{out}");

@@ -185,18 +185,24 @@ fn a_version_1_file_is_migrated_without_losing_its_runs() {
     let dir = tempfile::tempdir().unwrap();
     let db = dir.path().join("h.sqlite");
     let a = adapter("llvmpipe", "{}");
-    let mut old = scene("sky", 10.0, 10.0);
-    old.frames.push(frame(0.5));
-    let old_id = record(&mut History::open(&db).unwrap(), &a, &old);
-    // Make it the file schema version 1 wrote: no mean_abs_diff or flip_mean columns.
+    // The file schema version 1 made, with one run in it written as that
+    // version wrote it (no mean_abs_diff or flip_mean columns, no fleet, no
+    // artifact store).
     let conn = rusqlite::Connection::open(&db).unwrap();
+    conn.execute_batch(tonegate::history::migrations()[0])
+        .unwrap();
     conn.execute_batch(
-        "ALTER TABLE frame_metrics DROP COLUMN mean_abs_diff;
-         ALTER TABLE frame_metrics DROP COLUMN flip_mean;
-         PRAGMA user_version = 1;",
+        "PRAGMA user_version = 1;
+         INSERT INTO runs (id, kind, status, started_at, tonegate_version, host, pid, adapter, config)
+           VALUES (1, 'check', 'passed', '2026-11-20T00:00:00.000Z', '0.1.0', 'h', 1, 'llvmpipe', '{}');
+         INSERT INTO scene_results (run_id, scene, test, passed, frames, result)
+           VALUES (1, 'sky', 'moving', 1, 1, '{}');
+         INSERT INTO frame_metrics (run_id, scene, frame, mse, rmse, psnr, snr, ssim, max_abs_diff, fraction_over_1lsb)
+           VALUES (1, 'sky', 0, 1.0, 1.0, 48.1, 40.0, 0.99, 2, 0.01);",
     )
     .unwrap();
     drop(conn);
+    let old_id = 1;
     let mut h = History::open(&db).unwrap();
     assert_eq!(h.schema_version().unwrap(), SCHEMA_VERSION);
     let mut new = scene("sky", 10.0, 10.0);

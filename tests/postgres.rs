@@ -522,7 +522,28 @@ fn check_history_and_serve_work_on_postgres() {
         assert_eq!(status, 200);
         assert_eq!(one["run"]["status"], "failed");
         assert_eq!(one["report"]["passed"], false);
+        // The failing run's images come from the shared history: no folder
+        // holds them (a PostgreSQL history has none).
+        assert!(one["report"]["artifacts_dir"].is_null(), "{one}");
+        let names: Vec<String> = one["report"]["artifacts"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|n| n.as_str().unwrap().to_owned())
+            .collect();
+        assert!(names.iter().any(|n| n.ends_with("-diff.png")), "{names:?}");
+        for name in &names {
+            let r = srv.get(&format!("/api/v1/runs/2/artifacts/{name}")).await;
+            assert_eq!(r.status(), 200, "{name}");
+            let bytes = r.bytes().await.unwrap();
+            tonegate::io::decode_png8(&bytes, name).expect("a PNG");
+        }
     });
+    // Identical images (the goldens, and run 1's worst frames that run 3
+    // re-rendered) are stored once.
+    let h = History::open_read_only(Path::new(&url)).unwrap();
+    let stats = h.artifact_stats().unwrap();
+    assert!(stats.names > 0 && stats.blobs < stats.names, "{stats:?}");
 }
 
 /// The fleet's queue on both engines: a job's selector is matched against
@@ -599,5 +620,71 @@ fn claims_follow_selectors_and_a_job_lost_twice_is_aborted() {
             })
             .unwrap_err();
         assert!(err.to_string().contains("label \"a,b\""), "{err}");
+    }
+}
+
+/// The artifact store on both engines: an image is stored once by its
+/// SHA-256, a run reads back its own names, and pruning drops old runs'
+/// names and only the images no kept run names.
+#[test]
+fn artifacts_are_stored_once_and_pruning_keeps_what_kept_runs_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let url = pg::database();
+    let lite = dir.path().join("h.sqlite");
+    for db in [lite.clone(), PathBuf::from(&url)] {
+        let h = History::open(&db).unwrap();
+        let (a, b, c) = (vec![1u8, 2, 3], vec![4u8; 1000], vec![0u8, 255]);
+        let old = h.start_run(RunKind::Check, &RunMeta::default()).unwrap();
+        let new = h.start_run(RunKind::Check, &RunMeta::default()).unwrap();
+        let files = |v: &[(&str, &Vec<u8>)]| -> Vec<(String, Vec<u8>)> {
+            v.iter()
+                .map(|(n, b)| ((*n).to_owned(), (*b).clone()))
+                .collect()
+        };
+        assert_eq!(
+            h.store_artifacts(old, &files(&[("a.png", &a), ("b.png", &b)]))
+                .unwrap(),
+            2
+        );
+        assert_eq!(
+            h.store_artifacts(new, &files(&[("a.png", &a), ("c.png", &c)]))
+                .unwrap(),
+            1
+        );
+        for id in [old, new] {
+            h.finish_run(id, RunStatus::Passed, None, None).unwrap();
+        }
+        let stats = h.artifact_stats().unwrap();
+        assert_eq!((stats.names, stats.blobs, stats.bytes), (4, 3, 1005));
+        assert_eq!(h.artifact(new, "a.png").unwrap(), Some(a.clone()));
+        assert_eq!(h.artifact(new, "b.png").unwrap(), None);
+        assert_eq!(h.artifact_names(old).unwrap(), ["a.png", "b.png"]);
+        // Nothing is old yet.
+        let p = h.prune_artifacts(Duration::from_secs(86_400)).unwrap();
+        assert_eq!((p.runs.len(), p.names, p.blobs), (0, 0, 0));
+        // Make the first run, and the images, a year old.
+        let age = [
+            format!("UPDATE runs SET started_at = '2025-01-01T00:00:00.000Z' WHERE id = {old}"),
+            "UPDATE blobs SET stored_at = '2025-01-01T00:00:00.000Z'".to_owned(),
+        ];
+        if db == lite {
+            let c = rusqlite::Connection::open(&lite).unwrap();
+            for sql in &age {
+                c.execute(sql, []).unwrap();
+            }
+        } else {
+            let mut c = postgres::Client::connect(&url, postgres::NoTls).unwrap();
+            for sql in &age {
+                c.execute(sql.as_str(), &[]).unwrap();
+            }
+        }
+        let p = h.prune_artifacts(Duration::from_secs(86_400)).unwrap();
+        assert_eq!(p.runs, [old]);
+        assert_eq!((p.names, p.blobs, p.bytes), (2, 1, 1000), "{db:?}");
+        assert_eq!(h.artifact(old, "a.png").unwrap(), None);
+        assert_eq!(h.artifact(new, "a.png").unwrap(), Some(a.clone()));
+        assert_eq!(h.artifact(new, "c.png").unwrap(), Some(c.clone()));
+        // The run itself, its metrics and report, stay.
+        assert_eq!(h.status(old).unwrap(), Some(RunStatus::Passed));
     }
 }

@@ -78,7 +78,10 @@ pub struct CheckArgs {
 }
 
 #[derive(Args)]
+#[command(args_conflicts_with_subcommands = true)]
 pub struct HistoryArgs {
+    #[command(subcommand)]
+    pub action: Option<HistoryAction>,
     #[command(flatten)]
     pub db: DbArgs,
     /// Only this scene.
@@ -170,7 +173,65 @@ pub fn check(a: CheckArgs) -> Result<ExitCode> {
     Ok(ExitCode::from(outcome.exit_code()))
 }
 
+/// What `history` does besides printing.
+#[derive(clap::Subcommand)]
+pub enum HistoryAction {
+    /// Drop the artifacts (images) of runs older than --keep-days, and the
+    /// stored images no kept run names; metrics, checks and reports stay.
+    Prune(PruneArgs),
+}
+
+#[derive(Args)]
+pub struct PruneArgs {
+    #[command(flatten)]
+    pub db: DbArgs,
+    /// Keep the artifacts of runs started within this many days.
+    #[arg(long)]
+    pub keep_days: u32,
+}
+
+fn prune(a: PruneArgs) -> Result<ExitCode> {
+    if !a.db.is_url() && !a.db.db.exists() {
+        return Err(invalid(format!("no history at {}", a.db.shown())));
+    }
+    let h = History::open(&a.db.db)?;
+    let before = h.artifact_stats()?;
+    let keep = std::time::Duration::from_secs(u64::from(a.keep_days) * 86_400);
+    let p = h.prune_artifacts(keep)?;
+    // A SQLite history's runs also kept their images in a folder beside it.
+    let mut folders = 0;
+    for &run in &p.runs {
+        if let Some(dir) = tonegate::gate::artifacts_dir_of(&a.db.db, run) {
+            if dir.is_dir() {
+                std::fs::remove_dir_all(&dir).map_err(|source| tonegate::error::Error::File {
+                    path: dir.clone(),
+                    source,
+                })?;
+                folders += 1;
+            }
+        }
+    }
+    let after = h.artifact_stats()?;
+    println!(
+        "pruned the artifacts of {} run(s) started over {} day(s) ago: {} name(s), {} image(s) no kept run uses ({:.1} MiB), {} folder(s); the store now holds {} image(s), {:.1} MiB (was {}, {:.1} MiB)",
+        p.runs.len(),
+        a.keep_days,
+        p.names,
+        p.blobs,
+        p.bytes as f64 / 1048576.0,
+        folders,
+        after.blobs,
+        after.bytes as f64 / 1048576.0,
+        before.blobs,
+        before.bytes as f64 / 1048576.0
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
 pub fn history(a: HistoryArgs) -> Result<ExitCode> {
+    if let Some(HistoryAction::Prune(p)) = a.action {
+        return prune(p);
+    }
     if !a.db.is_url() && !a.db.db.exists() {
         return Err(invalid(format!(
             "no history at {} (run `tonegate check` first, or pass --db)",

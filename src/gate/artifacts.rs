@@ -35,27 +35,24 @@ pub fn artifact_name(scene: &str, frame: u32, adapter_slug: &str, kind: &str) ->
     format!("{scene}-{frame:03}-{adapter_slug}-{kind}.png")
 }
 
-/// Writes the five images of one kept frame; returns their file names.
-pub(super) fn write_frame(
-    dir: &Path,
+/// The five images of one kept frame as PNG files: (name, bytes).
+pub(super) fn render_frame(
     scene: &str,
     slug: &str,
     f: &KeptFrame,
-) -> Result<Vec<String>, CheckError> {
-    std::fs::create_dir_all(dir).map_err(|e| CheckError::Artifact {
-        path: dir.to_owned(),
-        detail: e.to_string(),
-    })?;
-    let metric = |e: crate::metrics::MetricsError| CheckError::Artifact {
-        path: dir.to_owned(),
-        detail: e.to_string(),
+) -> Result<Vec<(String, Vec<u8>)>, CheckError> {
+    let fail = |name: &str, detail: String| CheckError::Artifact {
+        path: name.into(),
+        detail,
     };
+    let name = |kind: &str| artifact_name(scene, f.frame, slug, kind);
+    let metric = |e: crate::metrics::MetricsError| fail(&name("diff"), e.to_string());
     let diff = diff_heatmap(f.actual.raster(), f.golden.raster()).map_err(metric)?;
     let map = ssim_map_image(&ssim(f.actual.raster(), f.golden.raster()).map_err(metric)?);
     let flip = flip(f.actual.raster(), f.golden.raster(), DEFAULT_PPD)
         .map_err(metric)?
         .magma_image();
-    let mut names = Vec::with_capacity(5);
+    let mut files = Vec::with_capacity(5);
     for (kind, img) in [
         ("actual", &f.actual),
         ("golden", &f.golden),
@@ -63,15 +60,27 @@ pub(super) fn write_frame(
         ("ssim", &map),
         ("flip", &flip),
     ] {
-        let name = artifact_name(scene, f.frame, slug, kind);
-        let path = dir.join(&name);
-        crate::io::write_png8(&path, img).map_err(|e| CheckError::Artifact {
+        let bytes = crate::io::encode_png8(img).map_err(|e| fail(&name(kind), e.to_string()))?;
+        files.push((name(kind), bytes));
+    }
+    Ok(files)
+}
+
+/// Writes rendered artifacts into `dir` (created when absent), each file
+/// whole or not at all.
+pub(super) fn write_files(dir: &Path, files: &[(String, Vec<u8>)]) -> Result<(), CheckError> {
+    std::fs::create_dir_all(dir).map_err(|e| CheckError::Artifact {
+        path: dir.to_owned(),
+        detail: e.to_string(),
+    })?;
+    for (name, bytes) in files {
+        let path = dir.join(name);
+        crate::io::write_bytes_atomically(&path, bytes).map_err(|e| CheckError::Artifact {
             path: path.clone(),
             detail: e.to_string(),
         })?;
-        names.push(name);
     }
-    Ok(names)
+    Ok(())
 }
 
 #[cfg(test)]

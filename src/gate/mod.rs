@@ -346,9 +346,19 @@ fn run_inner(
             variant: t.variant.name().into(),
             sequence: scene.sequence_key(),
         });
-        if let Some(dir) = &opts.artifacts {
+        // The kept frames' images go to the artifacts folder and, content-
+        // addressed, into the history (where a fleet's server finds them).
+        let store = history.as_ref().zip(run_id);
+        if opts.artifacts.is_some() || store.is_some() {
             for f in &kept {
-                let names = artifacts::write_frame(dir, &scene.name, &slug, f)?;
+                let files = artifacts::render_frame(&scene.name, &slug, f)?;
+                if let Some(dir) = &opts.artifacts {
+                    artifacts::write_files(dir, &files)?;
+                }
+                if let Some((h, id)) = store {
+                    h.store_artifacts(id, &files)?;
+                }
+                let names: Vec<String> = files.into_iter().map(|(n, _)| n).collect();
                 if let Some(fr) = result.frames.iter_mut().find(|r| r.frame == f.frame) {
                     fr.artifacts = names.clone();
                 }

@@ -18,6 +18,7 @@ pub enum Value {
     Int(i64),
     Real(f64),
     Text(String),
+    Blob(Vec<u8>),
 }
 
 impl From<i64> for Value {
@@ -62,6 +63,11 @@ impl From<&String> for Value {
 impl From<String> for Value {
     fn from(v: String) -> Self {
         Value::Text(v)
+    }
+}
+impl From<&[u8]> for Value {
+    fn from(v: &[u8]) -> Self {
+        Value::Blob(v.to_vec())
     }
 }
 impl<T: Into<Value>> From<Option<T>> for Value {
@@ -144,6 +150,13 @@ impl Row {
 
     pub fn text(&self, i: usize) -> Result<String, HistoryError> {
         self.opt_text(i)?.ok_or_else(|| self.wrong(i, "text"))
+    }
+
+    pub fn blob(&self, i: usize) -> Result<Vec<u8>, HistoryError> {
+        match self.at(i)? {
+            Value::Blob(v) => Ok(v.clone()),
+            _ => Err(self.wrong(i, "bytes")),
+        }
     }
 
     /// A stored word (`RunKind`, `RunStatus`).
@@ -250,6 +263,7 @@ pub fn ddl_for_postgres(sql: &str) -> String {
         out.push_str(match word.as_str() {
             "INTEGER" => "BIGINT",
             "REAL" => "DOUBLE PRECISION",
+            "BLOB" => "BYTEA",
             w => w,
         });
         word.clear();

@@ -10,7 +10,7 @@
 //! aborted, so a job that kills its runner cannot take the fleet down).
 
 use super::backend::args;
-use super::{host_name, now, History, HistoryError};
+use super::{ago, host_name, now, History, HistoryError};
 use serde::{Deserialize, Serialize};
 use std::time::Duration;
 
@@ -101,12 +101,6 @@ pub struct Expired {
     pub runners: Vec<i64>,
     pub requeued: Vec<i64>,
     pub aborted: Vec<i64>,
-}
-
-/// The current time less `d`, in the stored form (RFC 3339 UTC, ms).
-fn ago(d: Duration) -> String {
-    let t = chrono::Utc::now() - chrono::Duration::from_std(d).unwrap_or(chrono::Duration::zero());
-    t.to_rfc3339_opts(chrono::SecondsFormat::Millis, true)
 }
 
 fn scenes_json(scenes: &[String]) -> String {

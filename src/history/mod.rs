@@ -10,6 +10,7 @@
 //! leaves a consistent file with the run still `running`, and the next open
 //! marks it `aborted` when the process that owned it is gone.
 
+mod artifacts;
 pub(crate) mod backend;
 mod fleet;
 mod postgres;
@@ -18,6 +19,7 @@ mod record;
 mod schema;
 mod sqlite;
 
+pub use artifacts::{ArtifactStats, Pruned};
 pub use fleet::{
     valid_label, ClaimedJob, Expired, JobRow, JobSpec, RunnerInfo, RunnerRow, MAX_ATTEMPTS,
 };
@@ -30,6 +32,12 @@ use backend::{args, Backend};
 use rusqlite::Connection;
 use schema::MIGRATIONS;
 pub use schema::SCHEMA_VERSION;
+
+/// The schema's migrations, oldest first: for tests and tools that build a
+/// history as an older tonegate wrote it.
+pub fn migrations() -> &'static [&'static str] {
+    MIGRATIONS
+}
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -164,6 +172,12 @@ pub struct History {
 /// The current UTC time, RFC 3339 with milliseconds (sorts as text).
 pub fn now() -> String {
     chrono::Utc::now().to_rfc3339_opts(chrono::SecondsFormat::Millis, true)
+}
+
+/// The current time less `d`, in the stored form (RFC 3339 UTC, ms).
+pub(super) fn ago(d: Duration) -> String {
+    let t = chrono::Utc::now() - chrono::Duration::from_std(d).unwrap_or(chrono::TimeDelta::MAX);
+    t.to_rfc3339_opts(chrono::SecondsFormat::Millis, true)
 }
 
 /// This machine's name, for telling whose `running` rows may be judged dead.

@@ -177,6 +177,7 @@ impl ToSql for Value {
                 _ => v.to_sql(ty, out),
             },
             Value::Text(s) => s.as_str().to_sql(ty, out),
+            Value::Blob(b) => b.as_slice().to_sql(ty, out),
         }
     }
 
@@ -203,6 +204,7 @@ fn row_of(r: &postgres::Row) -> Result<Row, postgres::Error> {
             Type::FLOAT4 => r
                 .try_get::<_, Option<f32>>(i)?
                 .map(|v| Value::from(f64::from(v))),
+            Type::BYTEA => r.try_get::<_, Option<Vec<u8>>>(i)?.map(Value::Blob),
             _ => r.try_get::<_, Option<String>>(i)?.map(Value::Text),
         };
         out.push(v.unwrap_or(Value::Null));

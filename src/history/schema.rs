@@ -143,6 +143,25 @@ pub(super) const MIGRATIONS: &[&str] = &[
     ALTER TABLE runs ADD COLUMN job_id INTEGER REFERENCES jobs (id);
     CREATE INDEX runs_by_job ON runs (job_id);
     "#,
+    // 5: artifacts in the history, content-addressed (issue 15): each image
+    //    once by its SHA-256, whichever runs and runners made it, and each
+    //    run's names for them; `history prune` drops old runs' names and the
+    //    images no kept run names.
+    r#"
+    CREATE TABLE blobs (
+        sha256    TEXT PRIMARY KEY,
+        size      INTEGER NOT NULL,
+        data      BLOB NOT NULL,
+        stored_at TEXT NOT NULL
+    );
+    CREATE TABLE run_artifacts (
+        run_id INTEGER NOT NULL REFERENCES runs (id) ON DELETE CASCADE,
+        name   TEXT NOT NULL,
+        sha256 TEXT NOT NULL REFERENCES blobs (sha256),
+        PRIMARY KEY (run_id, name)
+    );
+    CREATE INDEX run_artifacts_by_blob ON run_artifacts (sha256);
+    "#,
 ];
 
 /// The schema version this build writes.

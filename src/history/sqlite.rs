@@ -18,6 +18,7 @@ impl rusqlite::ToSql for Value {
             Value::Int(v) => ToSqlOutput::Borrowed(ValueRef::Integer(*v)),
             Value::Real(v) => ToSqlOutput::Borrowed(ValueRef::Real(*v)),
             Value::Text(v) => ToSqlOutput::Borrowed(ValueRef::Text(v.as_bytes())),
+            Value::Blob(v) => ToSqlOutput::Borrowed(ValueRef::Blob(v)),
         })
     }
 }
@@ -43,9 +44,8 @@ fn run_query(conn: &Connection, sql: &str, args: &[Value]) -> rusqlite::Result<V
                 ValueRef::Null => Value::Null,
                 ValueRef::Integer(v) => Value::Int(v),
                 ValueRef::Real(v) => Value::Real(v),
-                ValueRef::Text(t) | ValueRef::Blob(t) => {
-                    Value::Text(String::from_utf8_lossy(t).into_owned())
-                }
+                ValueRef::Text(t) => Value::Text(String::from_utf8_lossy(t).into_owned()),
+                ValueRef::Blob(b) => Value::Blob(b.to_vec()),
             });
         }
         out.push(Row(row));
@@ -81,6 +81,44 @@ impl Sql for InTransaction<'_> {
     }
 }
 
+/// A transaction that takes the write lock at BEGIN. A deferred one that
+/// reads first and writes later cannot wait for another writer: SQLite
+/// answers "database is locked" at once (the snapshot it read is stale), so
+/// two runners storing artifacts at the same moment would fail. Rolled back
+/// when dropped uncommitted (an error or a panic in between).
+struct Immediate<'a> {
+    db: &'a Sqlite,
+    open: bool,
+}
+
+impl<'a> Immediate<'a> {
+    fn begin(db: &'a Sqlite) -> Result<Immediate<'a>, HistoryError> {
+        db.conn
+            .execute_batch("BEGIN IMMEDIATE")
+            .map_err(|e| db.err(e))?;
+        Ok(Immediate { db, open: true })
+    }
+
+    fn commit(mut self) -> Result<(), HistoryError> {
+        let done = self
+            .db
+            .conn
+            .execute_batch("COMMIT")
+            .map_err(|e| self.db.err(e));
+        // A COMMIT that failed leaves the transaction open: Drop rolls it back.
+        self.open = done.is_err();
+        done
+    }
+}
+
+impl Drop for Immediate<'_> {
+    fn drop(&mut self) {
+        if self.open {
+            let _ = self.db.conn.execute_batch("ROLLBACK");
+        }
+    }
+}
+
 impl Backend for Sqlite {
     fn dialect(&self) -> Dialect {
         Dialect::Sqlite
@@ -90,10 +128,9 @@ impl Backend for Sqlite {
         &self,
         f: &mut dyn FnMut(&dyn Sql) -> Result<(), HistoryError>,
     ) -> Result<(), HistoryError> {
-        // Dropped without commit, it rolls back.
-        let tx = self.conn.unchecked_transaction().map_err(|e| self.err(e))?;
+        let tx = Immediate::begin(self)?;
         f(&InTransaction(self))?;
-        tx.commit().map_err(|e| self.err(e))
+        tx.commit()
     }
 
     fn schema_version(&self) -> Result<i64, HistoryError> {
@@ -113,11 +150,12 @@ impl Backend for Sqlite {
         }
         for (i, sql) in migrations.iter().enumerate().skip(version as usize) {
             // Each migration and its version bump commit together.
-            let tx = self.conn.unchecked_transaction().map_err(|e| self.err(e))?;
-            tx.execute_batch(sql).map_err(|e| self.err(e))?;
-            tx.pragma_update(None, "user_version", (i + 1) as i64)
+            let tx = Immediate::begin(self)?;
+            self.conn.execute_batch(sql).map_err(|e| self.err(e))?;
+            self.conn
+                .pragma_update(None, "user_version", (i + 1) as i64)
                 .map_err(|e| self.err(e))?;
-            tx.commit().map_err(|e| self.err(e))?;
+            tx.commit()?;
         }
         Ok(())
     }

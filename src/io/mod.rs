@@ -215,6 +215,19 @@ pub fn read_png16(path: &Path) -> Result<Rgb16Image, HdrIoError> {
     png::read_png16(path)
 }
 
+/// Writes bytes already encoded (an artifact PNG) to `path`, whole or not
+/// at all: a temporary file beside it, renamed once written.
+pub fn write_bytes_atomically(path: &Path, bytes: &[u8]) -> Result<(), HdrIoError> {
+    let file = path.display().to_string();
+    write_atomically(path, |w| {
+        std::io::Write::write_all(w, bytes).map_err(|source| HdrIoError::Io {
+            file,
+            action: "write",
+            source,
+        })
+    })
+}
+
 /// Encodes an 8-bit RGB PNG in memory (for HTTP responses and hashing).
 pub fn encode_png8(img: &Rgb8Image) -> Result<Vec<u8>, HdrIoError> {
     png::encode_png8(img)

@@ -467,25 +467,33 @@ pub async fn get_artifact(
             super::error::clip(&name)
         )));
     }
-    let report = read(&st, move |h| h.report(id)).await?;
-    // Only files the run's report lists are served, from the folder it names.
-    let stored = report
+    let wanted = name.clone();
+    let (report, stored) =
+        read(&st, move |h| Ok((h.report(id)?, h.artifact(id, &wanted)?))).await?;
+    // Only files the run's report lists are served: from the history's
+    // content-addressed store, or (runs recorded before it) from the folder
+    // the report names.
+    let listed = report
         .as_deref()
         .and_then(StoredArtifacts::of_report)
         .unwrap_or_default();
-    let (dir, listed) = (stored.artifacts_dir, stored.artifacts);
+    let (dir, listed) = (listed.artifacts_dir, listed.artifacts);
     if !listed.iter().any(|a| a == &name) {
         return Err(ApiError::not_found(format!(
             "run {id} has no artifact {name:?}"
         )));
     }
-    let dir = dir
-        .or_else(|| crate::gate::artifacts_dir_of(&st.db, id))
-        .ok_or_else(|| ApiError::not_found(format!("run {id} kept no artifact folder")))?;
-    let path = dir.join(&name);
-    let bytes = tokio::fs::read(&path)
-        .await
-        .map_err(|e| ApiError::not_found(format!("artifact {name:?} of run {id}: {e}")))?;
+    let bytes = match stored {
+        Some(bytes) => bytes,
+        None => {
+            let dir = dir
+                .or_else(|| crate::gate::artifacts_dir_of(&st.db, id))
+                .ok_or_else(|| ApiError::not_found(format!("run {id} kept no artifact folder")))?;
+            tokio::fs::read(dir.join(&name))
+                .await
+                .map_err(|e| ApiError::not_found(format!("artifact {name:?} of run {id}: {e}")))?
+        }
+    };
     Ok((
         [
             (header::CONTENT_TYPE, "image/png"),
