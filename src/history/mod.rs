@@ -25,7 +25,7 @@ pub use fleet::{
 };
 pub use postgres::{is_url, redacted};
 
-pub use query::{RunRow, TradeoffRow, TrendFilter, TrendPoint};
+pub use query::{RunRow, RunsFilter, TradeoffRow, TrendFilter, TrendPoint};
 pub use record::{CheckRecord, FrameRecord, Regression, SceneRecord, TradeoffRecord};
 
 use backend::{args, Backend};

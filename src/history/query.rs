@@ -77,11 +77,58 @@ fn mark_changes(points: &mut [TrendPoint]) {
             .collect();
         idx.sort_by_key(|&i| points[i].run_id);
         let series: Vec<f64> = idx.iter().map(|&i| points[i].value).collect();
-        let options = crate::changepoint::Options::default();
-        for c in crate::changepoint::e_divisive(&series, &options) {
-            points[idx[c.index]].change = Some(c.ratio);
+        for (index, ratio) in change_points(&series) {
+            points[idx[index]].change = Some(ratio);
         }
     }
+}
+
+/// E-Divisive's change points of a series (index, new level / old),
+/// remembered by the series' values: a history only grows, so the dashboard
+/// polling the same trend asks for the same series again and again, and its
+/// permutation test (199 shuffles of an O(n²) scan when a shift is in view)
+/// is paid once per new run instead of once per request.
+fn change_points(series: &[f64]) -> Vec<(usize, f64)> {
+    use std::collections::HashMap;
+    use std::hash::{Hash, Hasher};
+    use std::sync::Mutex;
+    type Seen = HashMap<u64, (Vec<f64>, Vec<(usize, f64)>)>;
+    static SEEN: Mutex<Option<Seen>> = Mutex::new(None);
+    const KEEP: usize = 4096;
+    let mut key = std::collections::hash_map::DefaultHasher::new();
+    series.len().hash(&mut key);
+    for v in series {
+        v.to_bits().hash(&mut key);
+    }
+    let key = key.finish();
+    // The series is kept beside its answer and compared, so a hash
+    // collision recomputes instead of answering for another series.
+    if let Some(found) = SEEN.lock().ok().and_then(|m| {
+        m.as_ref()?
+            .get(&key)
+            .filter(|(s, _)| {
+                s.len() == series.len()
+                    && s.iter()
+                        .zip(series)
+                        .all(|(a, b)| a.to_bits() == b.to_bits())
+            })
+            .map(|(_, f)| f.clone())
+    }) {
+        return found;
+    }
+    let found: Vec<(usize, f64)> =
+        crate::changepoint::e_divisive(series, &crate::changepoint::Options::default())
+            .into_iter()
+            .map(|c| (c.index, c.ratio))
+            .collect();
+    if let Ok(mut m) = SEEN.lock() {
+        let m = m.get_or_insert_with(HashMap::new);
+        if m.len() >= KEEP {
+            m.clear();
+        }
+        m.insert(key, (series.to_vec(), found.clone()));
+    }
+    found
 }
 
 /// How one metric of a scene is read out of a run: worst frame for image
@@ -95,9 +142,9 @@ fn metric_sql(metric: &str) -> Result<String, HistoryError> {
         "mse" | "rmse" | "max_abs_diff" | "mean_abs_diff" | "fraction_over_1lsb"
         | "flip_mean" => frame("MAX", metric),
         "fps" => "s.fps".into(),
-        // A stage's median time; the metric name is bound as $7.
+        // A stage's median time; the metric name is bound as $6.
         stage if stage.chars().all(|c| c.is_ascii_lowercase() || c == '_') && !stage.is_empty() => {
-            "(SELECT median_ms FROM stage_timings t WHERE t.run_id = s.run_id AND t.scene = s.scene AND t.stage = $7)"
+            "(SELECT median_ms FROM stage_timings t WHERE t.run_id = s.run_id AND t.scene = s.scene AND t.stage = $6)"
                 .into()
         }
         other => {
@@ -106,6 +153,17 @@ fn metric_sql(metric: &str) -> Result<String, HistoryError> {
             )))
         }
     })
+}
+
+/// Filters of the run list; None matches everything.
+#[derive(Clone, Debug, Default)]
+pub struct RunsFilter<'a> {
+    pub status: Option<RunStatus>,
+    pub kind: Option<RunKind>,
+    /// A substring of the adapter name, any case.
+    pub adapter: Option<&'a str>,
+    /// Newest runs kept.
+    pub limit: u32,
 }
 
 /// Filters of a trend query; None matches everything.
@@ -126,12 +184,41 @@ pub struct TrendFilter<'a> {
 impl History {
     /// The newest `limit` runs, newest first.
     pub fn runs(&self, limit: u32) -> Result<Vec<RunRow>, HistoryError> {
-        self.select_runs("ORDER BY r.id DESC LIMIT $1", limit.into())
+        self.runs_where(&RunsFilter {
+            limit,
+            ..Default::default()
+        })
+    }
+
+    /// The newest runs the filter keeps, newest first (filtered in SQL).
+    pub fn runs_where(&self, f: &RunsFilter) -> Result<Vec<RunRow>, HistoryError> {
+        // The adapter is a case-insensitive substring: LIKE's own
+        // wildcards in it are escaped.
+        let pattern = f.adapter.map(|a| {
+            let escaped = a
+                .to_lowercase()
+                .replace('\\', "\\\\")
+                .replace('%', "\\%")
+                .replace('_', "\\_");
+            format!("%{escaped}%")
+        });
+        self.select_runs(
+            "WHERE (CAST($1 AS TEXT) IS NULL OR r.status = $1)
+               AND (CAST($2 AS TEXT) IS NULL OR r.kind = $2)
+               AND (CAST($3 AS TEXT) IS NULL OR LOWER(r.adapter) LIKE $3 ESCAPE '\\')
+             ORDER BY r.id DESC LIMIT $4",
+            args![
+                f.status.map(RunStatus::as_str),
+                f.kind.map(RunKind::as_str),
+                pattern,
+                f.limit
+            ],
+        )
     }
 
     /// One run, when it exists.
     pub fn run(&self, id: i64) -> Result<Option<RunRow>, HistoryError> {
-        Ok(self.select_runs("WHERE r.id = $1", id)?.pop())
+        Ok(self.select_runs("WHERE r.id = $1", args![id])?.pop())
     }
 
     /// The full JSON report a finished run stored (None while running, or
@@ -185,7 +272,11 @@ impl History {
             .collect()
     }
 
-    fn select_runs(&self, tail: &str, arg: i64) -> Result<Vec<RunRow>, HistoryError> {
+    fn select_runs(
+        &self,
+        tail: &str,
+        args: &[super::backend::Value],
+    ) -> Result<Vec<RunRow>, HistoryError> {
         let sql = format!(
             "SELECT r.id, r.kind, r.status, r.started_at, r.ended_at, r.tonegate_version,
                     r.git_commit, r.suite, r.suite_hash, r.adapter, r.backend, r.driver,
@@ -196,7 +287,7 @@ impl History {
              FROM runs r {tail}"
         );
         self.db()
-            .query(&sql, args![arg])?
+            .query(&sql, args)?
             .iter()
             .map(|r| {
                 Ok(RunRow {
@@ -230,30 +321,29 @@ impl History {
         filter: &TrendFilter,
     ) -> Result<Vec<TrendPoint>, HistoryError> {
         let value = metric_sql(metric)?;
+        // The newest `limit` check runs the filters keep that have a value
+        // (of the scene, when one is asked for), walked newest first on the
+        // runs' key; then their scenes' values.
         let sql = format!(
-            "SELECT * FROM (
-               SELECT r.id, r.started_at, r.status, r.adapter, s.scene, {value},
-                      CASE WHEN EXISTS (SELECT 1 FROM regressions g WHERE g.run_id = r.id AND g.scene = s.scene AND g.metric = $7) THEN 1 ELSE 0 END
-               FROM runs r JOIN scene_results s ON s.run_id = r.id
+            "WITH picked AS (
+               SELECT r.id, r.started_at, r.status, r.adapter FROM runs r
                WHERE r.kind = 'check'
-                 AND (CAST($1 AS TEXT) IS NULL OR s.scene = $1)
                  AND (CAST($2 AS TEXT) IS NULL OR r.adapter = $2)
                  AND (CAST($3 AS BIGINT) IS NULL OR r.id < $3)
                  AND ($4 = 0 OR r.status IN ('passed', 'failed'))
-                 AND (CAST($8 AS TEXT) IS NULL OR r.config = $8)
-                 AND ({value}) IS NOT NULL
-               ORDER BY r.id DESC LIMIT $5 * (CASE WHEN CAST($1 AS TEXT) IS NULL THEN $6 ELSE 1 END)
-             ) AS newest ORDER BY 1 ASC, 5 ASC"
+                 AND (CAST($7 AS TEXT) IS NULL OR r.config = $7)
+                 AND EXISTS (SELECT 1 FROM scene_results s WHERE s.run_id = r.id
+                               AND (CAST($1 AS TEXT) IS NULL OR s.scene = $1)
+                               AND ({value}) IS NOT NULL)
+               ORDER BY r.id DESC LIMIT $5
+             )
+             SELECT p.id, p.started_at, p.status, p.adapter, s.scene, {value},
+                    CASE WHEN EXISTS (SELECT 1 FROM regressions g WHERE g.run_id = p.id AND g.scene = s.scene AND g.metric = $6) THEN 1 ELSE 0 END
+             FROM picked p JOIN scene_results s ON s.run_id = p.id
+             WHERE (CAST($1 AS TEXT) IS NULL OR s.scene = $1)
+               AND ({value}) IS NOT NULL
+             ORDER BY p.id ASC, s.scene ASC"
         );
-        // With no scene filter the limit counts runs, so it is scaled by the
-        // number of scenes a run can have.
-        let scenes_per_run = self
-            .db()
-            .query_opt(
-                "SELECT COALESCE(MAX(n), 1) FROM (SELECT COUNT(*) AS n FROM scene_results GROUP BY run_id) AS per_run",
-                &[],
-            )?
-            .map_or(Ok(1), |r| r.int(0))?;
         let rows = self.db().query(
             &sql,
             args![
@@ -262,7 +352,6 @@ impl History {
                 filter.before,
                 filter.finished_only,
                 filter.limit,
-                scenes_per_run,
                 metric,
                 filter.config
             ],

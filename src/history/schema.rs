@@ -161,6 +161,9 @@ pub(super) const MIGRATIONS: &[&str] = &[
         PRIMARY KEY (run_id, name)
     );
     CREATE INDEX run_artifacts_by_blob ON run_artifacts (sha256);
+    -- The newest check runs in id order (trends, the run list) without
+    -- sorting every run: runs_by_adapter serves only an adapter's own.
+    CREATE INDEX runs_by_kind ON runs (kind, id);
     "#,
 ];
 

@@ -90,7 +90,7 @@ pub struct RunsQuery {
     status: Option<RunStatus>,
     /// check or tradeoff.
     kind: Option<RunKind>,
-    /// A substring of the adapter name.
+    /// A substring of the adapter name, any case.
     adapter: Option<String>,
     /// Newest runs returned (default 100, at most 1000).
     limit: Option<u32>,
@@ -112,18 +112,15 @@ pub async fn list_runs(
             "limit: must be 1 to 1000, got {limit}"
         )));
     }
-    let rows = read(&st, |h| h.runs(100_000)).await?;
-    let rows: Vec<RunRow> = rows
-        .into_iter()
-        .filter(|r| q.status.is_none_or(|s| r.status == s))
-        .filter(|r| q.kind.is_none_or(|k| r.kind == k))
-        .filter(|r| {
-            q.adapter
-                .as_ref()
-                .is_none_or(|a| r.adapter.as_deref().unwrap_or("").contains(a.as_str()))
+    let rows = read(&st, move |h| {
+        h.runs_where(&crate::history::RunsFilter {
+            status: q.status,
+            kind: q.kind,
+            adapter: q.adapter.as_deref(),
+            limit,
         })
-        .take(limit as usize)
-        .collect();
+    })
+    .await?;
     Ok(axum::Json(rows).into_response())
 }
 
