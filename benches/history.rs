@@ -6,7 +6,8 @@
 //! and times each request from outside, as a client sees it: median and p95
 //! of 30 after 3 warm-ups.
 //!
-//! `cargo bench --bench history` (`-- --runs N` for another size).
+//! `cargo bench --bench history` (`-- --runs N` for another size); under
+//! `cargo test` it runs at 200 runs as a smoke test.
 
 #[path = "../tests/common/postgres.rs"]
 mod pg;
@@ -219,6 +220,13 @@ fn main() {
         .and_then(|i| args.get(i + 1))
         .and_then(|v| v.parse().ok())
         .unwrap_or(10_000);
+    // `cargo bench` passes --bench; `cargo test --all-targets` runs this
+    // binary without it: then a smoke run at 200 runs, so CI keeps it working.
+    let runs = if args.iter().any(|a| a == "--bench") {
+        runs
+    } else {
+        200
+    };
     let dir = tempfile::tempdir().unwrap();
     measure("sqlite", dir.path().join("h.sqlite"), runs);
     measure("postgres", PathBuf::from(pg::database()), runs);
