@@ -310,6 +310,14 @@ fn eight_runners_do_every_queued_run_exactly_once_and_a_killed_runners_run_is_fi
     let (status, live) = rt.block_on(srv.json("/api/v1/runners"));
     assert_eq!(status, 200);
     assert_eq!(live.as_array().unwrap().len(), 0);
+    let metrics = rt.block_on(async { srv.get("/metrics").await.text().await.unwrap() });
+    for line in [
+        "tonegate_jobs{state=\"done\"} 201",
+        "tonegate_runners{state=\"stopped\"} 7",
+        "tonegate_runners{state=\"lost\"} 1",
+    ] {
+        assert!(metrics.contains(line), "{line} not in\n{metrics}");
+    }
 
     // The figures for the closing note.
     let latency: Vec<f64> = jobs

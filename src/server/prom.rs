@@ -238,6 +238,28 @@ fn history_metrics(h: &crate::history::History) -> Result<String, crate::history
     for (status, n) in h.status_counts()? {
         let _ = writeln!(out, "tonegate_runs{{status=\"{status}\"}} {n}");
     }
+    head(
+        &mut out,
+        "jobs",
+        "gauge",
+        "Queued check runs of a fleet, by state.",
+    );
+    for (state, n) in h.job_counts()? {
+        let _ = writeln!(out, "tonegate_jobs{{state=\"{}\"}} {n}", esc(&state));
+    }
+    head(
+        &mut out,
+        "runners",
+        "gauge",
+        "The fleet's registered runners, by state.",
+    );
+    let mut by_state = std::collections::BTreeMap::<String, usize>::new();
+    for r in h.runners(true)? {
+        *by_state.entry(r.state).or_default() += 1;
+    }
+    for (state, n) in by_state {
+        let _ = writeln!(out, "tonegate_runners{{state=\"{}\"}} {n}", esc(&state));
+    }
     let Some(last) = h.runs(200)?.into_iter().find(|r| {
         r.kind == RunKind::Check && matches!(r.status, RunStatus::Passed | RunStatus::Failed)
     }) else {
