@@ -65,6 +65,8 @@ fn scene(name: &str, i: usize, shift: f64) -> SceneResult {
         checks: Vec::new(),
         problems: Vec::new(),
         taa: None,
+        expectation: None,
+        expired_expectations: Vec::new(),
         timings: ["sphere", "tonemap", "encode"]
             .iter()
             .map(|s| TimingSummary {

@@ -111,6 +111,7 @@ impl std::fmt::Display for Problem {
 pub fn render_hash(scene: &Scene) -> Result<String, GoldenError> {
     let mut s = scene.clone();
     s.checks.clear();
+    s.expectations.clear();
     s.description.clear();
     s.taa = None;
     let mut h = Sha256::new();

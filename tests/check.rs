@@ -459,3 +459,95 @@ fn history_prune_drops_old_runs_images_and_keeps_their_metrics() {
     let o = tonegate(&["history", "--db", db, "prune", "--keep-days", "1"]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
 }
+
+/// Issue 15: expectations per device. A scene marked `expected_fail` on
+/// llvmpipe does not fail the gate when it fails there (JUnit: skipped with
+/// the reason), is reported when it passes (remove it), stops applying when
+/// expired; `flaky` tolerates a failure; another adapter's expectation does
+/// not apply; a bad one is refused naming the key.
+#[test]
+fn expectations_per_adapter_excuse_a_known_failure_and_report_the_rest() {
+    let dir = tempfile::tempdir().unwrap();
+    let seeded = common::seed_empty(dir.path());
+    let scene_file = dir.path().join("golden/scenes/grid-static.toml");
+    let original = std::fs::read_to_string(&scene_file).unwrap();
+    let with = |lines: &str| {
+        std::fs::write(
+            &scene_file,
+            format!("{original}\n[[expectations]]\n{lines}\n"),
+        )
+        .unwrap()
+    };
+    let run = |fault: bool, today: Option<&str>| {
+        let junit = dir.path().join("junit.xml");
+        let mut c = Command::new(env!("CARGO_BIN_EXE_tonegate"));
+        c.args(["check", "--no-history", "--scene", "grid-static", "--suite"])
+            .arg(&seeded.suite)
+            .arg("--junit")
+            .arg(&junit)
+            .current_dir(repo())
+            .env_remove("TONEGATE_DB");
+        if fault {
+            c.args(["--fault-gain", "1.02"]);
+        }
+        if let Some(d) = today {
+            c.env("TONEGATE_TODAY", d);
+        }
+        let o = c.output().unwrap();
+        let xml = std::fs::read_to_string(&junit).unwrap_or_default();
+        (o.status.code(), text(&o), xml)
+    };
+    with(
+        "adapter = \"LLVMPIPE\"\nstatus = \"expected_fail\"\nreason = \"a known 2 % brightness fault\"\n\
+         bug = \"https://example.invalid/bug/1\"\nexpires = \"2030-01-01\"",
+    );
+    // It fails there, as expected: the gate passes and says why.
+    let (code, out, xml) = run(true, None);
+    assert_eq!(code, Some(0), "{out}");
+    assert!(out.contains("EXPECTED FAILURE on this adapter: a known 2 % brightness fault, https://example.invalid/bug/1"), "{out}");
+    assert!(out.contains("XFAIL PSNR >= 50 dB"), "{out}");
+    assert!(
+        xml.contains("<skipped message=\"expected_fail on llvmpipe"),
+        "{xml}"
+    );
+    assert!(!xml.contains("<failure"), "{xml}");
+    // It passes: reported so the line gets removed.
+    let (code, out, xml) = run(false, None);
+    assert_eq!(code, Some(0), "{out}");
+    assert!(out.contains("UNEXPECTED PASS"), "{out}");
+    assert!(xml.contains("UNEXPECTED PASS"), "{xml}");
+    // The last day still applies; the day after, it does not and says so.
+    assert_eq!(run(true, Some("2030-01-01")).0, Some(0));
+    let (code, out, xml) = run(true, Some("2030-01-02"));
+    assert_eq!(code, Some(1), "{out}");
+    assert!(
+        out.contains(
+            "EXPIRED expectation, no longer applied: expected_fail on LLVMPIPE expired 2030-01-01"
+        ),
+        "{out}"
+    );
+    assert!(xml.contains("<failure"), "{xml}");
+    // Flaky: a failure is tolerated, a pass is normal.
+    with("adapter = \"llvmpipe\"\nstatus = \"flaky\"\nreason = \"races\"");
+    let (code, out, _) = run(true, None);
+    assert_eq!(code, Some(0), "{out}");
+    assert!(
+        out.contains("FLAKY on this adapter, failure tolerated: races"),
+        "{out}"
+    );
+    // Another adapter's expectation does not excuse llvmpipe.
+    with("adapter = \"NVIDIA\"\nstatus = \"expected_fail\"\nreason = \"subnormals\"");
+    let (code, out, _) = run(true, None);
+    assert_eq!(code, Some(1), "{out}");
+    assert!(!out.contains("EXPECTED FAILURE"), "{out}");
+    // A bad one is refused, naming the key.
+    with("adapter = \"llvmpipe\"\nstatus = \"expected_fail\"\nreason = \"x\"\nexpires = \"soon\"");
+    let (code, out, _) = run(false, None);
+    assert_eq!(code, Some(2), "{out}");
+    assert!(
+        out.contains("key `expectations` (expectation 1): expires"),
+        "{out}"
+    );
+    with("adapter = \"llvmpipe\"\nstatus = \"broken\"\nreason = \"x\"");
+    assert_eq!(run(false, None).0, Some(2));
+}

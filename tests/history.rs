@@ -22,6 +22,8 @@ fn scene(name: &str, sphere_ms: f64, fps: f64) -> SceneResult {
         checks: Vec::new(),
         problems: Vec::new(),
         taa: None,
+        expectation: None,
+        expired_expectations: Vec::new(),
         timings: vec![
             TimingSummary {
                 name: "sphere".into(),

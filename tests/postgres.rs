@@ -65,6 +65,8 @@ fn scene(name: &str, sphere_ms: f64, psnr: f64) -> SceneResult {
         checks: Vec::new(),
         problems: Vec::new(),
         taa: None,
+        expectation: None,
+        expired_expectations: Vec::new(),
         timings: vec![
             TimingSummary {
                 name: "sphere".into(),

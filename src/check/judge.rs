@@ -290,6 +290,8 @@ pub fn judge(
             timings,
             fps,
             taa: None,
+            expectation: None,
+            expired_expectations: Vec::new(),
         },
         kept,
     ))

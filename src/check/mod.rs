@@ -7,11 +7,13 @@
 //! Nothing here renders or reads files: the gate (`crate::gate`) renders,
 //! loads the goldens and calls [`judge`].
 
+pub mod expect;
 pub mod figures;
 pub mod judge;
 pub mod result;
 pub mod spec;
 
+pub use expect::{Expectation, ExpectationOutcome, Expected};
 pub use figures::{FrameMetric, FRAME_METRICS};
 pub use judge::{evaluate, judge, JudgeError, Judging, KeptFrame, Rendered};
 pub use result::{CheckResult, FrameResult, SceneResult, Summary, TaaTag, TestKind};

@@ -165,6 +165,13 @@ pub struct SceneResult {
     /// variants' scenes (the dashboard compares them side by side).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub taa: Option<TaaTag>,
+    /// The scene's expectation on this adapter, when one applies, and what
+    /// it made of the result.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub expectation: Option<super::ExpectationOutcome>,
+    /// Expectations that match this adapter but have expired (renew or remove).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub expired_expectations: Vec<String>,
 }
 
 /// Which TAA variant a scene ran, on which sequence.
@@ -180,6 +187,15 @@ pub struct TaaTag {
 impl SceneResult {
     pub fn passed(&self) -> bool {
         self.problems.is_empty() && self.checks.iter().all(|c| c.passed != Some(false))
+    }
+
+    /// Whether the scene fails the gate: it failed, and no expectation on
+    /// this adapter says it may.
+    pub fn fails_gate(&self) -> bool {
+        !self.passed()
+            && !self.expectation.as_ref().is_some_and(|e| {
+                matches!(e.outcome.as_str(), "failed_as_expected" | "flaky_failure")
+            })
     }
 
     pub fn summary(&self, metric: &str) -> Option<&Summary> {

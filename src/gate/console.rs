@@ -28,7 +28,10 @@ pub fn render(r: &CheckReport) -> String {
     for s in &r.scenes {
         let applied = s.checks.iter().filter(|c| c.passed.is_some()).count();
         let failed = s.failed_checks().count();
-        let status = if !s.problems.is_empty() {
+        let excused = !s.passed() && !s.fails_gate();
+        let status = if excused {
+            "xfail".to_string()
+        } else if !s.problems.is_empty() {
             "FAIL".to_string()
         } else if failed == 0 {
             format!("{applied} ok")
@@ -55,11 +58,37 @@ pub fn render(r: &CheckReport) -> String {
             mean(q, 5),
             status
         );
+        let word = if excused { "XFAIL" } else { "FAIL" };
         for p in &s.problems {
-            let _ = writeln!(out, "    FAIL {p}");
+            let _ = writeln!(out, "    {word} {p}");
         }
         for c in s.failed_checks() {
-            let _ = writeln!(out, "    FAIL {}: {}", c.spec.label(), c.detail);
+            let _ = writeln!(out, "    {word} {}: {}", c.spec.label(), c.detail);
+        }
+        if let Some(e) = &s.expectation {
+            let bug = e
+                .bug
+                .as_deref()
+                .map(|b| format!(", {b}"))
+                .unwrap_or_default();
+            let line = match e.outcome.as_str() {
+                "failed_as_expected" => {
+                    format!("EXPECTED FAILURE on this adapter: {}{bug}", e.reason)
+                }
+                "flaky_failure" => format!(
+                    "FLAKY on this adapter, failure tolerated: {}{bug}",
+                    e.reason
+                ),
+                "unexpected_pass" => format!(
+                    "UNEXPECTED PASS: expected to fail here ({}{bug}); remove the expectation",
+                    e.reason
+                ),
+                _ => format!("flaky on this adapter ({}{bug}), passed", e.reason),
+            };
+            let _ = writeln!(out, "    {line}");
+        }
+        for x in &s.expired_expectations {
+            let _ = writeln!(out, "    EXPIRED expectation, no longer applied: {x}");
         }
         let with_artifacts: Vec<&FrameResult> = s
             .frames

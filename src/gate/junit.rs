@@ -13,6 +13,43 @@ pub fn render(r: &CheckReport) -> Result<String, quick_junit::SerializeError> {
         suite.add_property(("adapter_chosen", r.adapter.chosen.as_str()));
         suite.add_property(("test", s.test.name()));
         let classname = format!("tonegate.{}", s.scene);
+        // A failure an expectation on this adapter allows is reported as
+        // skipped with the expectation's words, not as a failure.
+        let excused = s
+            .expectation
+            .as_ref()
+            .filter(|e| matches!(e.outcome.as_str(), "failed_as_expected" | "flaky_failure"));
+        let excuse = excused.map(|e| {
+            format!(
+                "{} on {}: {}{}",
+                e.status.name(),
+                r.adapter.name,
+                e.reason,
+                e.bug
+                    .as_deref()
+                    .map(|b| format!(" ({b})"))
+                    .unwrap_or_default()
+            )
+        });
+        if let Some(e) = &s.expectation {
+            suite.add_property(("expectation", e.status.name()));
+            suite.add_property(("expectation_outcome", e.outcome.as_str()));
+            if e.outcome == "unexpected_pass" {
+                let mut case = TestCase::new("expectation", TestCaseStatus::success());
+                case.set_classname(classname.clone());
+                case.set_system_out(format!(
+                    "UNEXPECTED PASS: the scene passed on {} although expected to fail ({}); remove the expectation",
+                    r.adapter.name, e.reason
+                ));
+                suite.add_test_case(case);
+            }
+        }
+        for x in &s.expired_expectations {
+            let mut case = TestCase::new("expired expectation", TestCaseStatus::success());
+            case.set_classname(classname.clone());
+            case.set_system_out(format!("EXPIRED (no longer applied): {x}"));
+            suite.add_test_case(case);
+        }
         for p in &s.problems {
             let mut status = TestCaseStatus::non_success(NonSuccessKind::Failure);
             status.set_message(p.clone());
@@ -26,6 +63,15 @@ pub fn render(r: &CheckReport) -> Result<String, quick_junit::SerializeError> {
                 None => {
                     let mut st = TestCaseStatus::skipped();
                     st.set_message(c.detail.clone());
+                    st
+                }
+                Some(false) if excuse.is_some() => {
+                    let mut st = TestCaseStatus::skipped();
+                    st.set_message(format!(
+                        "{} [{}]",
+                        excuse.clone().unwrap_or_default(),
+                        c.detail
+                    ));
                     st
                 }
                 Some(false) => {

@@ -235,6 +235,35 @@ fn spp_json(spp: Option<u32>) -> serde_json::Value {
     }
 }
 
+/// Marks what the scene's expectations on this adapter make of its result.
+fn apply_expectations(
+    result: &mut crate::check::SceneResult,
+    expectations: &[crate::check::Expectation],
+    adapter: &AdapterInfo,
+    today: &str,
+) {
+    let driver = format!("{} {}", adapter.driver, adapter.driver_info);
+    let (live, expired) =
+        crate::check::expect::applicable(expectations, &adapter.name, &driver, today);
+    result.expectation = live.map(|e| crate::check::expect::outcome(e, result.passed()));
+    result.expired_expectations = expired
+        .iter()
+        .map(|e| {
+            format!(
+                "{} on {} expired {} ({}{})",
+                e.status.name(),
+                e.adapter,
+                e.expires.as_deref().unwrap_or(""),
+                e.reason,
+                e.bug
+                    .as_deref()
+                    .map(|b| format!(", {b}"))
+                    .unwrap_or_default()
+            )
+        })
+        .collect();
+}
+
 /// Where a recorded run's artifacts go by default: `<db folder>/artifacts/run-<id>`.
 /// None for a PostgreSQL history, which has no folder: its runs keep images
 /// only where `--artifacts` says.
@@ -325,6 +354,12 @@ fn run_inner(
     let total: u64 = suite.scenes.iter().map(|s| s.frames as u64).sum();
     progress.start("check", total, "frames");
     let slug = adapter_slug(&adapter.name);
+    // Expectations expire by UTC day; TONEGATE_TODAY (YYYY-MM-DD) sets the
+    // day, for tests and for replaying a past run's verdict.
+    let today = std::env::var("TONEGATE_TODAY")
+        .ok()
+        .filter(|d| chrono::NaiveDate::parse_from_str(d, "%Y-%m-%d").is_ok())
+        .unwrap_or_else(|| chrono::Utc::now().format("%Y-%m-%d").to_string());
     let mut scenes = Vec::with_capacity(suite.scenes.len());
     let mut written = Vec::new();
     for scene in &suite.scenes {
@@ -342,6 +377,7 @@ fn run_inner(
             .map(|n| crate::golden::read_frame(&root, &scene.name, n))
             .collect::<Result<Vec<_>, _>>()?;
         let (mut result, kept) = judge(scene.judging(), rendered, goldens)?;
+        apply_expectations(&mut result, &scene.expectations, &adapter, &today);
         result.taa = scene.taa.as_ref().map(|t| crate::check::TaaTag {
             variant: t.variant.name().into(),
             sequence: scene.sequence_key(),
@@ -392,7 +428,7 @@ fn run_inner(
             ctx.as_ref().map(|(c, _)| c),
         )
     });
-    let passed = scenes.iter().all(|s| s.passed())
+    let passed = scenes.iter().all(|s| !s.fails_gate())
         && (regressions.is_empty() || !suite.performance.fail_on_regression)
         && stress.as_ref().is_none_or(|s| s.passed);
     Ok(CheckReport {

@@ -73,6 +73,10 @@ pub struct Scene {
     pub reference_spp: u32,
     #[serde(default)]
     pub checks: Vec<CheckSpec>,
+    /// Known failures on some adapters (`[[expectations]]`): they change how
+    /// a result counts, never what is rendered.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub expectations: Vec<crate::check::Expectation>,
 }
 
 fn default_fov() -> f64 {
@@ -247,6 +251,11 @@ impl Scene {
             c.validate()
                 .map_err(|message| format!("{}: {message}", at("checks")))?;
         }
+        for (i, e) in self.expectations.iter().enumerate() {
+            e.validate().map_err(|message| {
+                format!("{} (expectation {}): {message}", at("expectations"), i + 1)
+            })?;
+        }
         Ok(())
     }
 
@@ -312,6 +321,7 @@ impl Scene {
         s.name.clear();
         s.description.clear();
         s.checks.clear();
+        s.expectations.clear();
         s.taa = None;
         let canonical = serde_json::to_vec(&s).unwrap_or_default();
         hex::encode(&Sha256::digest(&canonical)[..8])
