@@ -39,6 +39,9 @@ pub struct RunnerOptions {
     pub exit_when_idle: Option<Duration>,
     /// Where each job's kept images go (`<dir>/job-<id>`); none without it.
     pub artifacts: Option<PathBuf>,
+    /// Set (by a signal handler, or another thread) to stop after the job in
+    /// hand: the runner then ends that job, marks itself stopped and returns.
+    pub stop: Option<Arc<AtomicBool>>,
 }
 
 /// What a runner did before it stopped.
@@ -143,7 +146,16 @@ pub fn run(opts: &RunnerOptions, say: &mut dyn FnMut(&str)) -> Result<RunnerSumm
         ..Default::default()
     };
     let mut idle_since = Instant::now();
+    let stopping = || {
+        opts.stop
+            .as_ref()
+            .is_some_and(|s| s.load(Ordering::Relaxed))
+    };
     loop {
+        if stopping() {
+            say("asked to stop: no more jobs taken");
+            break;
+        }
         if heart.lost.load(Ordering::Relaxed) {
             drop(heart);
             (id, heart) = register(&h, &info, opts)?;
@@ -170,7 +182,11 @@ pub fn run(opts: &RunnerOptions, say: &mut dyn FnMut(&str)) -> Result<RunnerSumm
             {
                 break;
             }
-            std::thread::sleep(opts.poll);
+            // Sleep in short steps, so a stop is seen within 50 ms.
+            let until = Instant::now() + opts.poll;
+            while Instant::now() < until && !stopping() {
+                std::thread::sleep(Duration::from_millis(50).min(opts.poll));
+            }
             continue;
         };
         let started = Instant::now();

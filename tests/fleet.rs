@@ -390,3 +390,84 @@ fn runners_share_a_sqlite_history_too() {
     assert!(o.status.success() && out.contains("jobs: 12 done"), "{out}");
     assert_eq!(out.matches(" stopped ").count(), 2, "{out}");
 }
+
+/// SIGTERM asks a runner to stop: it finishes the job in hand (recorded as
+/// the job's, not requeued), marks itself stopped and exits 0.
+#[test]
+fn sigterm_lets_a_runner_finish_its_job_and_stop() {
+    let dir = tempfile::tempdir().unwrap();
+    suites(dir.path());
+    // The whole built-in suite on the CPU: seconds, so the signal lands mid-run.
+    let whole = dir.path().join("golden/suite.toml");
+    let db = dir.path().join("h.sqlite");
+    let url = db.to_str().unwrap();
+    let o = tonegate(&[
+        "enqueue",
+        "--db",
+        url,
+        "--suite",
+        whole.to_str().unwrap(),
+        "--cpu",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let log = dir.path().join("r.log");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_tonegate"))
+        .args([
+            "runner",
+            "--db",
+            url,
+            "--cpu",
+            "--name",
+            "term",
+            "--poll-ms",
+            "50",
+        ])
+        .current_dir(repo())
+        .env_remove("TONEGATE_DB")
+        .stdout(Stdio::null())
+        .stderr(std::fs::File::create(&log).unwrap())
+        .spawn()
+        .unwrap();
+    wait_for("the job's run to start", Duration::from_secs(60), || {
+        History::open_read_only(&db)
+            .ok()
+            .and_then(|h| h.jobs(None, 1).ok())
+            .is_some_and(|j| j.first().is_some_and(|j| j.run_id.is_some()))
+    });
+    let h = History::open_read_only(&db).unwrap();
+    let job = &h.jobs(None, 1).unwrap()[0];
+    assert_eq!(job.state, "claimed");
+    assert_eq!(
+        h.status(job.run_id.unwrap()).unwrap(),
+        Some(RunStatus::Running)
+    );
+    drop(h);
+    // SAFETY: signals a child this test spawned.
+    assert_eq!(unsafe { libc::kill(child.id() as i32, libc::SIGTERM) }, 0);
+    let start = Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(120),
+            "the runner did not stop"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let log = std::fs::read_to_string(&log).unwrap();
+    assert!(status.success(), "{status}: {log}");
+    let h = History::open_read_only(&db).unwrap();
+    let job = &h.jobs(None, 1).unwrap()[0];
+    assert_eq!(
+        (job.state.as_str(), job.attempts),
+        ("done", 1),
+        "{job:?}\n{log}"
+    );
+    assert_eq!(
+        h.status(job.run_id.unwrap()).unwrap(),
+        Some(RunStatus::Passed)
+    );
+    assert_eq!(h.runners(true).unwrap()[0].state, "stopped");
+    assert!(log.contains("asked to stop"), "{log}");
+}

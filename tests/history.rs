@@ -277,3 +277,51 @@ fn a_level_shift_is_marked_at_its_run_and_per_adapter() {
     let ratio = trend.iter().find_map(|p| p.change).unwrap();
     assert!(ratio > 1.04 && ratio < 1.08, "{ratio}");
 }
+
+/// Issue 15: series are split by renderer configuration too. An f16 config
+/// joining halfway at a steadily higher time is its own flat series, not a
+/// level shift of the f32 one; a real shift within one config is still found.
+#[test]
+fn a_new_configuration_is_its_own_series_not_a_level_shift() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = History::open(&dir.path().join("h.sqlite")).unwrap();
+    let f32 = adapter("llvmpipe", "{\"hdr_format\":\"rgba32float\"}");
+    let f16 = adapter("llvmpipe", "{\"hdr_format\":\"rgba16float\"}");
+    let wobble = [0.0, 0.15, -0.1, 0.2, -0.2, 0.05, -0.15, 0.1];
+    for i in 0..40 {
+        let ms = 10.0 + wobble[i % 8];
+        record(&mut h, &f32, &scene("sky", ms, 100.0 / ms));
+        if i >= 20 {
+            record(
+                &mut h,
+                &f16,
+                &scene("sky", 12.0 + wobble[(i + 3) % 8], 80.0),
+            );
+        }
+    }
+    let filter = tonegate::history::TrendFilter {
+        scene: Some("sky"),
+        limit: 200,
+        ..Default::default()
+    };
+    let trend = h.trend("sphere", &filter).unwrap();
+    assert_eq!(trend.len(), 60);
+    let marked: Vec<i64> = trend
+        .iter()
+        .filter(|p| p.change.is_some())
+        .map(|p| p.run_id)
+        .collect();
+    assert!(marked.is_empty(), "a new config is not a shift: {marked:?}");
+    // A real 6 % shift in the f32 series is still found.
+    for i in 0..20 {
+        let ms = 10.6 + wobble[i % 8];
+        record(&mut h, &f32, &scene("sky", ms, 100.0 / ms));
+    }
+    let trend = h.trend("sphere", &filter).unwrap();
+    let marked: Vec<i64> = trend
+        .iter()
+        .filter(|p| p.change.is_some())
+        .map(|p| p.run_id)
+        .collect();
+    assert_eq!(marked.len(), 1, "{marked:?}");
+}

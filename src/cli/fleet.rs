@@ -46,6 +46,30 @@ pub struct RunnerArgs {
     pub artifacts: Option<PathBuf>,
 }
 
+/// A flag SIGTERM and SIGINT set instead of killing the process: the runner
+/// finishes the job in hand, marks itself stopped and exits 0.
+fn stop_on_signals() -> std::sync::Arc<std::sync::atomic::AtomicBool> {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::{Arc, OnceLock};
+    static STOP: OnceLock<Arc<AtomicBool>> = OnceLock::new();
+    extern "C" fn on_signal(_: libc::c_int) {
+        // Only an atomic store: async-signal-safe.
+        if let Some(s) = STOP.get() {
+            s.store(true, Ordering::Relaxed);
+        }
+    }
+    let flag = STOP
+        .get_or_init(|| Arc::new(AtomicBool::new(false)))
+        .clone();
+    let handler = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
+    // SAFETY: installs a handler that only stores to an atomic.
+    unsafe {
+        libc::signal(libc::SIGTERM, handler);
+        libc::signal(libc::SIGINT, handler);
+    }
+    flag
+}
+
 pub fn runner(a: RunnerArgs) -> Result<ExitCode> {
     if a.heartbeat_ms == 0 || a.poll_ms == 0 {
         return Err(Error::Invalid(
@@ -72,6 +96,7 @@ pub fn runner(a: RunnerArgs) -> Result<ExitCode> {
         max_jobs: a.max_jobs,
         exit_when_idle: a.exit_when_idle_s.map(Duration::from_secs),
         artifacts: a.artifacts.clone(),
+        stop: Some(stop_on_signals()),
     };
     let s = tonegate::runner::run(&opts, &mut |line| eprintln!("{line}"))?;
     println!(

@@ -55,25 +55,31 @@ pub struct TrendPoint {
     pub value: f64,
     /// Whether this run flagged this metric of this scene as a regression.
     pub regression: bool,
-    /// Where E-Divisive (`changepoint`) finds that this (scene, adapter)
-    /// series shifted level at this run: the new level over the old one.
+    /// Where E-Divisive (`changepoint`) finds that this (scene, adapter,
+    /// renderer configuration) series shifted level at this run: the new
+    /// level over the old one.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub change: Option<f64>,
+    /// The run's renderer configuration (JSON as recorded): series are split
+    /// by it, not shown (it is long, and the same for most points).
+    #[serde(skip)]
+    pub config: Option<String>,
 }
 
-/// Marks each (scene, adapter) series' change points (`TrendPoint::change`),
-/// the series in run order. Runs on different adapters are different series:
-/// a fleet's mix of GPUs is not a level shift.
+/// Marks each (scene, adapter, configuration) series' change points
+/// (`TrendPoint::change`), the series in run order. Runs on different
+/// adapters, or with different renderer knobs (f16, fused, the reduction),
+/// are different series: a fleet's mix of GPUs and settings is not a level
+/// shift.
 fn mark_changes(points: &mut [TrendPoint]) {
-    let mut keys: Vec<(String, Option<String>)> = points
-        .iter()
-        .map(|p| (p.scene.clone(), p.adapter.clone()))
-        .collect();
+    type Key = (String, Option<String>, Option<String>);
+    let key = |p: &TrendPoint| -> Key { (p.scene.clone(), p.adapter.clone(), p.config.clone()) };
+    let mut keys: Vec<Key> = points.iter().map(key).collect();
     keys.sort();
     keys.dedup();
-    for (scene, adapter) in keys {
+    for k in keys {
         let mut idx: Vec<usize> = (0..points.len())
-            .filter(|&i| points[i].scene == scene && points[i].adapter == adapter)
+            .filter(|&i| key(&points[i]) == k)
             .collect();
         idx.sort_by_key(|&i| points[i].run_id);
         let series: Vec<f64> = idx.iter().map(|&i| points[i].value).collect();
@@ -326,7 +332,7 @@ impl History {
         // runs' key; then their scenes' values.
         let sql = format!(
             "WITH picked AS (
-               SELECT r.id, r.started_at, r.status, r.adapter FROM runs r
+               SELECT r.id, r.started_at, r.status, r.adapter, r.config FROM runs r
                WHERE r.kind = 'check'
                  AND (CAST($2 AS TEXT) IS NULL OR r.adapter = $2)
                  AND (CAST($3 AS BIGINT) IS NULL OR r.id < $3)
@@ -338,7 +344,8 @@ impl History {
                ORDER BY r.id DESC LIMIT $5
              )
              SELECT p.id, p.started_at, p.status, p.adapter, s.scene, {value},
-                    CASE WHEN EXISTS (SELECT 1 FROM regressions g WHERE g.run_id = p.id AND g.scene = s.scene AND g.metric = $6) THEN 1 ELSE 0 END
+                    CASE WHEN EXISTS (SELECT 1 FROM regressions g WHERE g.run_id = p.id AND g.scene = s.scene AND g.metric = $6) THEN 1 ELSE 0 END,
+                    p.config
              FROM picked p JOIN scene_results s ON s.run_id = p.id
              WHERE (CAST($1 AS TEXT) IS NULL OR s.scene = $1)
                AND ({value}) IS NOT NULL
@@ -368,6 +375,7 @@ impl History {
                     value: r.real(5)?,
                     regression: r.bool(6)?,
                     change: None,
+                    config: r.opt_text(7)?,
                 })
             })
             .collect::<Result<Vec<_>, HistoryError>>()?;
