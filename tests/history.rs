@@ -325,3 +325,40 @@ fn a_new_configuration_is_its_own_series_not_a_level_shift() {
         .collect();
     assert_eq!(marked.len(), 1, "{marked:?}");
 }
+
+/// An injected fault (`check --fault-gain`) is recorded in the run's config
+/// but stands for a defect: its runs continue the series, so the shift they
+/// cause is found (the dashboard test's twelve runs rely on it).
+#[test]
+fn an_injected_fault_is_a_level_shift_of_the_same_series() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = History::open(&dir.path().join("h.sqlite")).unwrap();
+    let clean = adapter("llvmpipe", "{\"hdr_format\":\"rgba32float\"}");
+    let faulty = adapter(
+        "llvmpipe",
+        "{\"hdr_format\":\"rgba32float\",\"fault_gain\":1.02}",
+    );
+    let wobble = [0.0, 0.15, -0.1, 0.2, -0.2, 0.05, -0.15, 0.1];
+    for i in 0..30 {
+        let (a, base) = if i < 15 {
+            (&clean, 10.0)
+        } else {
+            (&faulty, 10.8)
+        };
+        let ms = base + wobble[i % 8];
+        record(&mut h, a, &scene("sky", ms, 100.0 / ms));
+    }
+    let filter = tonegate::history::TrendFilter {
+        scene: Some("sky"),
+        limit: 200,
+        ..Default::default()
+    };
+    let trend = h.trend("sphere", &filter).unwrap();
+    let marked: Vec<i64> = trend
+        .iter()
+        .filter(|p| p.change.is_some())
+        .map(|p| p.run_id)
+        .collect();
+    assert_eq!(marked.len(), 1, "{marked:?}");
+    assert!((marked[0] - 16).abs() <= 2, "{marked:?}");
+}

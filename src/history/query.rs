@@ -73,7 +73,13 @@ pub struct TrendPoint {
 /// shift.
 fn mark_changes(points: &mut [TrendPoint]) {
     type Key = (String, Option<String>, Option<String>);
-    let key = |p: &TrendPoint| -> Key { (p.scene.clone(), p.adapter.clone(), p.config.clone()) };
+    let key = |p: &TrendPoint| -> Key {
+        (
+            p.scene.clone(),
+            p.adapter.clone(),
+            p.config.as_deref().map(series_config),
+        )
+    };
     let mut keys: Vec<Key> = points.iter().map(key).collect();
     keys.sort();
     keys.dedup();
@@ -86,6 +92,22 @@ fn mark_changes(points: &mut [TrendPoint]) {
         for (index, ratio) in change_points(&series) {
             points[idx[index]].change = Some(ratio);
         }
+    }
+}
+
+/// The part of a run's renderer configuration that makes another series:
+/// the knobs, without the injected faults (`fault_gain`, `taa_fault`: they
+/// stand for a defect, which is what a level shift should show) and without
+/// `adapter_chosen` (prose about the adapters present).
+fn series_config(config: &str) -> String {
+    match serde_json::from_str::<serde_json::Value>(config) {
+        Ok(serde_json::Value::Object(mut m)) => {
+            for k in ["fault_gain", "taa_fault", "adapter_chosen"] {
+                m.remove(k);
+            }
+            serde_json::Value::Object(m).to_string()
+        }
+        _ => config.to_owned(),
     }
 }
 
