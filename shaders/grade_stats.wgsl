@@ -1,5 +1,7 @@
 // grade_stats: mean BT.709 luminance of the frame entering the grade
-// (contrast's grey), by barrier-free block sums and one ordered combine.
+// (contrast's grey), by barrier-free block sums and one ordered combine
+// (`block_sums`, `finish`: CPU adapters), or by a workgroup tree
+// (`tree_sums`, `tree_finish`: GPUs), as luminance_stats reduces.
 //#include shared/colour.wgsl
 //#include shared/stats.wgsl
 
@@ -44,4 +46,69 @@ fn finish() {
         s = kahan_add(s.x, s.y, sums[i].y);
     }
     grade_mean.mean = (s.x + s.y) / (f32(dims.x) * f32(dims.y));
+}
+
+// Workgroup tree: the tiles and order of luminance_stats' tree_partials.
+const TREE_X: u32 = 32u;
+const TREE_Y: u32 = 8u;
+const TREE_ROWS: u32 = 4u;
+const TREE_SIZE: u32 = 256u;
+var<workgroup> tree: array<vec2<f32>, TREE_SIZE>;
+
+// (sum, compensation) pairs merged as luminance_stats merges its partials.
+fn merge_sum(a: vec2<f32>, b: vec2<f32>) -> vec2<f32> {
+    let s = kahan_add(a.x, a.y, b.x);
+    return kahan_add(s.x, s.y, b.y);
+}
+
+fn tree_halve(li: u32) {
+    for (var s = TREE_SIZE / 2u; s > 0u; s = s / 2u) {
+        if (li < s) {
+            tree[li] = merge_sum(tree[li], tree[li + s]);
+        }
+        workgroupBarrier();
+    }
+}
+
+@compute @workgroup_size(32, 8)
+fn tree_sums(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(local_invocation_id) lid: vec3<u32>,
+    @builtin(local_invocation_index) li: u32,
+) {
+    let dims = textureDimensions(src);
+    let x = wg.x * TREE_X + lid.x;
+    var s = vec2<f32>(0.0);
+    if (x < dims.x) {
+        for (var r = 0u; r < TREE_ROWS; r = r + 1u) {
+            let y = (wg.y * TREE_ROWS + r) * TREE_Y + lid.y;
+            if (y < dims.y) {
+                let c = textureLoad(src, vec2<u32>(x, y), 0).rgb;
+                s = kahan_add(s.x, s.y, luminance_with(c, vec3<f32>(0.2126, 0.7152, 0.0722)));
+            }
+        }
+    }
+    tree[li] = s;
+    workgroupBarrier();
+    tree_halve(li);
+    if (li == 0u) {
+        sums[wg.y * groups.x + wg.x] = tree[0];
+    }
+}
+
+@compute @workgroup_size(256)
+fn tree_finish(@builtin(local_invocation_index) li: u32) {
+    let dims = textureDimensions(src);
+    let tiles = ((dims.x + TREE_X - 1u) / TREE_X) * ((dims.y + TREE_Y * TREE_ROWS - 1u) / (TREE_Y * TREE_ROWS));
+    var s = vec2<f32>(0.0);
+    for (var i = li; i < tiles; i = i + TREE_SIZE) {
+        s = merge_sum(s, sums[i]);
+    }
+    tree[li] = s;
+    workgroupBarrier();
+    tree_halve(li);
+    if (li == 0u) {
+        grade_mean.mean = (tree[0].x + tree[0].y) / (f32(dims.x) * f32(dims.y));
+    }
 }

@@ -1,7 +1,9 @@
 // luminance_stats: min, max, Σ ln(δ+Y), Σ w·ln(δ+Y), Σ w of the HDR frame.
-// Two methods: seed 001's single-pass block partials (`block_partials`, then
-// `finish` over the partials) and seed 000's 2×2 ping-pong downsampling
-// (`downsample_first`, `downsample_step` repeatedly, then `finish`).
+// Three methods: seed 001's single-pass block partials (`block_partials`, then
+// `finish` over the partials), seed 000's 2×2 ping-pong downsampling
+// (`downsample_first`, `downsample_step` repeatedly, then `finish`), and a
+// workgroup tree (`tree_partials`, then `tree_finish`) for GPUs, where one
+// invocation walking thousands of partials serially is the slowest part.
 // Sums are Neumaier-compensated in f32 so 2 Mpx stay within 1e-6 of f64.
 //#include shared/colour.wgsl
 //#include shared/stats.wgsl
@@ -121,15 +123,21 @@ fn downsample_step(@builtin(global_invocation_id) id: vec3<u32>) {
 }
 
 // Combines the `level.src_size.x` partials of `partials_a` in order and
-// writes the statistics. Σw = 0 falls back to the plain log-average.
+// writes the statistics.
 @compute @workgroup_size(1)
 fn finish() {
-    let dims = textureDimensions(hdr);
-    let n = f32(dims.x) * f32(dims.y);
     var p = empty_partial();
     for (var i = 0u; i < level.src_size.x; i = i + 1u) {
         p = merge_partial(p, partials_a[i]);
     }
+    write_stats(p);
+}
+
+// The statistics of the whole frame's partial `p`. Σw = 0 falls back to the
+// plain log-average.
+fn write_stats(p: Partial) {
+    let dims = textureDimensions(hdr);
+    let n = f32(dims.x) * f32(dims.y);
     let log_average = exp((p.log_sum + p.log_c) / n);
     let w = p.w_sum + p.w_c;
     var weighted = log_average;
@@ -141,4 +149,68 @@ fn finish() {
     stats.min_y = p.min_y;
     stats.max_y = p.max_y;
     stats.weight_sum = w;
+}
+
+// Workgroup tree. One workgroup of TREE_X×TREE_Y invocations reduces a
+// TREE_X-wide, TREE_Y·TREE_ROWS-tall tile: each invocation sums TREE_ROWS
+// pixels down its column (neighbouring invocations read neighbouring pixels),
+// then the workgroup halves its partials in shared memory until one is left.
+// Pairwise order keeps the f32 error near log₂(n)·ε even where a compiler
+// drops the compensation terms.
+const TREE_X: u32 = 32u;
+const TREE_Y: u32 = 8u;
+const TREE_ROWS: u32 = 4u;
+const TREE_SIZE: u32 = 256u;
+var<workgroup> tree: array<Partial, TREE_SIZE>;
+
+fn tree_halve(li: u32) {
+    for (var s = TREE_SIZE / 2u; s > 0u; s = s / 2u) {
+        if (li < s) {
+            tree[li] = merge_partial(tree[li], tree[li + s]);
+        }
+        workgroupBarrier();
+    }
+}
+
+@compute @workgroup_size(32, 8)
+fn tree_partials(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(local_invocation_id) lid: vec3<u32>,
+    @builtin(local_invocation_index) li: u32,
+) {
+    let dims = textureDimensions(hdr);
+    let x = wg.x * TREE_X + lid.x;
+    var p = empty_partial();
+    if (x < dims.x) {
+        for (var r = 0u; r < TREE_ROWS; r = r + 1u) {
+            let y = (wg.y * TREE_ROWS + r) * TREE_Y + lid.y;
+            if (y < dims.y) {
+                p = add_pixel(p, textureLoad(hdr, vec2<u32>(x, y), 0).rgb);
+            }
+        }
+    }
+    tree[li] = p;
+    workgroupBarrier();
+    tree_halve(li);
+    if (li == 0u) {
+        partials_a[wg.y * groups.x + wg.x] = tree[0];
+    }
+}
+
+// One workgroup: each invocation merges every TREE_SIZE-th of the
+// `level.src_size.x` partials, the tree merges those, and invocation 0
+// writes the statistics as `finish` does.
+@compute @workgroup_size(256)
+fn tree_finish(@builtin(local_invocation_index) li: u32) {
+    var p = empty_partial();
+    for (var i = li; i < level.src_size.x; i = i + TREE_SIZE) {
+        p = merge_partial(p, partials_a[i]);
+    }
+    tree[li] = p;
+    workgroupBarrier();
+    tree_halve(li);
+    if (li == 0u) {
+        write_stats(tree[0]);
+    }
 }

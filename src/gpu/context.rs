@@ -163,6 +163,9 @@ pub struct GpuContext {
     pub timestamp_period: f32,
     /// Whether Rgba32Float textures can be linearly filtered (hardware filter).
     pub float32_filterable: bool,
+    /// Whether the adapter is a CPU (llvmpipe, SwiftShader): `--reduction
+    /// auto` picks what is fast there.
+    pub cpu_adapter: bool,
     errors: Arc<Mutex<Vec<GpuError>>>,
     /// Compiled pipelines by (stage, entry, format, override constants): a
     /// context that renders many images (the server's GPU worker, `check`)
@@ -233,6 +236,7 @@ impl GpuContext {
             }
         });
         Ok(GpuContext {
+            cpu_adapter: info.device_type == wgpu::DeviceType::Cpu,
             float32_filterable: features.contains(wgpu::Features::FLOAT32_FILTERABLE),
             timestamp_period: queue.get_timestamp_period(),
             device,

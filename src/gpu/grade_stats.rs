@@ -1,21 +1,36 @@
-//! `grade_stats` pass: block sums of luminance, then one ordered combine.
+//! `grade_stats` pass: block sums of luminance and one ordered combine, or
+//! the workgroup tree of `luminance_stats`.
 
 use super::stages::{bind_group, groups, pipeline, storage_buffer, Bind, Dispatch};
 use super::{GpuContext, HdrFormat};
 
 const BLOCK: u32 = 16;
 
-/// Mean luminance of `src` into `mean` (one f32).
+/// Mean luminance of `src` into `mean` (one f32), by the tree when `tree`,
+/// else by block sums (the ping-pong method has no grade variant: its
+/// plans reduce the grade's mean by blocks).
 pub fn grade_stats(
     ctx: &GpuContext,
     format: HdrFormat,
+    tree: bool,
     src: &wgpu::Texture,
     mean: &wgpu::Buffer,
 ) -> Vec<Dispatch> {
-    let blocks = groups(src.width(), BLOCK) * groups(src.height(), BLOCK);
+    let (side, entries, first_groups) = match tree {
+        true => {
+            let t = super::luminance_stats::TREE_TILE;
+            let tiles = (groups(src.width(), t), groups(src.height(), t));
+            (t, ("tree_sums", "tree_finish"), tiles)
+        }
+        false => {
+            let blocks = groups(src.width(), BLOCK) * groups(src.height(), BLOCK);
+            (BLOCK, ("block_sums", "finish"), (groups(blocks, 64), 1))
+        }
+    };
+    let blocks = groups(src.width(), side) * groups(src.height(), side);
     let sums = storage_buffer(ctx, "tonegate.grade_stats.sums", blocks as u64 * 8);
     let constants = [("BLOCK_W", BLOCK as f64), ("BLOCK_H", BLOCK as f64)];
-    let p = pipeline(ctx, "grade_stats", "block_sums", format, &constants);
+    let p = pipeline(ctx, "grade_stats", entries.0, format, &constants);
     let bg = bind_group(
         ctx,
         &p,
@@ -25,9 +40,9 @@ pub fn grade_stats(
     let first = Dispatch {
         pipeline: p,
         bind_group: bg,
-        groups: (groups(blocks, 64), 1),
+        groups: first_groups,
     };
-    let p = pipeline(ctx, "grade_stats", "finish", format, &constants);
+    let p = pipeline(ctx, "grade_stats", entries.1, format, &constants);
     let bg = bind_group(
         ctx,
         &p,

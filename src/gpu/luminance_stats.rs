@@ -1,4 +1,5 @@
-//! `luminance_stats` pass: block partials (seed 001) or 2×2 ping-pong (seed 000).
+//! `luminance_stats` pass: block partials (seed 001), 2×2 ping-pong (seed
+//! 000) or a workgroup tree.
 
 use super::stages::{bind_group, groups, pipeline, storage_buffer, uniform_buffer, Bind, Dispatch};
 use super::{GpuContext, HdrFormat, ReductionMethod};
@@ -8,6 +9,9 @@ use crate::plan::StatsNeeds;
 const PARTIAL_BYTES: u64 = 32;
 /// Pixels per invocation of the block method.
 pub const BLOCK: u32 = 16;
+/// Side of the square tile one workgroup of the tree method reduces
+/// (shaders/luminance_stats.wgsl: TREE_X, TREE_Y·TREE_ROWS).
+pub const TREE_TILE: u32 = 32;
 
 /// The dispatches that reduce `hdr` into `stats`.
 #[allow(clippy::too_many_arguments)]
@@ -46,7 +50,46 @@ pub fn luminance_stats(
     let finish = pipeline(ctx, "luminance_stats", "finish", format, &constants);
     let mut out = Vec::new();
     match method {
-        ReductionMethod::BlockPartials => {
+        ReductionMethod::Tree => {
+            let tiles = (groups(w, TREE_TILE), groups(h, TREE_TILE));
+            let n = tiles.0 * tiles.1;
+            let a = storage_buffer(
+                ctx,
+                "tonegate.luminance_stats.partials",
+                n as u64 * PARTIAL_BYTES,
+            );
+            let p = pipeline(ctx, "luminance_stats", "tree_partials", format, &constants);
+            let bg = bind_group(
+                ctx,
+                &p,
+                "tonegate.luminance_stats",
+                &[(0, Bind::Texture(hdr)), (1, Bind::Buffer(&a))],
+            );
+            out.push(Dispatch {
+                pipeline: p,
+                bind_group: bg,
+                groups: tiles,
+            });
+            let lv = level((n, 1), (1, 1));
+            let p = pipeline(ctx, "luminance_stats", "tree_finish", format, &constants);
+            let bg = bind_group(
+                ctx,
+                &p,
+                "tonegate.luminance_stats.finish",
+                &[
+                    (0, Bind::Texture(hdr)),
+                    (1, Bind::Buffer(&a)),
+                    (3, Bind::Buffer(stats)),
+                    (4, Bind::Buffer(&lv)),
+                ],
+            );
+            out.push(Dispatch {
+                pipeline: p,
+                bind_group: bg,
+                groups: (1, 1),
+            });
+        }
+        ReductionMethod::BlockPartials | ReductionMethod::Auto => {
             let blocks = groups(w, BLOCK) * groups(h, BLOCK);
             let a = storage_buffer(
                 ctx,

@@ -86,6 +86,8 @@ impl Knobs {
         let r = match self.reduction {
             ReductionMethod::BlockPartials => "block",
             ReductionMethod::PingPong => "pingpong",
+            ReductionMethod::Tree => "tree",
+            ReductionMethod::Auto => "auto",
         };
         let e = match self.env_filter {
             EnvFilter::Manual => "manual",
@@ -123,7 +125,11 @@ pub fn sweep(scene: &Scene, spps: &[u32], downsamples: &[u32]) -> Vec<Knobs> {
     };
     let mut all = Vec::new();
     for hdr_format in [HdrFormat::Rgba32Float, HdrFormat::Rgba16Float] {
-        for reduction in [ReductionMethod::BlockPartials, ReductionMethod::PingPong] {
+        for reduction in [
+            ReductionMethod::BlockPartials,
+            ReductionMethod::PingPong,
+            ReductionMethod::Tree,
+        ] {
             for env_filter in [EnvFilter::Manual, EnvFilter::Hardware] {
                 for &bloom_downsample in &ds {
                     for &spp in spps {
