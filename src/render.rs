@@ -337,25 +337,57 @@ impl<'a> SceneRenderer<'a> {
 
     /// Renders every frame of the sequence for the gate: the images, the
     /// stage times' medians and, on the GPU, the FPS with readback.
-    /// `progress` is told after each frame.
+    /// `progress` is told after each frame. On the GPU the frames are
+    /// rendered with [`FRAMES_IN_FLIGHT`](crate::gpu::renderer::FRAMES_IN_FLIGHT)
+    /// in flight (frame n copied out while n+1 renders), and the FPS is
+    /// frames over the whole sequence's wall time.
     pub fn sequence(&self, mut progress: impl FnMut(u32)) -> Result<Rendered, RenderError> {
         let mut frames = Vec::with_capacity(self.scene.frames as usize);
         let mut times = Vec::with_capacity(self.scene.frames as usize);
-        let mut wall = 0.0;
-        for n in 0..self.scene.frames {
-            let out = self.frame(n)?;
-            wall += out.wall_ms;
-            if let FrameDetail::Gpu { timings, .. } = out.detail {
-                times.push(timings);
+        let start = Instant::now();
+        match &self.engine {
+            Engine::Cpu => {
+                for n in 0..self.scene.frames {
+                    frames.push(self.frame(n)?.image);
+                    progress(n);
+                }
             }
-            frames.push(out.image);
-            progress(n);
+            Engine::Gpu(r) => {
+                let taa = self.scene.taa.as_ref();
+                let resets = |k: u32| taa.is_none_or(|t| t.resets_at(k));
+                let mut track = self.lock_history();
+                track.next = None;
+                r.frames(
+                    0..self.scene.frames,
+                    |n| match self.taa {
+                        true => self.set_gpu_taa_frame(r, n, !resets(n)),
+                        false => r.set_rotation(&self.rotation(n)),
+                    },
+                    |_| true,
+                    |n, out| {
+                        let image = out
+                            .frame
+                            .ok_or_else(|| GpuError::Readback("no frame".into()))?;
+                        frames.push(image);
+                        times.push(out.timings);
+                        progress(n);
+                        Ok(())
+                    },
+                )
+                .map_err(|e| self.gpu_error(e))?;
+                // The history now follows the last frame; after a failed
+                // sequence `next` is None, so the next frame replays.
+                if self.taa {
+                    track.next = Some(self.scene.frames);
+                }
+            }
         }
+        let wall_s = start.elapsed().as_secs_f64();
         let (renderer, fps) = match &self.engine {
             Engine::Cpu => (format!("cpu-reference ({} spp)", self.spp), None),
             Engine::Gpu(r) => (
                 r.adapter_name().to_owned(),
-                Some(self.scene.frames as f64 / (wall / 1e3)),
+                Some(self.scene.frames as f64 / wall_s),
             ),
         };
         Ok(Rendered {

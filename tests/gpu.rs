@@ -157,156 +157,174 @@ fn each_stage_matches_its_reference_on_the_same_input() {
     let ctx = context();
     for scene in suite() {
         let env = scene_environment(&scene).unwrap();
-        let r = common::scene_renderer(&ctx, &scene, &env, GpuConfig::default());
-        let n = 3.min(scene.frames - 1);
-        r.set_rotation(&rotation_matrix(scene.rotation.axis, scene.angle(n)));
-        let gpu = r.render(true).unwrap();
-        let name = &scene.name;
-        let pipeline = Pipeline::of_scene(&scene);
-        let plan = StagePlan::for_scene(&scene, 1);
-        // sphere: against the CPU's own sphere render. Tolerance: 1e-4 relative
-        // (f32 arithmetic) plus a footprint shift of 1e-4 texel times the
-        // range of the four texels it interpolates. Origin: texel coordinates
-        // near 1024 carry an f32 ulp of 6e-5 texel and the shader's atan2/acos
-        // ~2 ULP; bilinear changes by at most (range × shift), which at a
-        // 10⁴:1 window edge is far more than 1e-4 of the value.
-        let hdr = r.read_output("sphere").unwrap().unwrap();
-        let cpu_hdr = reference::render_frame(&scene, &env, n, 1).unwrap().hdr;
-        let rotation = rotation_matrix(scene.rotation.axis, scene.angle(n));
-        let camera = scene_camera(&scene);
-        let mut worst = 0.0f64;
-        for (i, (g, c)) in hdr.pixels.iter().zip(&cpu_hdr.pixels).enumerate() {
-            let (x, y) = (
-                (i % hdr.width as usize) as f64,
-                (i / hdr.width as usize) as f64,
-            );
-            let d = sphere_direction(&rotation, camera.ray(x + 0.5, y + 0.5));
-            let (u, v) = equirect_uv(d);
-            let range = footprint_range(&env, u, v);
-            for k in 0..3 {
-                let bound = 1e-4 * c[k].abs() + 1e-4 * range[k] + 1e-7;
-                worst = worst.max((g[k] - c[k]).abs() / bound);
-            }
-        }
-        assert!(
-            worst <= 1.0,
-            "{name} sphere: an error {worst:.2}x its bound"
-        );
-        // luminance_stats: f32 compensated sums vs the f64 reference, 1e-5 relative.
-        let (weights, delta) = tonemap::operator_constants(pipeline.operator);
-        let mut cpu_stats = Default::default();
-        if let Some(Stage::LuminanceStats(needs)) =
-            plan.stages().iter().find(|s| s.name() == "luminance_stats")
-        {
-            cpu_stats = luminance_stats::luminance_stats(&hdr, *needs, weights, delta);
-            let s = &gpu.stats;
-            if let Some(v) = cpu_stats.log_average {
-                assert!(
-                    rel(s.log_average as f64, v) <= 1e-5,
-                    "{name} log_average {} vs {v}",
-                    s.log_average
-                );
-            }
-            if let Some(v) = cpu_stats.weighted_log_average {
-                assert!(
-                    rel(s.weighted_log_average as f64, v) <= 1e-5,
-                    "{name} weighted {} vs {v}",
-                    s.weighted_log_average
-                );
-            }
-            if let Some(v) = cpu_stats.min {
-                assert!(rel(s.min as f64, v) <= 1e-6, "{name} min {} vs {v}", s.min);
-            }
-            if let Some(v) = cpu_stats.max {
-                assert!(rel(s.max as f64, v) <= 1e-6, "{name} max {} vs {v}", s.max);
-            }
-        }
-        // tonemap: the curve in f32 against f64 with the same statistics.
-        let params = tonemap::resolve(pipeline.operator, &cpu_stats).unwrap();
-        assert!(
-            rel(gpu.stats.scale as f64, params.scale) <= 2e-5,
-            "{name} scale {} vs {}",
-            gpu.stats.scale,
-            params.scale
-        );
-        let cpu_toned = tonemap::tonemap(&hdr, &params);
-        let toned = r.read_output("tonemap").unwrap().unwrap();
-        let (out, worst) = fraction_outside(&toned, &cpu_toned, 1e-4, 1e-6);
-        assert!(
-            out == 0.0,
-            "{name} tonemap: {:.4} % of values off (worst {worst:.1}x)",
-            out * 100.0
-        );
-        // The rest of the chain, stage by stage, each fed the GPU's input.
-        let mut display = toned.clone();
-        if let (Some(b), Some(blurred)) = (pipeline.bloom, r.read_output("bloom_blur").unwrap()) {
-            let src = if b.bright_pass == tonegate::scene::BrightPass::Seed001 {
-                &hdr
-            } else {
-                &toned
+        // The adapter's own reduction, and the workgroup tree (what a GPU
+        // runs) for plans that reduce the frame (statistics or the grade's mean).
+        let reduces = ["luminance_stats", "grade_stats"]
+            .iter()
+            .any(|s| StagePlan::for_scene(&scene, 1).contains(s));
+        let reductions = match reduces {
+            true => vec![ReductionMethod::Auto, ReductionMethod::Tree],
+            false => vec![ReductionMethod::Auto],
+        };
+        for reduction in reductions {
+            let config = GpuConfig {
+                reduction,
+                ..Default::default()
             };
-            let lmax = cpu_stats.max.unwrap_or(0.0);
-            let bright = reference::bloom_bright::bloom_bright(
-                src,
-                b.bright_pass,
-                b.threshold.get(),
-                lmax,
-                weights,
+            let r = common::scene_renderer(&ctx, &scene, &env, config);
+            let n = 3.min(scene.frames - 1);
+            r.set_rotation(&rotation_matrix(scene.rotation.axis, scene.angle(n)));
+            let gpu = r.render(true).unwrap();
+            let name = &format!("{} ({reduction:?})", scene.name);
+            let pipeline = Pipeline::of_scene(&scene);
+            let plan = StagePlan::for_scene(&scene, 1);
+            // sphere: against the CPU's own sphere render. Tolerance: 1e-4 relative
+            // (f32 arithmetic) plus a footprint shift of 1e-4 texel times the
+            // range of the four texels it interpolates. Origin: texel coordinates
+            // near 1024 carry an f32 ulp of 6e-5 texel and the shader's atan2/acos
+            // ~2 ULP; bilinear changes by at most (range × shift), which at a
+            // 10⁴:1 window edge is far more than 1e-4 of the value.
+            let hdr = r.read_output("sphere").unwrap().unwrap();
+            let cpu_hdr = reference::render_frame(&scene, &env, n, 1).unwrap().hdr;
+            let rotation = rotation_matrix(scene.rotation.axis, scene.angle(n));
+            let camera = scene_camera(&scene);
+            let mut worst = 0.0f64;
+            for (i, (g, c)) in hdr.pixels.iter().zip(&cpu_hdr.pixels).enumerate() {
+                let (x, y) = (
+                    (i % hdr.width as usize) as f64,
+                    (i / hdr.width as usize) as f64,
+                );
+                let d = sphere_direction(&rotation, camera.ray(x + 0.5, y + 0.5));
+                let (u, v) = equirect_uv(d);
+                let range = footprint_range(&env, u, v);
+                for k in 0..3 {
+                    let bound = 1e-4 * c[k].abs() + 1e-4 * range[k] + 1e-7;
+                    worst = worst.max((g[k] - c[k]).abs() / bound);
+                }
+            }
+            assert!(
+                worst <= 1.0,
+                "{name} sphere: an error {worst:.2}x its bound"
             );
-            let low = reference::bloom_downsample::bloom_downsample(&bright, b.downsample.get());
-            let cpu_blur = reference::bloom_blur::bloom_blur(&low, b.radius.get(), b.sigma.get());
-            let (out, worst) = fraction_outside(&blurred, &cpu_blur, 1e-4, 1e-6);
+            // luminance_stats: f32 compensated sums vs the f64 reference, 1e-5 relative.
+            let (weights, delta) = tonemap::operator_constants(pipeline.operator);
+            let mut cpu_stats = Default::default();
+            if let Some(Stage::LuminanceStats(needs)) =
+                plan.stages().iter().find(|s| s.name() == "luminance_stats")
+            {
+                cpu_stats = luminance_stats::luminance_stats(&hdr, *needs, weights, delta);
+                let s = &gpu.stats;
+                if let Some(v) = cpu_stats.log_average {
+                    assert!(
+                        rel(s.log_average as f64, v) <= 1e-5,
+                        "{name} log_average {} vs {v}",
+                        s.log_average
+                    );
+                }
+                if let Some(v) = cpu_stats.weighted_log_average {
+                    assert!(
+                        rel(s.weighted_log_average as f64, v) <= 1e-5,
+                        "{name} weighted {} vs {v}",
+                        s.weighted_log_average
+                    );
+                }
+                if let Some(v) = cpu_stats.min {
+                    assert!(rel(s.min as f64, v) <= 1e-6, "{name} min {} vs {v}", s.min);
+                }
+                if let Some(v) = cpu_stats.max {
+                    assert!(rel(s.max as f64, v) <= 1e-6, "{name} max {} vs {v}", s.max);
+                }
+            }
+            // tonemap: the curve in f32 against f64 with the same statistics.
+            let params = tonemap::resolve(pipeline.operator, &cpu_stats).unwrap();
+            assert!(
+                rel(gpu.stats.scale as f64, params.scale) <= 2e-5,
+                "{name} scale {} vs {}",
+                gpu.stats.scale,
+                params.scale
+            );
+            let cpu_toned = tonemap::tonemap(&hdr, &params);
+            let toned = r.read_output("tonemap").unwrap().unwrap();
+            let (out, worst) = fraction_outside(&toned, &cpu_toned, 1e-4, 1e-6);
             assert!(
                 out == 0.0,
-                "{name} bloom chain: {:.4} % off (worst {worst:.1}x)",
+                "{name} tonemap: {:.4} % of values off (worst {worst:.1}x)",
                 out * 100.0
             );
-            let composite = r.read_output("bloom_composite").unwrap().unwrap();
-            let cpu_composite =
-                reference::bloom_composite::bloom_composite(&toned, &blurred, b.strength.get());
-            let (out, worst) = fraction_outside(&composite, &cpu_composite, 1e-5, 1e-6);
+            // The rest of the chain, stage by stage, each fed the GPU's input.
+            let mut display = toned.clone();
+            if let (Some(b), Some(blurred)) = (pipeline.bloom, r.read_output("bloom_blur").unwrap())
+            {
+                let src = if b.bright_pass == tonegate::scene::BrightPass::Seed001 {
+                    &hdr
+                } else {
+                    &toned
+                };
+                let lmax = cpu_stats.max.unwrap_or(0.0);
+                let bright = reference::bloom_bright::bloom_bright(
+                    src,
+                    b.bright_pass,
+                    b.threshold.get(),
+                    lmax,
+                    weights,
+                );
+                let low =
+                    reference::bloom_downsample::bloom_downsample(&bright, b.downsample.get());
+                let cpu_blur =
+                    reference::bloom_blur::bloom_blur(&low, b.radius.get(), b.sigma.get());
+                let (out, worst) = fraction_outside(&blurred, &cpu_blur, 1e-4, 1e-6);
+                assert!(
+                    out == 0.0,
+                    "{name} bloom chain: {:.4} % off (worst {worst:.1}x)",
+                    out * 100.0
+                );
+                let composite = r.read_output("bloom_composite").unwrap().unwrap();
+                let cpu_composite =
+                    reference::bloom_composite::bloom_composite(&toned, &blurred, b.strength.get());
+                let (out, worst) = fraction_outside(&composite, &cpu_composite, 1e-5, 1e-6);
+                assert!(
+                    out == 0.0,
+                    "{name} bloom_composite: {:.4} % off (worst {worst:.1}x)",
+                    out * 100.0
+                );
+                display = composite;
+            }
+            if let (Some(g), Some(graded)) = (pipeline.grade, r.read_output("grade").unwrap()) {
+                let mean = reference::grade_stats::grade_stats(&display);
+                let cpu_graded = reference::grade::grade(&display, g, mean);
+                // Contrast subtracts the grey: values near it cancel, hence the
+                // absolute term (1e-5 of the display range).
+                let (out, worst) = fraction_outside(&graded, &cpu_graded, 1e-4, 1e-5);
+                assert!(
+                    out == 0.0,
+                    "{name} grade: {:.4} % off (worst {worst:.1}x)",
+                    out * 100.0
+                );
+                display = graded;
+            }
+            let gpu_display = r.read_output("display").unwrap().unwrap();
+            assert_eq!(
+                gpu_display, display,
+                "{name}: display is the last stage's output"
+            );
+            // encode: same rounding rule; only values within f32 rounding of a
+            // quantisation boundary may differ, by 1 LSB.
+            let cpu_frame = reference::encode::encode(&gpu_display, pipeline.encoding);
+            let frame = gpu.frame.unwrap();
+            let m = compare(frame.raster(), cpu_frame.raster()).unwrap();
+            let over = fraction_over(frame.raster(), cpu_frame.raster(), 0).unwrap();
             assert!(
-                out == 0.0,
-                "{name} bloom_composite: {:.4} % off (worst {worst:.1}x)",
-                out * 100.0
+                m.max_abs_diff <= 1 && over <= 1e-4,
+                "{name} encode: max {} , {:.5} % differ",
+                m.max_abs_diff,
+                over * 100.0
             );
-            display = composite;
         }
-        if let (Some(g), Some(graded)) = (pipeline.grade, r.read_output("grade").unwrap()) {
-            let mean = reference::grade_stats::grade_stats(&display);
-            let cpu_graded = reference::grade::grade(&display, g, mean);
-            // Contrast subtracts the grey: values near it cancel, hence the
-            // absolute term (1e-5 of the display range).
-            let (out, worst) = fraction_outside(&graded, &cpu_graded, 1e-4, 1e-5);
-            assert!(
-                out == 0.0,
-                "{name} grade: {:.4} % off (worst {worst:.1}x)",
-                out * 100.0
-            );
-            display = graded;
-        }
-        let gpu_display = r.read_output("display").unwrap().unwrap();
-        assert_eq!(
-            gpu_display, display,
-            "{name}: display is the last stage's output"
-        );
-        // encode: same rounding rule; only values within f32 rounding of a
-        // quantisation boundary may differ, by 1 LSB.
-        let cpu_frame = reference::encode::encode(&gpu_display, pipeline.encoding);
-        let frame = gpu.frame.unwrap();
-        let m = compare(frame.raster(), cpu_frame.raster()).unwrap();
-        let over = fraction_over(frame.raster(), cpu_frame.raster(), 0).unwrap();
-        assert!(
-            m.max_abs_diff <= 1 && over <= 1e-4,
-            "{name} encode: max {} , {:.5} % differ",
-            m.max_abs_diff,
-            over * 100.0
-        );
     }
 }
 
 #[test]
-fn both_reductions_agree_with_f64_on_odd_and_prime_sizes() {
+fn every_reduction_agrees_with_f64_on_odd_and_prime_sizes() {
     let ctx = context();
     let op = tonegate::scene::Operator::Seed001 {
         key: tonegate::scene::Key::Auto,
@@ -325,7 +343,10 @@ fn both_reductions_agree_with_f64_on_odd_and_prime_sizes() {
         (13, 17),
         (97, 31),
         (331, 127),
+        (33, 33),
+        (1021, 509),
         (1920, 1080),
+        (4096, 2048),
     ] {
         let img = tonegate::env::BuiltinEnv::Night.generate(w, h);
         let plan = StagePlan::build(tonegate::plan::Input::Flat, &op, None, None);
@@ -334,7 +355,12 @@ fn both_reductions_agree_with_f64_on_odd_and_prime_sizes() {
         };
         let (weights, delta) = tonemap::operator_constants(&op);
         let cpu = luminance_stats::luminance_stats(&img.to_linear(), needs, weights, delta);
-        for reduction in [ReductionMethod::BlockPartials, ReductionMethod::PingPong] {
+        for reduction in [
+            ReductionMethod::BlockPartials,
+            ReductionMethod::PingPong,
+            ReductionMethod::Tree,
+            ReductionMethod::Auto,
+        ] {
             let config = GpuConfig {
                 reduction,
                 ..Default::default()
@@ -792,4 +818,96 @@ fn subnormal_luminance_is_toned_to_zero_on_both_renderers() {
             .unwrap();
         assert!(worst <= 1, "{operator:?}: GPU vs CPU {worst} LSB");
     }
+}
+
+/// Frames in flight (frame n copied out while n+1 renders) give exactly the
+/// frames, statistics and order of rendering one frame at a time, for a
+/// plain scene and a TAA scene (whose history runs through the frames).
+#[test]
+fn frames_in_flight_match_one_at_a_time_in_order() {
+    use tonegate::gpu::renderer::FRAMES_IN_FLIGHT;
+    use tonegate::render::SceneRenderer;
+    let ctx = context();
+    let all =
+        load_suite(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("golden/suite.toml"))
+            .unwrap();
+    let plain = all
+        .iter()
+        .find(|s| s.taa_active().is_none() && s.bloom.is_some())
+        .expect("a scene with bloom");
+    let taa = all
+        .iter()
+        .find(|s| s.taa_active().is_some())
+        .expect("a TAA scene");
+    for scene in [plain, taa] {
+        let env = scene_environment(scene).unwrap();
+        // The gate's path: the whole sequence with frames in flight.
+        let piped = SceneRenderer::gpu(scene, &env, &ctx, GpuConfig::default(), 1).unwrap();
+        let mut told = Vec::new();
+        let rendered = piped.sequence(|n| told.push(n)).unwrap();
+        // One frame at a time, each waited for, on a renderer of its own.
+        let serial = SceneRenderer::gpu(scene, &env, &ctx, GpuConfig::default(), 1).unwrap();
+        assert_eq!(
+            told,
+            (0..scene.frames).collect::<Vec<_>>(),
+            "{}",
+            scene.name
+        );
+        assert_eq!(rendered.frames.len(), scene.frames as usize);
+        let mut changes = 0;
+        for n in 0..scene.frames {
+            let one = serial.frame(n).unwrap().image;
+            assert!(
+                rendered.frames[n as usize] == one,
+                "{} frame {n}: in flight differs from one at a time",
+                scene.name
+            );
+            if n > 0 && rendered.frames[n as usize] != rendered.frames[n as usize - 1] {
+                changes += 1;
+            }
+        }
+        // The frames differ from each other, so a reordering would show.
+        assert!(changes > 0, "{}: every frame alike", scene.name);
+        assert!(rendered.fps.unwrap() > 0.0);
+    }
+
+    // The renderer's own API: statistics and stage times per frame, the
+    // frames in order, and no more than FRAMES_IN_FLIGHT outstanding.
+    let scene = plain;
+    let env = scene_environment(scene).unwrap();
+    let r = common::scene_renderer(&ctx, scene, &env, GpuConfig::default());
+    let angle = |n: u32| rotation_matrix(scene.rotation.axis, scene.angle(n));
+    let mut one_at_a_time = Vec::new();
+    for n in 0..6 {
+        r.set_rotation(&angle(n));
+        one_at_a_time.push(r.render(true).unwrap());
+    }
+    let mut seen = Vec::new();
+    r.frames(
+        0..6,
+        |n| r.set_rotation(&angle(n)),
+        |n| n % 2 == 0,
+        |n, f| {
+            let want = &one_at_a_time[n as usize];
+            assert_eq!(f.stats, want.stats, "frame {n} statistics");
+            assert_eq!(f.frame.is_some(), n % 2 == 0, "frame {n} read back");
+            if let Some(img) = &f.frame {
+                assert!(Some(img) == want.frame.as_ref(), "frame {n} image");
+            }
+            assert_eq!(f.timings.len(), want.timings.len(), "frame {n} timings");
+            seen.push(n);
+            Ok(())
+        },
+    )
+    .unwrap();
+    assert_eq!(seen, (0..6).collect::<Vec<_>>());
+    let tickets: Vec<_> = (0..FRAMES_IN_FLIGHT)
+        .map(|_| r.submit(false).unwrap())
+        .collect();
+    let refused = r.submit(false).map(|_| ()).unwrap_err().to_string();
+    assert!(refused.contains("not collected"), "{refused}");
+    for t in tickets {
+        r.collect(t).unwrap();
+    }
+    r.render(false).expect("slots free again after collecting");
 }

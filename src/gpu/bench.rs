@@ -63,15 +63,23 @@ pub struct BenchReport {
     pub size: String,
     /// Frames per second, no per-frame readback (frames submitted back to back).
     pub fps: f64,
-    /// Frames per second with the frame read back and waited for every frame.
+    /// Frames per second with every frame read back to the host, frames in
+    /// flight (`GpuRenderer::frames`): what `check` and `render` run.
     pub fps_with_readback: f64,
+    /// Frames per second with every frame read back and waited for before
+    /// the next is submitted (one frame in flight).
+    pub fps_serial_readback: f64,
     /// Median GPU time of the floor pass (a trivial fullscreen write).
     pub floor_ms: f64,
     pub stages: Vec<BenchStage>,
     /// GPU time per frame (sum of stages), no readback.
     pub frame_gpu_ms: Percentiles,
-    /// Wall time per frame with readback.
+    /// Wall time per frame with readback, frames in flight: the interval
+    /// between consecutive frames reaching the host.
     pub frame_wall_ms_with_readback: Percentiles,
+    /// Wall time per frame with readback, one frame in flight: submit to
+    /// results on the host.
+    pub frame_wall_ms_serial: Percentiles,
     pub frames: u32,
     pub warmup: u32,
     pub config: GpuConfig,
@@ -228,13 +236,31 @@ pub fn run(ctx: &GpuContext, opts: &BenchOptions) -> Result<BenchReport, GpuErro
     }
     let elapsed = start.elapsed().as_secs_f64();
     let fps = opts.frames as f64 / elapsed;
-    // With readback: every frame waited for and copied to the host.
-    let mut wall = Vec::with_capacity(opts.frames as usize);
+    // With readback, one frame in flight: every frame waited for and
+    // copied to the host before the next is submitted.
+    let mut serial = Vec::with_capacity(opts.frames as usize);
     let start = std::time::Instant::now();
     for n in 0..opts.frames {
         set(n);
-        wall.push(r.render(true)?.wall_ms);
+        serial.push(r.render(true)?.wall_ms);
     }
+    let fps_serial_readback = opts.frames as f64 / start.elapsed().as_secs_f64();
+    // With readback, frames in flight: frame n copied out while n+1 renders.
+    let mut wall = Vec::with_capacity(opts.frames as usize);
+    let start = std::time::Instant::now();
+    let mut last = start;
+    r.frames(
+        0..opts.frames,
+        &set,
+        |_| true,
+        |_, out| {
+            std::hint::black_box(out.frame);
+            let now = std::time::Instant::now();
+            wall.push((now - last).as_secs_f64() * 1e3);
+            last = now;
+            Ok(())
+        },
+    )?;
     let fps_with_readback = opts.frames as f64 / start.elapsed().as_secs_f64();
     let floor = floor_times(
         ctx,
@@ -262,13 +288,15 @@ pub fn run(ctx: &GpuContext, opts: &BenchOptions) -> Result<BenchReport, GpuErro
         size: format!("{}x{}", opts.width, opts.height),
         fps,
         fps_with_readback,
+        fps_serial_readback,
         floor_ms,
         stages,
         frame_gpu_ms: Percentiles::of(&frame_gpu),
         frame_wall_ms_with_readback: Percentiles::of(&wall),
+        frame_wall_ms_serial: Percentiles::of(&serial),
         frames: opts.frames,
         warmup: opts.warmup,
-        config: opts.config,
+        config: r.config,
         plan: plan.names(),
         host_threads: std::thread::available_parallelism()
             .map(|n| n.get())
@@ -325,15 +353,19 @@ impl std::fmt::Display for BenchReport {
         )?;
         writeln!(
             f,
-            "wall frame ms with readback p50/p95/p99: {:.2} / {:.2} / {:.2}",
+            "wall frame ms with readback p50/p95/p99: {:.2} / {:.2} / {:.2} ({} in flight); one at a time: {:.2} / {:.2} / {:.2}",
             self.frame_wall_ms_with_readback.p50,
             self.frame_wall_ms_with_readback.p95,
-            self.frame_wall_ms_with_readback.p99
+            self.frame_wall_ms_with_readback.p99,
+            super::renderer::FRAMES_IN_FLIGHT,
+            self.frame_wall_ms_serial.p50,
+            self.frame_wall_ms_serial.p95,
+            self.frame_wall_ms_serial.p99
         )?;
         write!(
             f,
-            "FPS: {:.1} without readback, {:.1} with readback",
-            self.fps, self.fps_with_readback
+            "FPS: {:.1} without readback, {:.1} with readback ({:.1} one at a time)",
+            self.fps, self.fps_with_readback, self.fps_serial_readback
         )
     }
 }

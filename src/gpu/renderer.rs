@@ -58,6 +58,31 @@ pub struct GpuFrame {
     pub wall_ms: f64,
 }
 
+/// Frames a renderer keeps in flight ([`GpuRenderer::frames`]): each has its
+/// own host-readable copies, so frame n is mapped and copied out while frame
+/// n+1 renders. Three cover a frame being rendered, one being copied and one
+/// being read on the host.
+pub const FRAMES_IN_FLIGHT: usize = 3;
+
+/// The host-readable copies of one frame in flight.
+struct Staging {
+    stats: wgpu::Buffer,
+    frame: wgpu::Buffer,
+    /// The frame's resolved timestamps, when the adapter has them.
+    timing: Option<wgpu::Buffer>,
+}
+
+/// A submitted frame: [`GpuRenderer::collect`] waits for it and reads it.
+#[must_use = "a submitted frame holds its staging slot until it is collected"]
+pub struct Ticket {
+    slot: usize,
+    read_frame: bool,
+    start: std::time::Instant,
+    submission: wgpu::SubmissionIndex,
+    mapped: std::sync::mpsc::Receiver<Result<(), wgpu::BufferAsyncError>>,
+    maps: usize,
+}
+
 /// Mirrors `FrameUniforms` in shaders/shared/frame.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
@@ -127,9 +152,12 @@ pub struct GpuRenderer<'a> {
     /// Stage outputs that can be read back: (stage name, texture).
     outputs: Vec<(&'static str, wgpu::Texture)>,
     stats: wgpu::Buffer,
-    stats_read: wgpu::Buffer,
     frame_buf: wgpu::Buffer,
-    frame_read: wgpu::Buffer,
+    /// One set of host-readable copies per frame in flight, and which are
+    /// taken by a frame not yet collected.
+    staging: Vec<Staging>,
+    busy: std::sync::Mutex<[bool; FRAMES_IN_FLIGHT]>,
+    submitted: std::sync::atomic::AtomicUsize,
     queries: Option<Queries>,
 }
 
@@ -143,7 +171,7 @@ impl<'a> GpuRenderer<'a> {
         pipeline: &Pipeline,
         config: GpuConfig,
     ) -> Result<GpuRenderer<'a>, GpuError> {
-        let (config, notes) = config.in_effect(input.max_component(), &plan);
+        let (config, notes) = config.in_effect(input.max_component(), &plan, ctx.cpu_adapter);
         let (width, height) = input.size();
         ctx.check_size(width, height)?;
         let taa = plan.taa().is_some();
@@ -190,13 +218,22 @@ impl<'a> GpuRenderer<'a> {
             taa,
             odd: std::sync::atomic::AtomicBool::new(false),
             outputs,
-            stats_read: read_buffer(
-                ctx,
-                "tonegate.luminance_stats.read",
-                std::mem::size_of::<GpuStats>() as u64,
-            ),
+            staging: (0..FRAMES_IN_FLIGHT)
+                .map(|_| Staging {
+                    stats: read_buffer(
+                        ctx,
+                        "tonegate.luminance_stats.read",
+                        std::mem::size_of::<GpuStats>() as u64,
+                    ),
+                    frame: read_buffer(ctx, "tonegate.encode.read", frame_bytes.max(16)),
+                    timing: queries
+                        .as_ref()
+                        .map(|q| read_buffer(ctx, "tonegate.timestamps.read", q.slot_bytes())),
+                })
+                .collect(),
+            busy: Default::default(),
+            submitted: Default::default(),
             stats,
-            frame_read: read_buffer(ctx, "tonegate.encode.read", frame_bytes.max(16)),
             frame_buf: frame,
             queries,
         })
@@ -307,19 +344,43 @@ impl<'a> GpuRenderer<'a> {
     /// Renders one frame (rotation already set) and reads back the frame,
     /// the statistics and the stage times.
     pub fn render(&self, read_frame: bool) -> Result<GpuFrame, GpuError> {
+        let ticket = self.submit(read_frame)?;
+        self.collect(ticket)
+    }
+
+    /// Submits one frame (rotation, jitter and history already set) and
+    /// starts mapping its results without waiting for them. At most
+    /// [`FRAMES_IN_FLIGHT`] frames may be submitted and not yet collected.
+    pub fn submit(&self, read_frame: bool) -> Result<Ticket, GpuError> {
         let start = std::time::Instant::now();
+        let n = self
+            .submitted
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let slot = n % FRAMES_IN_FLIGHT;
+        {
+            let mut busy = self.lock_busy();
+            if busy[slot] {
+                return Err(GpuError::Readback(format!(
+                    "more than {FRAMES_IN_FLIGHT} frames submitted and not collected"
+                )));
+            }
+            busy[slot] = true;
+        }
+        let staging = &self.staging[slot];
         let mut encoder = self
             .ctx
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("tonegate.frame"),
             });
-        self.encode(&mut encoder, 0);
-        self.encode_timing_copy(&mut encoder);
+        self.encode(&mut encoder, slot as u32);
+        if let (Some(q), Some(dst)) = (&self.queries, &staging.timing) {
+            q.copy_slot(&mut encoder, slot as u32, dst);
+        }
         encoder.copy_buffer_to_buffer(
             &self.stats,
             0,
-            &self.stats_read,
+            &staging.stats,
             0,
             std::mem::size_of::<GpuStats>() as u64,
         );
@@ -327,25 +388,105 @@ impl<'a> GpuRenderer<'a> {
             encoder.copy_buffer_to_buffer(
                 &self.frame_buf,
                 0,
-                &self.frame_read,
+                &staging.frame,
                 0,
                 self.width as u64 * self.height as u64 * 4,
             );
         }
-        self.ctx.queue.submit([encoder.finish()]);
+        let submission = self.ctx.queue.submit([encoder.finish()]);
         if self.taa.is_some() {
             // The frame just submitted wrote the other history texture.
             self.odd
                 .fetch_xor(true, std::sync::atomic::Ordering::Relaxed);
         }
-        self.ctx.wait()?;
-        let stats_bytes = self.ctx.read_buffer(&self.stats_read)?;
+        let (tx, mapped) = std::sync::mpsc::channel();
+        let buffers = [
+            Some(&staging.stats),
+            read_frame.then_some(&staging.frame),
+            staging.timing.as_ref(),
+        ];
+        let mut maps = 0;
+        for buffer in buffers.into_iter().flatten() {
+            let tx = tx.clone();
+            buffer.slice(..).map_async(wgpu::MapMode::Read, move |r| {
+                let _ = tx.send(r);
+            });
+            maps += 1;
+        }
+        Ok(Ticket {
+            slot,
+            read_frame,
+            start,
+            submission,
+            mapped,
+            maps,
+        })
+    }
+
+    /// Waits for a submitted frame and reads its results; its staging slot
+    /// is free again afterwards, whatever the outcome.
+    pub fn collect(&self, ticket: Ticket) -> Result<GpuFrame, GpuError> {
+        // A slot whose mapping never finished (device lost) stays taken.
+        self.wait_ticket(&ticket)?;
+        let result = self.read_ticket(&ticket);
+        let staging = &self.staging[ticket.slot];
+        staging.stats.unmap();
+        if ticket.read_frame {
+            staging.frame.unmap();
+        }
+        if let Some(t) = &staging.timing {
+            t.unmap();
+        }
+        self.lock_busy()[ticket.slot] = false;
+        result
+    }
+
+    fn lock_busy(&self) -> std::sync::MutexGuard<'_, [bool; FRAMES_IN_FLIGHT]> {
+        self.busy
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
+    }
+
+    /// Waits until the ticket's submission is done and its buffers mapped.
+    fn wait_ticket(&self, ticket: &Ticket) -> Result<(), GpuError> {
+        self.ctx
+            .device
+            .poll(wgpu::PollType::Wait {
+                submission_index: Some(ticket.submission.clone()),
+                timeout: None,
+            })
+            .map_err(|e| GpuError::DeviceLost(e.to_string()))?;
+        self.ctx.take_error()?;
+        // The wait returns after the submission's map callbacks have run.
+        for _ in 0..ticket.maps {
+            ticket
+                .mapped
+                .try_recv()
+                .map_err(|e| GpuError::Readback(format!("a frame's results were not mapped: {e}")))?
+                .map_err(|e| GpuError::Readback(e.to_string()))?;
+        }
+        Ok(())
+    }
+
+    fn read_ticket(&self, ticket: &Ticket) -> Result<GpuFrame, GpuError> {
+        let staging = &self.staging[ticket.slot];
+        let mapped = |b: &wgpu::Buffer| -> Result<Vec<u8>, GpuError> {
+            Ok(b.slice(..)
+                .get_mapped_range()
+                .map_err(|e| GpuError::Readback(e.to_string()))?
+                .to_vec())
+        };
+        let stats_bytes = mapped(&staging.stats)?;
         let stats: GpuStats =
             bytemuck::pod_read_unaligned(&stats_bytes[..std::mem::size_of::<GpuStats>()]);
-        let frame = if read_frame {
-            let bytes = self.ctx.read_buffer(&self.frame_read)?;
+        let frame = if ticket.read_frame {
+            let view = staging
+                .frame
+                .slice(..)
+                .get_mapped_range()
+                .map_err(|e| GpuError::Readback(e.to_string()))?;
             // Buffers are at least 16 bytes: a frame under 4 pixels has padding.
-            let pixels = bytes
+            let pixels = view
                 .chunks_exact(4)
                 .take(self.width as usize * self.height as usize)
                 .map(|c| [c[0], c[1], c[2]])
@@ -358,13 +499,52 @@ impl<'a> GpuRenderer<'a> {
         } else {
             None
         };
-        let timings = self.read_timings(1)?.pop().unwrap_or_default();
+        let timings = match (&self.queries, &staging.timing) {
+            (Some(q), Some(b)) => q.parse(&mapped(b)?, &self.stage_names(), self.ctx),
+            _ => Vec::new(),
+        };
         Ok(GpuFrame {
             frame,
             stats,
             timings,
-            wall_ms: start.elapsed().as_secs_f64() * 1e3,
+            wall_ms: ticket.start.elapsed().as_secs_f64() * 1e3,
         })
+    }
+
+    /// Renders `frames` in order with up to [`FRAMES_IN_FLIGHT`] in flight:
+    /// `set(n)` prepares frame n (rotation, jitter, history) just before it
+    /// is submitted, and `sink(n, frame)` receives the frames in order, the
+    /// image read back where `read(n)`. Frame n+1 is rendering while frame n
+    /// is copied out and handed over. On an error the frames still in flight
+    /// are collected and dropped.
+    pub fn frames(
+        &self,
+        frames: impl IntoIterator<Item = u32>,
+        mut set: impl FnMut(u32),
+        read: impl Fn(u32) -> bool,
+        mut sink: impl FnMut(u32, GpuFrame) -> Result<(), GpuError>,
+    ) -> Result<(), GpuError> {
+        let mut flight: std::collections::VecDeque<(u32, Ticket)> = Default::default();
+        let run = || -> Result<(), GpuError> {
+            for n in frames {
+                if flight.len() == FRAMES_IN_FLIGHT {
+                    if let Some((k, t)) = flight.pop_front() {
+                        sink(k, self.collect(t)?)?;
+                    }
+                }
+                set(n);
+                flight.push_back((n, self.submit(read(n))?));
+            }
+            while let Some((k, t)) = flight.pop_front() {
+                sink(k, self.collect(t)?)?;
+            }
+            Ok(())
+        };
+        let result = run();
+        for (_, t) in flight {
+            let _ = self.collect(t);
+        }
+        result
     }
 
     /// Reads back the output texture of `stage` ("sphere", "taa_sobel",

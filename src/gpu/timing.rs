@@ -69,6 +69,26 @@ impl Queries {
         );
     }
 
+    /// Bytes of one slot's resolved timestamps.
+    pub fn slot_bytes(&self) -> u64 {
+        self.stride
+    }
+
+    /// Copies `slot`'s resolved timestamps into `dst` (a frame's own staging).
+    pub fn copy_slot(&self, encoder: &mut wgpu::CommandEncoder, slot: u32, dst: &wgpu::Buffer) {
+        let s = (slot % TIMING_SLOTS) as u64;
+        encoder.copy_buffer_to_buffer(&self.resolve, s * self.stride, dst, 0, self.stride);
+    }
+
+    /// Stage times from one slot's resolved timestamps, passes named by `names`.
+    pub fn parse(&self, bytes: &[u8], names: &[&str], ctx: &GpuContext) -> Vec<StageTiming> {
+        let ticks: Vec<u64> = bytes[..2 * names.len() * 8]
+            .chunks_exact(8)
+            .map(|c| u64::from_le_bytes(c.try_into().unwrap_or([0; 8])))
+            .collect();
+        durations(names, &ticks, ctx.timestamp_period)
+    }
+
     /// Copies every slot's resolved timestamps where `read` can map them.
     pub fn copy(&self, encoder: &mut wgpu::CommandEncoder) {
         encoder.copy_buffer_to_buffer(
