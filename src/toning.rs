@@ -294,8 +294,93 @@ pub fn tone_map(
     gpu: Option<(&GpuContext, GpuConfig)>,
     want_display: bool,
 ) -> Result<Toned> {
+    let mut kept = gpu.map(|(ctx, config)| (GpuRenderers::new(ctx), config));
+    let gpu = kept.as_mut().map(|(r, config)| (r, *config));
     tone_map_until(img, pipeline, gpu, want_display, &|| false)?
         .ok_or_else(|| invalid("the tone-map stopped before its end"))
+}
+
+/// Renderers kept between images on one device (the server's GPU worker):
+/// an image of a size, plan, settings and configuration seen before is
+/// uploaded into that renderer's input ([`GpuRenderer::reload`]) instead of
+/// creating its textures, buffers and bind groups again. At most
+/// [`GpuRenderers::KEEP`] renderers and [`GpuRenderers::KEEP_PIXELS`]
+/// pixels are kept, the least recently used dropped first.
+pub struct GpuRenderers<'a> {
+    ctx: &'a GpuContext,
+    /// (key, renderer), the most recently used last.
+    kept: Vec<(String, crate::gpu::GpuRenderer<'a>)>,
+}
+
+impl<'a> GpuRenderers<'a> {
+    pub const KEEP: usize = 4;
+    /// Two 4096×2048 frames' worth: a renderer holds several full-frame
+    /// textures (16 bytes a pixel each in f32), so this bounds the device
+    /// memory kept idle to a few hundred MiB.
+    pub const KEEP_PIXELS: u64 = 2 * 4096 * 2048;
+
+    pub fn new(ctx: &'a GpuContext) -> Self {
+        GpuRenderers {
+            ctx,
+            kept: Vec::new(),
+        }
+    }
+
+    pub fn ctx(&self) -> &'a GpuContext {
+        self.ctx
+    }
+
+    /// How many renderers are kept now.
+    pub fn len(&self) -> usize {
+        self.kept.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.kept.is_empty()
+    }
+
+    /// A renderer of `plan` for `img` with `pipeline` and `config`: a kept
+    /// one reloaded with `img`, or a new one (then kept).
+    pub fn renderer(
+        &mut self,
+        img: &HdrImage,
+        plan: &StagePlan,
+        pipeline: &Pipeline,
+        config: GpuConfig,
+    ) -> Result<&crate::gpu::GpuRenderer<'a>> {
+        let key = format!(
+            "{}x{} {:?} {pipeline:?} {config:?}",
+            img.width,
+            img.height,
+            plan.names()
+        );
+        if let Some(i) = self.kept.iter().position(|(k, _)| *k == key) {
+            let (k, r) = self.kept.remove(i);
+            if r.reload(img) {
+                self.kept.push((k, r));
+                return Ok(&self.kept[self.kept.len() - 1].1);
+            }
+        }
+        let r = crate::gpu::GpuRenderer::new(
+            self.ctx,
+            plan.clone(),
+            crate::gpu::GpuInput::Flat(img),
+            pipeline,
+            config,
+        )?;
+        self.kept.push((key, r));
+        let pixels = |kept: &[(String, crate::gpu::GpuRenderer)]| -> u64 {
+            kept.iter()
+                .map(|(_, r)| r.width() as u64 * r.height() as u64)
+                .sum()
+        };
+        while self.kept.len() > 1
+            && (self.kept.len() > Self::KEEP || pixels(&self.kept) > Self::KEEP_PIXELS)
+        {
+            self.kept.remove(0);
+        }
+        Ok(&self.kept[self.kept.len() - 1].1)
+    }
 }
 
 /// [`tone_map`], asking `stop` between stages (the CPU reference) or before
@@ -304,7 +389,7 @@ pub fn tone_map(
 pub fn tone_map_until(
     img: &HdrImage,
     pipeline: &Pipeline,
-    gpu: Option<(&GpuContext, GpuConfig)>,
+    gpu: Option<(&mut GpuRenderers, GpuConfig)>,
     want_display: bool,
     stop: &dyn Fn() -> bool,
 ) -> Result<Option<Toned>> {
@@ -333,8 +418,8 @@ pub fn tone_map_until(
             }))
         }
         Some(_) if stop() => Ok(None),
-        Some((ctx, config)) => {
-            let toned = gpu_flat(img, pipeline, ctx, config, want_display)?;
+        Some((renderers, config)) => {
+            let toned = gpu_flat(img, pipeline, renderers, config, want_display)?;
             Ok((!stop()).then_some(toned))
         }
     }
@@ -343,7 +428,7 @@ pub fn tone_map_until(
 fn gpu_flat(
     img: &HdrImage,
     pipeline: &Pipeline,
-    ctx: &GpuContext,
+    renderers: &mut GpuRenderers,
     config: GpuConfig,
     want_display: bool,
 ) -> Result<Toned> {
@@ -358,13 +443,7 @@ fn gpu_flat(
     if want_display {
         config.execution = crate::gpu::Execution::Staged;
     }
-    let r = crate::gpu::GpuRenderer::new(
-        ctx,
-        plan.clone(),
-        crate::gpu::GpuInput::Flat(img),
-        pipeline,
-        config,
-    )?;
+    let r = renderers.renderer(img, &plan, pipeline, config)?;
     let out = r.render(true)?;
     let display = if want_display {
         Some(r.read_output("display")?.unwrap_or_else(|| img.to_linear()))

@@ -911,3 +911,52 @@ fn frames_in_flight_match_one_at_a_time_in_order() {
     }
     r.render(false).expect("slots free again after collecting");
 }
+
+/// The server's renderers kept between images: an image of a size and
+/// settings seen before is reloaded into the kept renderer and renders
+/// exactly what a fresh renderer does; an input that would change the
+/// configuration in effect (f16 promoted) or another size gets its own.
+#[test]
+fn kept_renderers_render_what_fresh_ones_do() {
+    use tonegate::toning::{tone_map, tone_map_until, GpuRenderers, ToneSettings};
+    let ctx = context();
+    let settings = ToneSettings {
+        bloom: 0.04,
+        ..Default::default()
+    };
+    let resolved = settings.resolve().unwrap();
+    let pipeline = resolved.pipeline();
+    let (w, h) = (129, 67);
+    let night = tonegate::env::BuiltinEnv::Night.generate(w, h);
+    let sky = tonegate::env::BuiltinEnv::Sky.generate(w, h);
+    // Beyond f16's range: f16 intermediates are promoted to f32 for it.
+    let mut hot = sky.clone();
+    hot.pixels[7] = [1e6, 1e6, 1e6];
+    let small = tonegate::env::BuiltinEnv::Night.generate(31, 17);
+    for config in [
+        GpuConfig::default(),
+        GpuConfig {
+            hdr_format: HdrFormat::Rgba16Float,
+            ..Default::default()
+        },
+    ] {
+        let mut kept = GpuRenderers::new(&ctx);
+        let order = [&night, &sky, &night, &hot, &sky, &small, &sky];
+        for (i, img) in order.iter().enumerate() {
+            let fresh = tone_map(img, &pipeline, Some((&ctx, config)), false).unwrap();
+            let reused =
+                tone_map_until(img, &pipeline, Some((&mut kept, config)), false, &|| false)
+                    .unwrap()
+                    .unwrap();
+            let what = format!("image {i} ({:?})", config.hdr_format);
+            assert!(reused.frame == fresh.frame, "{what}: frame differs");
+            assert_eq!(
+                format!("{:?}", reused.stats),
+                format!("{:?}", fresh.stats),
+                "{what}"
+            );
+        }
+        // night and sky share one renderer; `small` has its own.
+        assert_eq!(kept.len(), 2, "{:?}", config.hdr_format);
+    }
+}

@@ -124,11 +124,28 @@ impl GpuInput<'_> {
             GpuInput::Sphere { env, .. } => env,
             GpuInput::Flat(img) => img,
         };
-        img.pixels
-            .iter()
-            .flat_map(|p| p.iter().copied())
-            .fold(0.0f32, f32::max)
+        max_component(&img.pixels)
     }
+}
+
+/// The largest component of `pixels`, at least 0, NaN ignored. Eight
+/// independent lanes (a comparison, not `f32::max`) let the compiler use
+/// vector maxima: the serial NaN-aware fold took 2.5 ms of a 1024×512
+/// request.
+fn max_component(pixels: &[[f32; 3]]) -> f32 {
+    let flat: &[f32] = bytemuck::cast_slice(pixels);
+    let mut lanes = [0.0f32; 8];
+    let chunks = flat.chunks_exact(8);
+    let rest = chunks.remainder();
+    for chunk in chunks {
+        for (m, &v) in lanes.iter_mut().zip(chunk) {
+            // A NaN compares false and is skipped, as f32::max skips it.
+            *m = if v > *m { v } else { *m };
+        }
+    }
+    rest.iter()
+        .chain(&lanes)
+        .fold(0.0f32, |m, &v| if v > m { v } else { m })
 }
 
 pub struct GpuRenderer<'a> {
@@ -138,6 +155,10 @@ pub struct GpuRenderer<'a> {
     pub config: GpuConfig,
     /// What the renderer changed on its own and why (e.g. f16 promoted to f32).
     pub notes: Vec<String>,
+    /// The configuration asked for, before `in_effect`.
+    requested: GpuConfig,
+    /// A flat input's texture, which [`GpuRenderer::reload`] refills.
+    input: Option<wgpu::Texture>,
     width: u32,
     height: u32,
     camera: Option<Camera>,
@@ -171,11 +192,16 @@ impl<'a> GpuRenderer<'a> {
         pipeline: &Pipeline,
         config: GpuConfig,
     ) -> Result<GpuRenderer<'a>, GpuError> {
+        let requested = config;
         let (config, notes) = config.in_effect(input.max_component(), &plan, ctx.cpu_adapter);
         let (width, height) = input.size();
         ctx.check_size(width, height)?;
         let taa = plan.taa().is_some();
         let mut wiring = frame_resources(ctx, &input, pipeline, config, (width, height), taa)?;
+        let input_texture = match input {
+            GpuInput::Flat(_) => Some(wiring.hdr.clone()),
+            GpuInput::Sphere { .. } => None,
+        };
         let camera = match input {
             GpuInput::Sphere { camera, .. } => Some(camera),
             GpuInput::Flat(_) => None,
@@ -210,6 +236,8 @@ impl<'a> GpuRenderer<'a> {
             plan,
             config,
             notes,
+            requested,
+            input: input_texture,
             width,
             height,
             camera,
@@ -237,6 +265,37 @@ impl<'a> GpuRenderer<'a> {
             frame_buf: frame,
             queries,
         })
+    }
+
+    /// Replaces a flat input with `img` for the next frames, keeping every
+    /// texture, buffer and bind group: what a server rendering many images
+    /// of one size and one set of settings reuses. False (nothing changed)
+    /// when the renderer cannot take it: a sphere renderer, another size,
+    /// or an input that would change the configuration in effect (f16
+    /// intermediates promoted to f32, or no longer).
+    pub fn reload(&self, img: &HdrImage) -> bool {
+        let Some(texture) = &self.input else {
+            return false;
+        };
+        if (img.width, img.height) != (self.width, self.height) {
+            return false;
+        }
+        let (config, _) =
+            self.requested
+                .in_effect(max_component(&img.pixels), &self.plan, self.ctx.cpu_adapter);
+        if config != self.config {
+            return false;
+        }
+        upload(self.ctx, texture, img, self.config.hdr_format);
+        true
+    }
+
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    pub fn height(&self) -> u32 {
+        self.height
     }
 
     /// The adapter the passes run on.
@@ -707,4 +766,44 @@ fn frame_resources<'a, 'p>(
         bright_source: None,
         composite: None,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::max_component;
+
+    #[test]
+    fn max_component_is_the_serial_fold_at_any_length_with_nan_and_negatives() {
+        let serial = |p: &[[f32; 3]]| {
+            p.iter()
+                .flat_map(|p| p.iter().copied())
+                .fold(0.0f32, f32::max)
+        };
+        let mut seed = 7u32;
+        let mut next = move || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 8) as f32 / (1 << 24) as f32
+        };
+        for n in [0usize, 1, 2, 3, 5, 8, 11, 64, 1001] {
+            let mut p: Vec<[f32; 3]> = (0..n)
+                .map(|_| [next() * 10.0 - 5.0, next(), -next()])
+                .collect();
+            assert_eq!(max_component(&p), serial(&p), "{n}");
+            if n > 2 {
+                // The largest value in every possible lane position, and a
+                // NaN in front of it, are still found.
+                for at in 0..(3 * n).min(17) {
+                    let mut q = p.clone();
+                    q[at / 3][at % 3] = 1e30;
+                    if at > 0 {
+                        q[(at - 1) / 3][(at - 1) % 3] = f32::NAN;
+                    }
+                    assert_eq!(max_component(&q), 1e30, "{n} at {at}");
+                }
+                p[0][0] = f32::INFINITY;
+                assert_eq!(max_component(&p), f32::INFINITY);
+            }
+        }
+        assert_eq!(max_component(&[[-1.0, f32::NAN, -3.0]]), 0.0);
+    }
 }

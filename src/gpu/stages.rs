@@ -116,22 +116,23 @@ pub fn upload(
     img: &crate::image::HdrImage,
     format: HdrFormat,
 ) {
-    let bytes: Vec<u8> = match format {
+    let (wide, half);
+    let bytes: &[u8] = match format {
         HdrFormat::Rgba32Float => {
-            let v: Vec<f32> = img
+            wide = img
                 .pixels
                 .iter()
                 .flat_map(|p| [p[0], p[1], p[2], 1.0])
-                .collect();
-            bytemuck::cast_slice(&v).to_vec()
+                .collect::<Vec<f32>>();
+            bytemuck::cast_slice(&wide)
         }
         HdrFormat::Rgba16Float => {
-            let v: Vec<u16> = img
+            half = img
                 .pixels
                 .iter()
                 .flat_map(|p| [p[0], p[1], p[2], 1.0].map(|c| half::f16::from_f32(c).to_bits()))
-                .collect();
-            bytemuck::cast_slice(&v).to_vec()
+                .collect::<Vec<u16>>();
+            bytemuck::cast_slice(&half)
         }
     };
     ctx.queue.write_texture(
@@ -141,7 +142,7 @@ pub fn upload(
             origin: wgpu::Origin3d::ZERO,
             aspect: wgpu::TextureAspect::All,
         },
-        &bytes,
+        bytes,
         wgpu::TexelCopyBufferLayout {
             offset: 0,
             bytes_per_row: Some(img.width * format.bytes_per_pixel()),

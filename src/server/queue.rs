@@ -193,51 +193,107 @@ fn worker(
     stats: Arc<QueueStats>,
     hold: Option<Arc<RwLock<()>>>,
 ) {
-    let mut ctx: Option<GpuContext> = None;
-    while let Ok(job) = rx.recv() {
-        let _held = hold.as_ref().map(|h| h.read());
-        if job.reply.is_closed() {
-            stats.abandoned.fetch_add(1, Ordering::Relaxed);
-            continue;
+    let mut next = rx.recv().ok();
+    // One pass per device: the GPU engine opens its context with the first
+    // job and keeps it, with the renderers it made (reused by size and
+    // settings), until a job leaves the device in doubt (a device error or
+    // a panic); the next job then opens a fresh one.
+    while let Some(first) = next.take() {
+        let ctx = match &engine {
+            Engine::Cpu => None,
+            Engine::Gpu { adapter, .. } => match GpuContext::new(adapter) {
+                Ok(ctx) => Some(ctx),
+                Err(e) => {
+                    finish(first, &stats, Err(ApiError::of_gpu(&e)));
+                    next = rx.recv().ok();
+                    continue;
+                }
+            },
+        };
+        let mut renderers = ctx.as_ref().map(crate::toning::GpuRenderers::new);
+        let mut job = first;
+        loop {
+            let fresh_device = serve_job(job, &engine, renderers.as_mut(), &stats, &hold);
+            if fresh_device {
+                next = rx.recv().ok();
+                break;
+            }
+            match rx.recv() {
+                Ok(j) => job = j,
+                Err(_) => break,
+            }
         }
-        let queue_ms = job.queued_at.elapsed().as_secs_f64() * 1e3;
-        let start = Instant::now();
-        let gone = || job.reply.is_closed();
-        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            run_job(&job.bytes, &job.params, &engine, &mut ctx, &gone)
-        }))
-        .unwrap_or_else(|_| {
-            // A panic may leave the device in any state: start a fresh one.
-            ctx = None;
-            Err(ApiError::internal("the tone mapper panicked on this input"))
-        });
-        let elapsed = start.elapsed();
-        stats
-            .busy_us
-            .fetch_add(elapsed.as_micros() as u64, Ordering::Relaxed);
-        let result = match result {
-            Ok(Some(mut out)) => {
-                out.render_ms = elapsed.as_secs_f64() * 1e3;
-                out.queue_ms = queue_ms;
-                Ok(out)
-            }
-            Ok(None) => {
-                stats.abandoned.fetch_add(1, Ordering::Relaxed);
-                continue;
-            }
-            Err(e) => Err(e),
-        };
-        let counter = if result.is_ok() {
-            &stats.succeeded
-        } else {
-            &stats.failed
-        };
-        counter.fetch_add(1, Ordering::Relaxed);
-        let _ = job.reply.send(result);
+        drop(renderers);
+        if ctx.is_some() {
+            drop(ctx);
+            tracing::info!("GPU context released");
+        }
     }
-    if ctx.take().is_some() {
-        tracing::info!("GPU context released");
+}
+
+/// Answers `job` (unless its client left) with `result`, counted.
+fn finish(job: Job, stats: &QueueStats, result: Result<ToneOutput, ApiError>) {
+    if job.reply.is_closed() {
+        stats.abandoned.fetch_add(1, Ordering::Relaxed);
+        return;
     }
+    let counter = if result.is_ok() {
+        &stats.succeeded
+    } else {
+        &stats.failed
+    };
+    counter.fetch_add(1, Ordering::Relaxed);
+    let _ = job.reply.send(result);
+}
+
+/// Runs one job and answers it; true when the device must be opened afresh
+/// for the next (a device error or a panic may have left it in any state).
+fn serve_job(
+    job: Job,
+    engine: &Engine,
+    renderers: Option<&mut crate::toning::GpuRenderers>,
+    stats: &QueueStats,
+    hold: &Option<Arc<RwLock<()>>>,
+) -> bool {
+    let _held = hold.as_ref().map(|h| h.read());
+    if job.reply.is_closed() {
+        stats.abandoned.fetch_add(1, Ordering::Relaxed);
+        return false;
+    }
+    let queue_ms = job.queued_at.elapsed().as_secs_f64() * 1e3;
+    let start = Instant::now();
+    let gone = || job.reply.is_closed();
+    let mut fresh_device = false;
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        run_job(
+            &job.bytes,
+            &job.params,
+            engine,
+            renderers,
+            &mut fresh_device,
+            &gone,
+        )
+    }))
+    .unwrap_or_else(|_| {
+        fresh_device = true;
+        Err(ApiError::internal("the tone mapper panicked on this input"))
+    });
+    let elapsed = start.elapsed();
+    stats
+        .busy_us
+        .fetch_add(elapsed.as_micros() as u64, Ordering::Relaxed);
+    match result {
+        Ok(Some(mut out)) => {
+            out.render_ms = elapsed.as_secs_f64() * 1e3;
+            out.queue_ms = queue_ms;
+            finish(job, stats, Ok(out));
+        }
+        Ok(None) => {
+            stats.abandoned.fetch_add(1, Ordering::Relaxed);
+        }
+        Err(e) => finish(job, stats, Err(e)),
+    }
+    fresh_device
 }
 
 /// One job; `Ok(None)` when `gone` said its client left (checked after
@@ -246,7 +302,8 @@ fn run_job(
     bytes: &[u8],
     p: &JobParams,
     engine: &Engine,
-    ctx: &mut Option<GpuContext>,
+    renderers: Option<&mut crate::toning::GpuRenderers>,
+    fresh_device: &mut bool,
     gone: &dyn Fn() -> bool,
 ) -> Result<Option<ToneOutput>, ApiError> {
     let (img, load_report) = crate::io::decode_hdr(bytes, &p.source_name, &p.load)
@@ -254,22 +311,19 @@ fn run_job(
     if gone() {
         return Ok(None);
     }
-    let (gpu, adapter) = match engine {
-        Engine::Cpu => (None, "cpu-reference".to_string()),
-        Engine::Gpu { adapter, config } => {
-            if ctx.is_none() {
-                *ctx = Some(GpuContext::new(adapter).map_err(|e| ApiError::of_gpu(&e))?);
-            }
-            let c = ctx.as_ref().expect("set above");
-            (Some((c, *config)), c.adapter.name.clone())
+    let (gpu, adapter) = match (engine, renderers) {
+        (Engine::Gpu { config, .. }, Some(r)) => {
+            let name = r.ctx().adapter.name.clone();
+            (Some((r, *config)), name)
         }
+        _ => (None, "cpu-reference".to_string()),
     };
     let result = crate::toning::tone_map_until(&img, &p.resolved.pipeline(), gpu, false, gone);
     drop(img);
     if let Err(crate::Error::Gpu(e)) = &result {
         if !matches!(e, crate::gpu::GpuError::TooLarge { .. }) {
             // A lost device is not coming back: the next job opens a new one.
-            *ctx = None;
+            *fresh_device = true;
         }
     }
     let Some(out) = result.map_err(|e| ApiError::of_crate(&e))? else {
