@@ -237,9 +237,9 @@ pub(crate) fn io_or_truncated(
 /// themselves, but `exr` and `image` are large and fuzzing keeps finding
 /// panics in decoders like them. The closure only touches data it creates or
 /// owns, so observing it after a panic is impossible and `AssertUnwindSafe` is
-/// sound. Decoding must stay on this thread for this to work: a panic inside
-/// a rayon pool aborts the process, which is why the EXR reader decompresses
-/// sequentially.
+/// sound. A panic must be caught on the thread it happens on: one escaping a
+/// task `spawn`ed on a rayon pool aborts the process, so the EXR reader,
+/// which decompresses chunks in parallel, wraps each chunk in this itself.
 pub(crate) fn catch_decoder_panic<T>(
     file: &str,
     format: &'static str,

@@ -6,7 +6,9 @@
 //! instead of unwinding into `catch_unwind`. Here the meta data
 //! (`exr::meta::MetaData`) is read first, the chosen part's data window is
 //! checked against the size policy, and only that part's blocks at full
-//! resolution are decompressed, sequentially, into one buffer.
+//! resolution are decompressed into one buffer: read and checked one by one,
+//! decompressed a few at a time in parallel (each under its own
+//! `catch_unwind`, so no panic crosses a thread), placed in file order.
 //!
 //! Which part: the first (non-deep) part with `R`, `G` and `B` channels, or
 //! else with a `Y` channel (luminance-only EXRs become grey RGB). Alpha and
@@ -144,30 +146,50 @@ pub(crate) fn decode<R: BufRead + Seek>(
             block.layer == part && tile.is_largest_resolution_level()
         })
         .map_err(exr_error)?;
-    for chunk in chunks {
-        let chunk = chunk.map_err(exr_error)?;
-        if chunk.layer_index != part {
-            return Err(corrupt(format!(
-                "the offset table of part {part} points at a block of part {}",
-                chunk.layer_index
-            )));
+    // Decompressed in batches of a few chunks per core: the blocks of one
+    // batch are the only decompressed data held at once.
+    let batch = 2 * rayon::current_num_threads().max(1);
+    let mut chunks = chunks.peekable();
+    while chunks.peek().is_some() {
+        let mut raw = Vec::with_capacity(batch);
+        for chunk in chunks.by_ref().take(batch) {
+            let chunk = chunk.map_err(exr_error)?;
+            if chunk.layer_index != part {
+                return Err(corrupt(format!(
+                    "the offset table of part {part} points at a block of part {}",
+                    chunk.layer_index
+                )));
+            }
+            check_dwa_counters(&chunk, header).map_err(corrupt)?;
+            raw.push(chunk);
         }
-        check_dwa_counters(&chunk, header).map_err(corrupt)?;
-        let block = UncompressedBlock::decompress_chunk(chunk, &meta, false).map_err(exr_error)?;
-        if block.index.level != Vec2(0, 0) {
-            return Err(corrupt(
-                "a full-resolution block slot holds a mip-map block".into(),
-            ));
+        let blocks: Vec<Result<UncompressedBlock, HdrIoError>> = {
+            use rayon::prelude::*;
+            raw.into_par_iter()
+                .map(|chunk| {
+                    super::error::catch_decoder_panic(file, FORMAT, || {
+                        UncompressedBlock::decompress_chunk(chunk, &meta, false).map_err(exr_error)
+                    })
+                })
+                .collect()
+        };
+        for block in blocks {
+            let block = block?;
+            if block.index.level != Vec2(0, 0) {
+                return Err(corrupt(
+                    "a full-resolution block slot holds a mip-map block".into(),
+                ));
+            }
+            place_block(
+                &block,
+                header,
+                source,
+                w as usize,
+                &mut pixels,
+                &mut row_fill,
+            )
+            .map_err(corrupt)?;
         }
-        place_block(
-            &block,
-            header,
-            source,
-            w as usize,
-            &mut pixels,
-            &mut row_fill,
-        )
-        .map_err(corrupt)?;
     }
 
     if let Some(y) = row_fill.iter().position(|&filled| filled != u64::from(w)) {
