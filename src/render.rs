@@ -398,6 +398,10 @@ impl<'a> SceneRenderer<'a> {
             frames,
             timings: summarise(&times),
             fps,
+            options: match &self.engine {
+                Engine::Cpu => Vec::new(),
+                Engine::Gpu(r) => crate::check::AccuracyOption::of(&r.config),
+            },
         })
     }
 }

@@ -2,7 +2,7 @@
 //! 1e-5 of f64 (or a documented exception's bound), refused where it must be,
 //! and each defined fallback actually taken.
 
-use tonegate::gpu::{AdapterChoice, GpuContext};
+use tonegate::gpu::{AdapterChoice, GpuContext, ReductionMethod};
 use tonegate::stress::{self, Row, StressReport};
 
 fn report() -> &'static StressReport {
@@ -10,7 +10,7 @@ fn report() -> &'static StressReport {
     REPORT.get_or_init(|| {
         let ctx = GpuContext::new(&AdapterChoice::Default)
             .expect("lavapipe (mesa-vulkan-drivers) is installed");
-        stress::run(&stress::cases::all(true), Some(&ctx))
+        stress::run(&stress::cases::all(true), Some(&ctx), ReductionMethod::Auto)
     })
 }
 
@@ -136,4 +136,36 @@ fn the_independent_statistics_catch_a_wrong_sum() {
     bad.pixels[0] = [1.0, 1.0, 1.0];
     let other = stress::independent_stats(&bad, weights, 1e-4);
     assert_ne!(good.log_average, other.log_average);
+}
+
+/// The workgroup tree (what `--reduction auto` runs on a GPU) on the cases
+/// whose statistics stress a reduction: every size edge, the 8.4 Mpx frame,
+/// 60 decades and subnormals, held to the same bounds here on llvmpipe.
+#[test]
+fn the_workgroup_tree_holds_every_bound_on_the_reduction_cases() {
+    let ctx = GpuContext::new(&AdapterChoice::Default).expect("lavapipe is installed");
+    let names = [
+        "size_1x1",
+        "size_1xN",
+        "size_Nx1",
+        "size_prime_127x131",
+        "large_4096x2048",
+        "span_1e-30_to_1e30",
+        "subnormals",
+        "single_bright_pixel",
+        "all_black",
+    ];
+    let cases: Vec<_> = stress::cases::all(true)
+        .into_iter()
+        .filter(|c| names.contains(&c.name))
+        .collect();
+    assert_eq!(cases.len(), names.len());
+    let report = stress::run(&cases, Some(&ctx), ReductionMethod::Tree);
+    for row in report.cases.iter().filter(|r| r.renderer == "gpu") {
+        assert!(row.finite && row.passed, "{row:?}");
+        if let Some(e) = row.max_rel_error {
+            assert!(e <= row.bound, "{}: {e:e} > {:e}", row.name, row.bound);
+        }
+    }
+    assert!(report.passed);
 }

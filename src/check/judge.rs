@@ -129,6 +129,9 @@ pub struct Rendered {
     pub frames: Vec<Rgb8Image>,
     pub timings: Vec<TimingSummary>,
     pub fps: Option<f64>,
+    /// The accuracy-trading options the renderer had in effect (none on
+    /// the CPU): the checks for them apply.
+    pub options: Vec<super::spec::AccuracyOption>,
 }
 
 /// A frame whose images are kept as artifacts (a failing frame, or the
@@ -157,6 +160,7 @@ pub fn judge(
         frames: images,
         timings,
         fps,
+        options,
     } = rendered;
     if images.len() != goldens.len() {
         return Err(JudgeError::FrameCount {
@@ -224,6 +228,7 @@ pub fn judge(
         adapter: &adapter,
         spp,
         reference_spp: on.reference_spp,
+        options: &options,
     };
     let checks: Vec<CheckResult> = (0..on.checks.len())
         .map(|i| evaluate(on.checks, i, &judged, applies_on, &timings, fps))
@@ -441,6 +446,7 @@ mod tests {
             frames: vec![frame],
             timings: Vec::new(),
             fps: None,
+            options: Vec::new(),
         };
         judge(on, rendered, vec![gradient()]).unwrap().0
     }

@@ -17,4 +17,4 @@ pub use expect::{Expectation, ExpectationOutcome, Expected};
 pub use figures::{FrameMetric, FRAME_METRICS};
 pub use judge::{evaluate, judge, JudgeError, Judging, KeptFrame, Rendered};
 pub use result::{CheckResult, FrameResult, SceneResult, Summary, TaaTag, TestKind};
-pub use spec::{not_applied, Check, CheckSpec, Judged, Rule, Side, Subject};
+pub use spec::{not_applied, AccuracyOption, Check, CheckSpec, Judged, Rule, Side, Subject};

@@ -209,6 +209,43 @@ impl Check {
     }
 }
 
+/// A renderer option that trades accuracy for speed. A check naming options
+/// (`options = ["rgba16float"]`) is that option's own measured bound: it
+/// applies only to renders with all of them in effect, and there it
+/// overrides the generic bound of its kind.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum AccuracyOption {
+    /// f16 intermediates (`--hdr-format rgba16float`): 11-bit significands.
+    #[serde(alias = "f16")]
+    Rgba16float,
+    /// The texture unit's filter (`--env-filter hardware`): sub-texel weights
+    /// of as few as 4 bits (Vulkan's minimum `subTexelPrecisionBits`).
+    HardwareFilter,
+}
+
+impl AccuracyOption {
+    /// The options a GPU configuration has in effect (after an f16 promotion
+    /// to f32 there is no f16 left to excuse).
+    pub fn of(config: &crate::gpu::GpuConfig) -> Vec<AccuracyOption> {
+        let mut v = Vec::new();
+        if config.hdr_format == crate::gpu::HdrFormat::Rgba16Float {
+            v.push(AccuracyOption::Rgba16float);
+        }
+        if config.env_filter == crate::gpu::EnvFilter::Hardware {
+            v.push(AccuracyOption::HardwareFilter);
+        }
+        v
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            AccuracyOption::Rgba16float => "rgba16float",
+            AccuracyOption::HardwareFilter => "hardware_filter",
+        }
+    }
+}
+
 /// A check as a scene file writes it: the comparison, and where it applies.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -218,6 +255,9 @@ pub struct CheckSpec {
     /// Adapter name substring this bound applies to; none = every adapter.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub adapter: Option<String>,
+    /// Accuracy-trading options this bound is for; none = the exact path.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub options: Vec<AccuracyOption>,
     /// Samples per pixel of the render this bound is for; none = the scene's
     /// `reference_spp` (the goldens' own, a like-for-like comparison). A
     /// bound for `spp = 1` measures the plain path's aliasing instead.
@@ -232,10 +272,33 @@ impl CheckSpec {
     /// The label of [`Rule::label`], with the adapter it is for.
     pub fn label(&self) -> String {
         let base = self.check.rule().label();
-        match &self.adapter {
-            Some(a) => format!("{base} [{a}]"),
-            None => base,
+        let on: Vec<&str> = self
+            .adapter
+            .as_deref()
+            .into_iter()
+            .chain(self.options.iter().map(|o| o.name()))
+            .collect();
+        match on.is_empty() {
+            true => base,
+            false => format!("{base} [{}]", on.join(", ")),
         }
+    }
+
+    /// Whether `self` is a narrower bound than `other`: for all of its
+    /// options and more, or for an adapter where `other` names none. Among
+    /// the bounds of one kind that apply, a narrower one overrides a wider;
+    /// bounds for different options (f16 here, the hardware filter there)
+    /// both hold.
+    fn narrower_than(&self, other: &CheckSpec) -> bool {
+        let covers = other.options.iter().all(|o| self.options.contains(o))
+            && (other.adapter.is_none() || self.adapter.is_some());
+        let more = self.options.len() > other.options.len()
+            || (self.adapter.is_some() && other.adapter.is_none());
+        covers && more
+    }
+
+    fn options_match(&self, on: &[AccuracyOption]) -> bool {
+        self.options.iter().all(|o| on.contains(o))
     }
 
     /// The rules a parser cannot express: the spp range and a bound that
@@ -273,6 +336,8 @@ pub struct Judged<'a> {
     /// The spp of checks that name none (`Scene::default_spp`: the goldens'
     /// own, or 1 for a TAA scene).
     pub reference_spp: u32,
+    /// The accuracy-trading options the render had in effect.
+    pub options: &'a [AccuracyOption],
 }
 
 /// Why check `index` of `specs` is not applied here, if it is not: a bound
@@ -293,20 +358,26 @@ pub fn not_applied(specs: &[CheckSpec], index: usize, on: Judged) -> Option<Stri
             spec.adapter.as_deref().unwrap_or("")
         ));
     }
-    if spec.adapter.is_none() {
-        let kind = spec.check.kind();
-        if let Some(o) = specs.iter().find(|o| {
-            o.adapter.is_some()
-                && o.adapter_matches(on.adapter)
-                && o.spp_matches(on)
-                && o.check.kind() == kind
-        }) {
-            return Some(format!(
-                "overridden by the {:?} bound ({})",
-                o.adapter.as_deref().unwrap_or(""),
-                o.label()
-            ));
-        }
+    if !spec.options_match(on.options) {
+        let names: Vec<&str> = spec.options.iter().map(|o| o.name()).collect();
+        return Some(format!(
+            "a bound for renders with {}; this one has {}",
+            names.join(" and "),
+            match on.options {
+                [] => "none".to_string(),
+                o => o.iter().map(|o| o.name()).collect::<Vec<_>>().join(" and "),
+            }
+        ));
+    }
+    let kind = spec.check.kind();
+    if let Some(o) = specs.iter().find(|o| {
+        o.narrower_than(spec)
+            && o.adapter_matches(on.adapter)
+            && o.options_match(on.options)
+            && o.spp_matches(on)
+            && o.check.kind() == kind
+    }) {
+        return Some(format!("overridden by the narrower bound {}", o.label()));
     }
     None
 }
@@ -320,6 +391,7 @@ pub(super) mod tests {
         CheckSpec {
             check,
             adapter: adapter.map(str::to_owned),
+            options: Vec::new(),
             spp: None,
             set_by: None,
         }
@@ -331,6 +403,7 @@ pub(super) mod tests {
             adapter,
             spp: 16,
             reference_spp: 16,
+            options: &[],
         }
     }
 
@@ -448,10 +521,59 @@ pub(super) mod tests {
             adapter: "llvmpipe",
             spp,
             reference_spp: 16,
+            options: &[],
         };
         assert_eq!(not_applied(&specs, 0, at(1)), None);
         assert!(not_applied(&specs, 1, at(1)).is_some());
         assert!(not_applied(&specs, 0, at(16)).is_some());
         assert_eq!(not_applied(&specs, 1, at(16)), None);
+    }
+
+    #[test]
+    fn an_options_bound_applies_with_its_options_only_and_overrides_the_generic_one() {
+        use AccuracyOption::{HardwareFilter, Rgba16float};
+        let mut f16 = spec(Check::MaxFlipMean(0.003), None);
+        f16.options = vec![Rgba16float];
+        let mut hw_nvidia = spec(Check::MaxFlipMean(0.002), Some("NVIDIA"));
+        hw_nvidia.options = vec![HardwareFilter];
+        let specs = vec![
+            spec(Check::MaxFlipMean(0.001), None),
+            f16,
+            hw_nvidia,
+            spec(Check::MaxFlipMean(0.0005), Some("NVIDIA")),
+        ];
+        let at = |adapter, options| Judged {
+            adapter,
+            spp: 16,
+            reference_spp: 16,
+            options,
+        };
+        let applied = |on: Judged| -> Vec<usize> {
+            (0..specs.len())
+                .filter(|&i| not_applied(&specs, i, on).is_none())
+                .collect()
+        };
+        assert_eq!(applied(at("llvmpipe", &[])), vec![0]);
+        assert_eq!(applied(at("llvmpipe", &[Rgba16float])), vec![1]);
+        assert_eq!(applied(at("llvmpipe", &[HardwareFilter])), vec![0]);
+        assert_eq!(applied(at("NVIDIA H100", &[])), vec![3]);
+        assert_eq!(applied(at("NVIDIA H100", &[HardwareFilter])), vec![2]);
+        // Both options: the two one-option bounds are equally narrow; both hold.
+        assert_eq!(
+            applied(at("NVIDIA H100", &[Rgba16float, HardwareFilter])),
+            vec![1, 2]
+        );
+        let why = not_applied(&specs, 1, at("llvmpipe", &[])).unwrap();
+        assert!(why.contains("rgba16float") && why.contains("none"), "{why}");
+        let why = not_applied(&specs, 0, at("llvmpipe", &[Rgba16float])).unwrap();
+        assert!(why.contains("overridden"), "{why}");
+        assert_eq!(
+            specs[2].label(),
+            "FLIP mean <= 0.002 [NVIDIA, hardware_filter]"
+        );
+        let parsed: CheckSpec =
+            toml::from_str("max_flip_mean = 0.003\noptions = [\"rgba16float\"]").unwrap();
+        assert_eq!(parsed.options, vec![Rgba16float]);
+        assert!(toml::from_str::<CheckSpec>("max_flip_mean = 0.003\noptions = [\"f64\"]").is_err());
     }
 }

@@ -266,6 +266,9 @@ pub struct StressArgs {
     /// Adapter: "default" (lavapipe when present), "hardware" (the best GPU), "any", or a name substring.
     #[arg(long, default_value = "default")]
     pub adapter: AdapterChoice,
+    /// Luminance reduction on the GPU: auto (block on a CPU adapter, tree on a GPU), block, pingpong or tree.
+    #[arg(long, default_value = "auto", value_parser = crate::cli::by_name::<tonegate::gpu::ReductionMethod>)]
+    pub reduction: tonegate::gpu::ReductionMethod,
 }
 
 pub fn stress(a: StressArgs) -> Result<ExitCode> {
@@ -285,7 +288,7 @@ pub fn stress(a: StressArgs) -> Result<ExitCode> {
     } else {
         Some(GpuContext::new(&a.adapter)?)
     };
-    let report = tonegate::stress::run(&cases, ctx.as_ref());
+    let report = tonegate::stress::run(&cases, ctx.as_ref(), a.reduction);
     if a.json {
         println!("{}", json_text("the stress report", &report)?);
     } else {

@@ -324,6 +324,12 @@ fn run_inner(
             if let Some(o) = json.as_object_mut() {
                 o.insert("spp".into(), spp_json(*spp));
                 o.insert("adapter_chosen".into(), a.chosen.clone().into());
+                // What `--reduction auto` became on this adapter.
+                o.insert(
+                    "reduction_in_effect".into(),
+                    serde_json::to_value(config.reduction.resolve(ctx.cpu_adapter))
+                        .unwrap_or_default(),
+                );
             }
             (Some((ctx, *config)), info, json)
         }
@@ -426,6 +432,9 @@ fn run_inner(
         crate::stress::run(
             &crate::stress::cases::all(true),
             ctx.as_ref().map(|(c, _)| c),
+            ctx.as_ref()
+                .map(|(_, config)| config.reduction)
+                .unwrap_or_default(),
         )
     });
     let passed = scenes.iter().all(|s| !s.fails_gate())

@@ -12,7 +12,7 @@ pub mod cases;
 
 pub use cases::{Case, Source};
 
-use crate::gpu::{GpuConfig, GpuContext, GpuInput, GpuRenderer, HdrFormat};
+use crate::gpu::{GpuConfig, GpuContext, GpuInput, GpuRenderer, HdrFormat, ReductionMethod};
 use crate::image::{HdrImage, LinearImage};
 use crate::io::LoadOptions;
 use crate::plan::{Input, StagePlan};
@@ -192,8 +192,10 @@ fn load(case: &Case, width_limit: u32) -> Result<(HdrImage, String), String> {
 }
 
 /// Runs every case through both pipelines on the CPU and (when `ctx` is
-/// given) the GPU.
-pub fn run(cases: &[Case], ctx: Option<&GpuContext>) -> StressReport {
+/// given) the GPU, whose statistics are reduced by `reduction` (`check`
+/// passes its own, so `check --reduction tree` holds the tree to the same
+/// bounds on every case).
+pub fn run(cases: &[Case], ctx: Option<&GpuContext>, reduction: ReductionMethod) -> StressReport {
     let width_limit = ctx
         .map(|c| c.limits.max_texture_dimension_2d)
         .unwrap_or(16384);
@@ -273,6 +275,7 @@ pub fn run(cases: &[Case], ctx: Option<&GpuContext>) -> StressReport {
                         } else {
                             HdrFormat::Rgba32Float
                         },
+                        reduction,
                         ..Default::default()
                     };
                     let plan = StagePlan::build(

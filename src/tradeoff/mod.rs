@@ -496,9 +496,10 @@ mod tests {
         // ranges and two sharpen strengths, and with the Catmull-Rom history.
         let taa = 1 + 2 * (2 * 2 + 1);
         assert_eq!(taa_knobs().len(), taa);
-        assert_eq!(a.len(), 2 * 2 * 2 * 3 * 3 + taa);
-        assert_eq!(b.len(), 2 * 2 * 2 * 3 + taa);
-        assert_eq!(sweep(&plain, &[4, 16], &[2]).len(), 2 * 2 * 2 * 2);
+        // Formats × reductions (block, pingpong, tree) × filters × ds × spp.
+        assert_eq!(a.len(), 2 * 3 * 2 * 3 * 3 + taa);
+        assert_eq!(b.len(), 2 * 3 * 2 * 3 + taa);
+        assert_eq!(sweep(&plain, &[4, 16], &[2]).len(), 2 * 3 * 2 * 2);
         let edge = b
             .iter()
             .find(|k| k.taa.is_some_and(|t| t.variant == TaaVariant::EdgeAware))
