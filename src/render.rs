@@ -335,53 +335,90 @@ impl<'a> SceneRenderer<'a> {
         }
     }
 
+    /// Renders every frame of the sequence in order and hands each to
+    /// `sink` as it reaches the host. On the GPU the frames are rendered
+    /// with [`FRAMES_IN_FLIGHT`](crate::gpu::renderer::FRAMES_IN_FLIGHT) in
+    /// flight: frame n is copied out, and `sink` works on it (writes a
+    /// file, compares it), while n+1 renders.
+    pub fn each_frame<E: From<RenderError>>(
+        &self,
+        mut sink: impl FnMut(RenderedFrame) -> Result<(), E>,
+    ) -> Result<(), E> {
+        let r = match &self.engine {
+            Engine::Cpu => {
+                for n in 0..self.scene.frames {
+                    sink(self.frame(n)?)?;
+                }
+                return Ok(());
+            }
+            Engine::Gpu(r) => r,
+        };
+        /// The device's error or the sink's, through `GpuRenderer::frames`.
+        enum Failed<E> {
+            Gpu(GpuError),
+            Sink(E),
+        }
+        impl<E> From<GpuError> for Failed<E> {
+            fn from(e: GpuError) -> Self {
+                Failed::Gpu(e)
+            }
+        }
+        let taa = self.scene.taa.as_ref();
+        let resets = |k: u32| taa.is_none_or(|t| t.resets_at(k));
+        let mut track = self.lock_history();
+        track.next = None;
+        r.frames(
+            0..self.scene.frames,
+            |n| match self.taa {
+                true => self.set_gpu_taa_frame(r, n, !resets(n)),
+                false => r.set_rotation(&self.rotation(n)),
+            },
+            |_| true,
+            |n, out| {
+                let image = out
+                    .frame
+                    .ok_or_else(|| GpuError::Readback("no frame".into()))?;
+                sink(RenderedFrame {
+                    index: n,
+                    image,
+                    wall_ms: out.wall_ms,
+                    detail: FrameDetail::Gpu {
+                        stats: out.stats,
+                        timings: out.timings,
+                    },
+                })
+                .map_err(Failed::Sink)
+            },
+        )
+        .map_err(|e| match e {
+            Failed::Gpu(e) => E::from(self.gpu_error(e)),
+            Failed::Sink(e) => e,
+        })?;
+        // The history now follows the last frame; after a failed sequence
+        // `next` is None, so the next frame replays.
+        if self.taa {
+            track.next = Some(self.scene.frames);
+        }
+        Ok(())
+    }
+
     /// Renders every frame of the sequence for the gate: the images, the
     /// stage times' medians and, on the GPU, the FPS with readback.
-    /// `progress` is told after each frame. On the GPU the frames are
-    /// rendered with [`FRAMES_IN_FLIGHT`](crate::gpu::renderer::FRAMES_IN_FLIGHT)
-    /// in flight (frame n copied out while n+1 renders), and the FPS is
+    /// `progress` is told after each frame. The frames go through
+    /// [`SceneRenderer::each_frame`] (in flight on the GPU), and the FPS is
     /// frames over the whole sequence's wall time.
     pub fn sequence(&self, mut progress: impl FnMut(u32)) -> Result<Rendered, RenderError> {
         let mut frames = Vec::with_capacity(self.scene.frames as usize);
         let mut times = Vec::with_capacity(self.scene.frames as usize);
         let start = Instant::now();
-        match &self.engine {
-            Engine::Cpu => {
-                for n in 0..self.scene.frames {
-                    frames.push(self.frame(n)?.image);
-                    progress(n);
-                }
+        self.each_frame(|f| -> Result<(), RenderError> {
+            if let FrameDetail::Gpu { timings, .. } = f.detail {
+                times.push(timings);
             }
-            Engine::Gpu(r) => {
-                let taa = self.scene.taa.as_ref();
-                let resets = |k: u32| taa.is_none_or(|t| t.resets_at(k));
-                let mut track = self.lock_history();
-                track.next = None;
-                r.frames(
-                    0..self.scene.frames,
-                    |n| match self.taa {
-                        true => self.set_gpu_taa_frame(r, n, !resets(n)),
-                        false => r.set_rotation(&self.rotation(n)),
-                    },
-                    |_| true,
-                    |n, out| {
-                        let image = out
-                            .frame
-                            .ok_or_else(|| GpuError::Readback("no frame".into()))?;
-                        frames.push(image);
-                        times.push(out.timings);
-                        progress(n);
-                        Ok(())
-                    },
-                )
-                .map_err(|e| self.gpu_error(e))?;
-                // The history now follows the last frame; after a failed
-                // sequence `next` is None, so the next frame replays.
-                if self.taa {
-                    track.next = Some(self.scene.frames);
-                }
-            }
-        }
+            frames.push(f.image);
+            progress(f.index);
+            Ok(())
+        })?;
         let wall_s = start.elapsed().as_secs_f64();
         let (renderer, fps) = match &self.engine {
             Engine::Cpu => (format!("cpu-reference ({} spp)", self.spp), None),

@@ -883,7 +883,7 @@ fn frames_in_flight_match_one_at_a_time_in_order() {
         one_at_a_time.push(r.render(true).unwrap());
     }
     let mut seen = Vec::new();
-    r.frames(
+    r.frames::<tonegate::gpu::GpuError>(
         0..6,
         |n| r.set_rotation(&angle(n)),
         |n| n % 2 == 0,
@@ -958,5 +958,42 @@ fn kept_renderers_render_what_fresh_ones_do() {
         }
         // night and sky share one renderer; `small` has its own.
         assert_eq!(kept.len(), 2, "{:?}", config.hdr_format);
+    }
+}
+
+/// `tonegate render` writes the frames it renders with frames in flight:
+/// every PNG, in order, is the frame one-at-a-time rendering gives, and
+/// frames.json lists them in order with their statistics.
+#[test]
+fn the_render_command_writes_every_frame_in_order() {
+    use tonegate::render::SceneRenderer;
+    let dir = tempfile::tempdir().unwrap();
+    let scene_path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("golden/scenes/night-seed001-bloom.toml");
+    let o = common::tonegate(&[
+        "render",
+        scene_path.to_str().unwrap(),
+        "--out",
+        dir.path().to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let scene = Scene::load(&scene_path).unwrap();
+    let env = scene_environment(&scene).unwrap();
+    let ctx = context();
+    let serial = SceneRenderer::gpu(&scene, &env, &ctx, GpuConfig::default(), 1).unwrap();
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("frames.json")).unwrap())
+            .unwrap();
+    let listed = report["frames"].as_array().unwrap();
+    assert_eq!(listed.len(), scene.frames as usize);
+    for n in 0..scene.frames {
+        assert_eq!(listed[n as usize]["frame"], n);
+        assert!(listed[n as usize]["stats"]["weighted_log_average"].is_number());
+        let file = dir.path().join(tonegate::golden::frame_file(n));
+        let written = tonegate::io::read_png8(&file).unwrap();
+        assert!(
+            written == serial.frame(n).unwrap().image,
+            "frame {n}: the written PNG is not the frame"
+        );
     }
 }

@@ -382,8 +382,9 @@ pub fn render(a: RenderArgs) -> Result<ExitCode> {
     let bar = Bar::new();
     bar.start("render", scene.frames as u64, "frames");
     let mut frames = Vec::new();
-    for n in 0..scene.frames {
-        let out = renderer.frame(n)?;
+    // Frames in flight on the GPU: frame n's PNG is written while n+1 renders.
+    renderer.each_frame(|out| -> Result<()> {
+        let n = out.index;
         tonegate::io::write_png8(&a.out.join(frame_file(n)), &out.image)?;
         frames.push(match &out.detail {
             FrameDetail::Cpu(s) => serde_json::json!({
@@ -396,7 +397,8 @@ pub fn render(a: RenderArgs) -> Result<ExitCode> {
             }),
         });
         bar.advance(1);
-    }
+        Ok(())
+    })?;
     bar.finish();
     // The GPU configuration in effect (after any f16 promotion or staged
     // fallback) and why it differs from the one asked for.

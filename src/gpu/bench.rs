@@ -249,7 +249,7 @@ pub fn run(ctx: &GpuContext, opts: &BenchOptions) -> Result<BenchReport, GpuErro
     let mut wall = Vec::with_capacity(opts.frames as usize);
     let start = std::time::Instant::now();
     let mut last = start;
-    r.frames(
+    r.frames::<GpuError>(
         0..opts.frames,
         &set,
         |_| true,

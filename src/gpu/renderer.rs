@@ -574,17 +574,17 @@ impl<'a> GpuRenderer<'a> {
     /// `set(n)` prepares frame n (rotation, jitter, history) just before it
     /// is submitted, and `sink(n, frame)` receives the frames in order, the
     /// image read back where `read(n)`. Frame n+1 is rendering while frame n
-    /// is copied out and handed over. On an error the frames still in flight
-    /// are collected and dropped.
-    pub fn frames(
+    /// is copied out and handed over. On an error (the device's or the
+    /// sink's) the frames still in flight are collected and dropped.
+    pub fn frames<E: From<GpuError>>(
         &self,
         frames: impl IntoIterator<Item = u32>,
         mut set: impl FnMut(u32),
         read: impl Fn(u32) -> bool,
-        mut sink: impl FnMut(u32, GpuFrame) -> Result<(), GpuError>,
-    ) -> Result<(), GpuError> {
+        mut sink: impl FnMut(u32, GpuFrame) -> Result<(), E>,
+    ) -> Result<(), E> {
         let mut flight: std::collections::VecDeque<(u32, Ticket)> = Default::default();
-        let run = || -> Result<(), GpuError> {
+        let run = || -> Result<(), E> {
             for n in frames {
                 if flight.len() == FRAMES_IN_FLIGHT {
                     if let Some((k, t)) = flight.pop_front() {
