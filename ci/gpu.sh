@@ -37,6 +37,12 @@ for size in 1280x720 1920x1080 3840x2160; do
   done
 done
 
+# `--reduction auto` picks the tree on a GPU; block partials (llvmpipe's pick)
+# at 1080p beside it, so the report compares the two on this adapter.
+"$TONEGATE" bench --adapter "$adapter" --size 1920x1080 --reduction block \
+  --frames "${BENCH_FRAMES:-300}" --json >"$out/bench-1920x1080-staged-block.json" \
+  2>"$out/bench-1920x1080-staged-block.err" || echo "bench 1080p block failed" >&2
+
 # Issue 14's target: `taa` (and `taa_sobel`) within 3x the floor pass.
 for size in 1600x900 1920x1080; do
   for taa in clip edge-aware; do
@@ -74,7 +80,10 @@ for name, b in report["bench"].items():
     if "error" in b:
         print(f"bench {name}: {b['error']}")
         continue
-    print(f"bench {name}: {json.dumps({k: b[k] for k in b if k in ('frame_gpu_ms', 'frame_wall_ms_with_readback', 'fps', 'fps_with_readback', 'floor_ms')})}")
+    print(f"bench {name}: reduction {b.get('config', {}).get('reduction')}; {json.dumps({k: b[k] for k in b if k in ('frame_gpu_ms', 'frame_wall_ms_with_readback', 'frame_wall_ms_serial', 'fps', 'fps_with_readback', 'fps_serial_readback', 'floor_ms')})}")
+    for s in b.get("stages", []):
+        if s["name"] == "luminance_stats":
+            print(f"  luminance_stats: {s['median_ms']:.3f} ms median, {s['floor_multiple']:.2f}x floor")
     for s in b.get("stages", []):
         if s["name"].startswith("taa"):
             print(f"  {s['name']}: {s['median_ms']:.3f} ms median, {s['floor_multiple']:.2f}x floor")
