@@ -76,6 +76,22 @@ pub struct RenderedFrame {
 }
 
 impl RenderedFrame {
+    /// The GPU's frame `index`, which must have been read back.
+    fn gpu(index: u32, out: GpuFrame) -> Result<RenderedFrame, GpuError> {
+        let image = out
+            .frame
+            .ok_or_else(|| GpuError::Readback("no frame".into()))?;
+        Ok(RenderedFrame {
+            index,
+            image,
+            wall_ms: out.wall_ms,
+            detail: FrameDetail::Gpu {
+                stats: out.stats,
+                timings: out.timings,
+            },
+        })
+    }
+
     /// The reference's frame `index`, rendered since `start`.
     fn cpu(index: u32, out: crate::reference::FrameOutputs, start: Instant) -> RenderedFrame {
         RenderedFrame {
@@ -218,18 +234,7 @@ impl<'a> SceneRenderer<'a> {
             }
             Engine::Gpu(r) => {
                 let out = self.gpu_frame(r, n, true)?;
-                let image = out
-                    .frame
-                    .ok_or_else(|| self.gpu_error(GpuError::Readback("no frame".into())))?;
-                Ok(RenderedFrame {
-                    index: n,
-                    image,
-                    wall_ms: out.wall_ms,
-                    detail: FrameDetail::Gpu {
-                        stats: out.stats,
-                        timings: out.timings,
-                    },
-                })
+                RenderedFrame::gpu(n, out).map_err(|e| self.gpu_error(e))
             }
         }
     }
@@ -374,21 +379,7 @@ impl<'a> SceneRenderer<'a> {
                 false => r.set_rotation(&self.rotation(n)),
             },
             |_| true,
-            |n, out| {
-                let image = out
-                    .frame
-                    .ok_or_else(|| GpuError::Readback("no frame".into()))?;
-                sink(RenderedFrame {
-                    index: n,
-                    image,
-                    wall_ms: out.wall_ms,
-                    detail: FrameDetail::Gpu {
-                        stats: out.stats,
-                        timings: out.timings,
-                    },
-                })
-                .map_err(Failed::Sink)
-            },
+            |n, out| sink(RenderedFrame::gpu(n, out)?).map_err(Failed::Sink),
         )
         .map_err(|e| match e {
             Failed::Gpu(e) => E::from(self.gpu_error(e)),

@@ -47,18 +47,27 @@ pub fn luminance_stats(
             bytemuck::cast_slice(&words),
         )
     };
-    let finish = pipeline(ctx, "luminance_stats", "finish", format, &constants);
     let mut out = Vec::new();
     match method {
-        ReductionMethod::Tree => {
-            let tiles = (groups(w, TREE_TILE), groups(h, TREE_TILE));
-            let n = tiles.0 * tiles.1;
+        ReductionMethod::Tree | ReductionMethod::BlockPartials | ReductionMethod::Auto => {
+            // One pass of partials (a workgroup per 32×32 tile, or an
+            // invocation per 16×16 block), then one combine.
+            let (first, combine, n, first_groups) = match method {
+                ReductionMethod::Tree => {
+                    let tiles = (groups(w, TREE_TILE), groups(h, TREE_TILE));
+                    ("tree_partials", "tree_finish", tiles.0 * tiles.1, tiles)
+                }
+                _ => {
+                    let blocks = groups(w, BLOCK) * groups(h, BLOCK);
+                    ("block_partials", "finish", blocks, (groups(blocks, 64), 1))
+                }
+            };
             let a = storage_buffer(
                 ctx,
                 "tonegate.luminance_stats.partials",
                 n as u64 * PARTIAL_BYTES,
             );
-            let p = pipeline(ctx, "luminance_stats", "tree_partials", format, &constants);
+            let p = pipeline(ctx, "luminance_stats", first, format, &constants);
             let bg = bind_group(
                 ctx,
                 &p,
@@ -68,10 +77,10 @@ pub fn luminance_stats(
             out.push(Dispatch {
                 pipeline: p,
                 bind_group: bg,
-                groups: tiles,
+                groups: first_groups,
             });
             let lv = level((n, 1), (1, 1));
-            let p = pipeline(ctx, "luminance_stats", "tree_finish", format, &constants);
+            let p = pipeline(ctx, "luminance_stats", combine, format, &constants);
             let bg = bind_group(
                 ctx,
                 &p,
@@ -85,43 +94,6 @@ pub fn luminance_stats(
             );
             out.push(Dispatch {
                 pipeline: p,
-                bind_group: bg,
-                groups: (1, 1),
-            });
-        }
-        ReductionMethod::BlockPartials | ReductionMethod::Auto => {
-            let blocks = groups(w, BLOCK) * groups(h, BLOCK);
-            let a = storage_buffer(
-                ctx,
-                "tonegate.luminance_stats.partials",
-                blocks as u64 * PARTIAL_BYTES,
-            );
-            let p = pipeline(ctx, "luminance_stats", "block_partials", format, &constants);
-            let bg = bind_group(
-                ctx,
-                &p,
-                "tonegate.luminance_stats",
-                &[(0, Bind::Texture(hdr)), (1, Bind::Buffer(&a))],
-            );
-            out.push(Dispatch {
-                pipeline: p,
-                bind_group: bg,
-                groups: (groups(blocks, 64), 1),
-            });
-            let lv = level((blocks, 1), (1, 1));
-            let bg = bind_group(
-                ctx,
-                &finish,
-                "tonegate.luminance_stats.finish",
-                &[
-                    (0, Bind::Texture(hdr)),
-                    (1, Bind::Buffer(&a)),
-                    (3, Bind::Buffer(stats)),
-                    (4, Bind::Buffer(&lv)),
-                ],
-            );
-            out.push(Dispatch {
-                pipeline: finish,
                 bind_group: bg,
                 groups: (1, 1),
             });
@@ -188,6 +160,7 @@ pub fn luminance_stats(
                 current = 1 - current;
                 size = next;
             }
+            let finish = pipeline(ctx, "luminance_stats", "finish", format, &constants);
             let lv = level((1, 1), (1, 1));
             let bg = bind_group(
                 ctx,
