@@ -34,7 +34,7 @@ pub struct Case {
 
 /// A smooth, deterministic HDR ramp with detail: luminance from `lo` to `hi`
 /// geometrically along x, a ripple along y, colour varying with position.
-fn ramp(width: u32, height: u32, lo: f64, hi: f64) -> HdrImage {
+pub(crate) fn ramp(width: u32, height: u32, lo: f64, hi: f64) -> HdrImage {
     let span = (hi / lo).ln();
     HdrImage::from_fn(width, height, |x, y| {
         let t = if width > 1 {
