@@ -298,6 +298,23 @@ async fn tonemap_returns_the_reference_image_and_refuses_bad_input() {
     assert_eq!(r.headers()["x-tonegate-adapter"], "cpu-reference");
     assert_eq!(r.headers()["x-tonegate-key"], "0.25");
     assert_eq!(r.headers()["x-tonegate-size"], "96x64");
+    // Where the job's time went: its parts are within the whole.
+    let header_ms = |name: &str| -> f64 {
+        r.headers()[name]
+            .to_str()
+            .unwrap()
+            .parse()
+            .unwrap_or_else(|e| panic!("{name}: {e}"))
+    };
+    let parts: Vec<f64> = ["decode", "tonemap", "png"]
+        .iter()
+        .map(|p| header_ms(&format!("x-tonegate-{p}-ms")))
+        .collect();
+    let whole = header_ms("x-tonegate-render-ms");
+    assert!(
+        parts.iter().all(|&p| p > 0.0) && parts.iter().sum::<f64>() <= whole + 0.01,
+        "{parts:?} of {whole}"
+    );
     let cpu_png = r.bytes().await.unwrap();
     let settings = tonegate::toning::ToneSettings {
         key: Some("0.25".into()),

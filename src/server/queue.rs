@@ -29,8 +29,14 @@ pub struct ToneOutput {
     pub adapter: String,
     /// Load report, statistics and tone parameters, as JSON.
     pub report: serde_json::Value,
+    /// The whole job: decode, tone-map and PNG.
     pub render_ms: f64,
     pub queue_ms: f64,
+    /// Where `render_ms` went: decoding the body, the tone-map (upload,
+    /// stages and readback on the GPU) and encoding the PNG.
+    pub decode_ms: f64,
+    pub tonemap_ms: f64,
+    pub png_ms: f64,
 }
 
 struct Job {
@@ -306,11 +312,15 @@ fn run_job(
     fresh_device: &mut bool,
     gone: &dyn Fn() -> bool,
 ) -> Result<Option<ToneOutput>, ApiError> {
+    let ms = |since: Instant| since.elapsed().as_secs_f64() * 1e3;
+    let start = Instant::now();
     let (img, load_report) = crate::io::decode_hdr(bytes, &p.source_name, &p.load)
         .map_err(|e| ApiError::of_image(&e))?;
+    let decode_ms = ms(start);
     if gone() {
         return Ok(None);
     }
+    let start = Instant::now();
     let (gpu, adapter) = match (engine, renderers) {
         (Engine::Gpu { config, .. }, Some(r)) => {
             let name = r.ctx().adapter.name.clone();
@@ -319,6 +329,7 @@ fn run_job(
         _ => (None, "cpu-reference".to_string()),
     };
     let result = crate::toning::tone_map_until(&img, &p.resolved.pipeline(), gpu, false, gone);
+    let tonemap_ms = ms(start);
     drop(img);
     if let Err(crate::Error::Gpu(e)) = &result {
         if !matches!(e, crate::gpu::GpuError::TooLarge { .. }) {
@@ -336,7 +347,9 @@ fn run_job(
         .frame
         .as_ref()
         .ok_or_else(|| ApiError::internal("the tone-map made no 8-bit frame"))?;
+    let start = Instant::now();
     let png = crate::io::encode_png8(frame).map_err(|e| ApiError::internal(e.to_string()))?;
+    let png_ms = ms(start);
     Ok(Some(ToneOutput {
         png,
         width: frame.width,
@@ -350,5 +363,8 @@ fn run_job(
         }),
         render_ms: 0.0,
         queue_ms: 0.0,
+        decode_ms,
+        tonemap_ms,
+        png_ms,
     }))
 }

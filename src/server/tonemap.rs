@@ -276,6 +276,9 @@ fn respond(out: ToneOutput, json: bool, settings: &ToneSettings) -> Response {
             "settings": settings,
             "render_ms": out.render_ms,
             "queue_ms": out.queue_ms,
+            "decode_ms": out.decode_ms,
+            "tonemap_ms": out.tonemap_ms,
+            "png_ms": out.png_ms,
             "input": out.report["input"],
             "stats": out.report["stats"],
             "tone": out.report["tone"],
@@ -318,5 +321,8 @@ fn respond(out: ToneOutput, json: bool, settings: &ToneSettings) -> Response {
     );
     put("x-tonegate-render-ms", format!("{:.3}", out.render_ms));
     put("x-tonegate-queue-ms", format!("{:.3}", out.queue_ms));
+    put("x-tonegate-decode-ms", format!("{:.3}", out.decode_ms));
+    put("x-tonegate-tonemap-ms", format!("{:.3}", out.tonemap_ms));
+    put("x-tonegate-png-ms", format!("{:.3}", out.png_ms));
     r
 }
