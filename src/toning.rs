@@ -305,11 +305,14 @@ pub fn tone_map(
 /// uploaded into that renderer's input ([`GpuRenderer::reload`]) instead of
 /// creating its textures, buffers and bind groups again. At most
 /// [`GpuRenderers::KEEP`] renderers and [`GpuRenderers::KEEP_PIXELS`]
-/// pixels are kept, the least recently used dropped first.
+/// pixels are kept (by default), the least recently used dropped first; a
+/// renderer over the pixel budget alone is dropped once its image is done.
 pub struct GpuRenderers<'a> {
     ctx: &'a GpuContext,
     /// (key, renderer), the most recently used last.
     kept: Vec<(String, crate::gpu::GpuRenderer<'a>)>,
+    keep: usize,
+    keep_pixels: u64,
 }
 
 impl<'a> GpuRenderers<'a> {
@@ -320,10 +323,33 @@ impl<'a> GpuRenderers<'a> {
     pub const KEEP_PIXELS: u64 = 2 * 4096 * 2048;
 
     pub fn new(ctx: &'a GpuContext) -> Self {
+        Self::with_limits(ctx, Self::KEEP, Self::KEEP_PIXELS)
+    }
+
+    /// Keeps at most `keep` renderers and `keep_pixels` pixels among them.
+    pub fn with_limits(ctx: &'a GpuContext, keep: usize, keep_pixels: u64) -> Self {
         GpuRenderers {
             ctx,
             kept: Vec::new(),
+            keep: keep.max(1),
+            keep_pixels,
         }
+    }
+
+    /// The pixels of the frames the kept renderers are for.
+    pub fn pixels(&self) -> u64 {
+        self.kept
+            .iter()
+            .map(|(_, r)| r.width() as u64 * r.height() as u64)
+            .sum()
+    }
+
+    /// Drops a renderer larger than the pixel budget on its own: it served
+    /// its image and is not kept idle on the device.
+    pub fn release_oversize(&mut self) {
+        let budget = self.keep_pixels;
+        self.kept
+            .retain(|(_, r)| r.width() as u64 * r.height() as u64 <= budget);
     }
 
     pub fn ctx(&self) -> &'a GpuContext {
@@ -340,7 +366,9 @@ impl<'a> GpuRenderers<'a> {
     }
 
     /// A renderer of `plan` for `img` with `pipeline` and `config`: a kept
-    /// one reloaded with `img`, or a new one (then kept).
+    /// one reloaded with `img`, or a new one, kept after the least recently
+    /// used ones it has no room beside were dropped (before it is created,
+    /// so the device never holds more than the budget and the new one).
     pub fn renderer(
         &mut self,
         img: &HdrImage,
@@ -361,6 +389,12 @@ impl<'a> GpuRenderers<'a> {
                 return Ok(&self.kept[self.kept.len() - 1].1);
             }
         }
+        let wanted = img.width as u64 * img.height as u64;
+        while !self.kept.is_empty()
+            && (self.kept.len() >= self.keep || self.pixels() + wanted > self.keep_pixels)
+        {
+            self.kept.remove(0);
+        }
         let r = crate::gpu::GpuRenderer::new(
             self.ctx,
             plan.clone(),
@@ -369,16 +403,6 @@ impl<'a> GpuRenderers<'a> {
             config,
         )?;
         self.kept.push((key, r));
-        let pixels = |kept: &[(String, crate::gpu::GpuRenderer)]| -> u64 {
-            kept.iter()
-                .map(|(_, r)| r.width() as u64 * r.height() as u64)
-                .sum()
-        };
-        while self.kept.len() > 1
-            && (self.kept.len() > Self::KEEP || pixels(&self.kept) > Self::KEEP_PIXELS)
-        {
-            self.kept.remove(0);
-        }
         Ok(&self.kept[self.kept.len() - 1].1)
     }
 }
@@ -450,6 +474,7 @@ fn gpu_flat(
     } else {
         None
     };
+    renderers.release_oversize();
     let s = out.stats;
     let (weights, _) = crate::reference::tonemap::operator_constants(pipeline.operator);
     let tone = ToneParams {

@@ -912,6 +912,44 @@ fn frames_in_flight_match_one_at_a_time_in_order() {
     r.render(false).expect("slots free again after collecting");
 }
 
+/// A frame whose collection fails (here: an error the device raised while
+/// it was in flight) still frees its staging slot and unmaps its buffers:
+/// the frames after it, through every slot, render exactly what they would
+/// have. Without that, the failed slot's mapped buffers make each later
+/// copy into them an error, and the slot is refused as still taken.
+#[test]
+fn a_failed_collect_frees_its_slot_for_the_frames_after_it() {
+    use tonegate::gpu::renderer::FRAMES_IN_FLIGHT;
+    let ctx = context();
+    let all =
+        load_suite(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("golden/suite.toml"))
+            .unwrap();
+    let scene = &all[0];
+    let env = scene_environment(scene).unwrap();
+    let r = common::scene_renderer(&ctx, scene, &env, GpuConfig::default());
+    r.set_rotation(&rotation_matrix(scene.rotation.axis, scene.angle(1)));
+    let want = r.render(true).unwrap();
+    let ticket = r.submit(true).unwrap();
+    // A real validation error on the same device while the frame is in
+    // flight: a buffer that asks to be mapped both ways.
+    let _bad = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("test.invalid"),
+        size: 16,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::MAP_WRITE,
+        mapped_at_creation: false,
+    });
+    let failed = r.collect(ticket).map(|_| ()).unwrap_err().to_string();
+    assert!(failed.to_lowercase().contains("usage"), "{failed}");
+    for k in 0..=FRAMES_IN_FLIGHT {
+        let f = r
+            .render(true)
+            .unwrap_or_else(|e| panic!("frame {k} after the failed one: {e}"));
+        assert_eq!(f.stats, want.stats, "frame {k} after the failed one");
+        assert!(f.frame == want.frame, "frame {k} after the failed one");
+    }
+    ctx.wait().expect("no error left on the device");
+}
+
 /// The server's renderers kept between images: an image of a size and
 /// settings seen before is reloaded into the kept renderer and renders
 /// exactly what a fresh renderer does; an input that would change the
@@ -958,6 +996,45 @@ fn kept_renderers_render_what_fresh_ones_do() {
         }
         // night and sky share one renderer; `small` has its own.
         assert_eq!(kept.len(), 2, "{:?}", config.hdr_format);
+    }
+
+    // The budget: the least recently used renderer goes when a new one has
+    // no room beside it, and one over the budget alone renders its image
+    // and is not kept.
+    let budget = (w * h + 31 * 17) as u64;
+    let mut kept = GpuRenderers::with_limits(&ctx, 3, budget);
+    let medium = tonegate::env::BuiltinEnv::Night.generate(40, 20);
+    let big = tonegate::env::BuiltinEnv::Sky.generate(150, 100);
+    let expect = [
+        (&night, vec![w * h]),
+        (&small, vec![w * h, 31 * 17]),
+        // night must go: 129*67 + 527 + 800 is over the budget.
+        (&medium, vec![31 * 17, 40 * 20]),
+        (&big, vec![]),
+        (&small, vec![31 * 17]),
+    ];
+    for (i, (img, sizes)) in expect.iter().enumerate() {
+        let fresh = tone_map(img, &pipeline, Some((&ctx, GpuConfig::default())), false).unwrap();
+        let reused = tone_map_until(
+            img,
+            &pipeline,
+            Some((&mut kept, GpuConfig::default())),
+            false,
+            &|| false,
+        )
+        .unwrap()
+        .unwrap();
+        assert!(
+            reused.frame == fresh.frame,
+            "budget image {i}: frame differs"
+        );
+        assert_eq!(kept.len(), sizes.len(), "budget image {i}");
+        assert_eq!(
+            kept.pixels(),
+            sizes.iter().map(|&p| p as u64).sum::<u64>(),
+            "budget image {i}"
+        );
+        assert!(kept.pixels() <= budget);
     }
 }
 

@@ -79,8 +79,9 @@ pub struct Ticket {
     read_frame: bool,
     start: std::time::Instant,
     submission: wgpu::SubmissionIndex,
-    mapped: std::sync::mpsc::Receiver<Result<(), wgpu::BufferAsyncError>>,
-    maps: usize,
+    /// Each map's outcome, tagged with its buffer: 0 statistics, 1 frame,
+    /// 2 timestamps.
+    mapped: std::sync::mpsc::Receiver<(usize, Result<(), wgpu::BufferAsyncError>)>,
 }
 
 /// Mirrors `FrameUniforms` in shaders/shared/frame.wgsl.
@@ -459,18 +460,11 @@ impl<'a> GpuRenderer<'a> {
                 .fetch_xor(true, std::sync::atomic::Ordering::Relaxed);
         }
         let (tx, mapped) = std::sync::mpsc::channel();
-        let buffers = [
-            Some(&staging.stats),
-            read_frame.then_some(&staging.frame),
-            staging.timing.as_ref(),
-        ];
-        let mut maps = 0;
-        for buffer in buffers.into_iter().flatten() {
+        for (i, buffer) in self.ticket_buffers(slot, read_frame) {
             let tx = tx.clone();
             buffer.slice(..).map_async(wgpu::MapMode::Read, move |r| {
-                let _ = tx.send(r);
+                let _ = tx.send((i, r));
             });
-            maps += 1;
         }
         Ok(Ticket {
             slot,
@@ -478,23 +472,60 @@ impl<'a> GpuRenderer<'a> {
             start,
             submission,
             mapped,
-            maps,
         })
     }
 
-    /// Waits for a submitted frame and reads its results; its staging slot
-    /// is free again afterwards, whatever the outcome.
+    /// The staging buffers a frame in `slot` maps, tagged as in
+    /// [`Ticket::mapped`].
+    fn ticket_buffers(
+        &self,
+        slot: usize,
+        read_frame: bool,
+    ) -> impl Iterator<Item = (usize, &wgpu::Buffer)> {
+        let staging = &self.staging[slot];
+        [
+            Some(&staging.stats),
+            read_frame.then_some(&staging.frame),
+            staging.timing.as_ref(),
+        ]
+        .into_iter()
+        .enumerate()
+        .filter_map(|(i, b)| b.map(|b| (i, b)))
+    }
+
+    /// Waits for a submitted frame and reads its results. Its staging slot
+    /// is free again afterwards whatever the outcome: every buffer whose map
+    /// succeeded or is still pending is unmapped (which cancels a pending
+    /// one), so a failed frame leaves nothing mapped for the next frame's
+    /// copies to trip over.
     pub fn collect(&self, ticket: Ticket) -> Result<GpuFrame, GpuError> {
-        // A slot whose mapping never finished (device lost) stays taken.
-        self.wait_ticket(&ticket)?;
-        let result = self.read_ticket(&ticket);
-        let staging = &self.staging[ticket.slot];
-        staging.stats.unmap();
-        if ticket.read_frame {
-            staging.frame.unmap();
+        let waited = self.wait_ticket(&ticket);
+        let mut outcome: [Option<Result<(), wgpu::BufferAsyncError>>; 3] = Default::default();
+        while let Ok((i, r)) = ticket.mapped.try_recv() {
+            outcome[i] = Some(r);
         }
-        if let Some(t) = &staging.timing {
-            t.unmap();
+        let result = waited.and_then(|()| {
+            // The wait returns after the submission's map callbacks have run.
+            for (i, _) in self.ticket_buffers(ticket.slot, ticket.read_frame) {
+                match &outcome[i] {
+                    Some(Ok(())) => {}
+                    Some(Err(e)) => return Err(GpuError::Readback(e.to_string())),
+                    None => {
+                        return Err(GpuError::Readback(
+                            "a frame's results were not mapped after its submission finished"
+                                .into(),
+                        ))
+                    }
+                }
+            }
+            self.read_ticket(&ticket)
+        });
+        for (i, buffer) in self.ticket_buffers(ticket.slot, ticket.read_frame) {
+            // A failed map left its buffer unmapped already; unmapping it
+            // again would be a validation error on the device.
+            if !matches!(outcome[i], Some(Err(_))) {
+                buffer.unmap();
+            }
         }
         self.lock_busy()[ticket.slot] = false;
         result
@@ -506,7 +537,8 @@ impl<'a> GpuRenderer<'a> {
             .unwrap_or_else(|poisoned| poisoned.into_inner())
     }
 
-    /// Waits until the ticket's submission is done and its buffers mapped.
+    /// Waits until the ticket's submission is done, then reports any error
+    /// the device raised.
     fn wait_ticket(&self, ticket: &Ticket) -> Result<(), GpuError> {
         self.ctx
             .device
@@ -515,16 +547,7 @@ impl<'a> GpuRenderer<'a> {
                 timeout: None,
             })
             .map_err(|e| GpuError::DeviceLost(e.to_string()))?;
-        self.ctx.take_error()?;
-        // The wait returns after the submission's map callbacks have run.
-        for _ in 0..ticket.maps {
-            ticket
-                .mapped
-                .try_recv()
-                .map_err(|e| GpuError::Readback(format!("a frame's results were not mapped: {e}")))?
-                .map_err(|e| GpuError::Readback(e.to_string()))?;
-        }
-        Ok(())
+        self.ctx.take_error()
     }
 
     fn read_ticket(&self, ticket: &Ticket) -> Result<GpuFrame, GpuError> {

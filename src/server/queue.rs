@@ -207,32 +207,50 @@ fn worker(
     while let Some(first) = next.take() {
         let ctx = match &engine {
             Engine::Cpu => None,
-            Engine::Gpu { adapter, .. } => match GpuContext::new(adapter) {
-                Ok(ctx) => Some(ctx),
-                Err(e) => {
-                    finish(first, &stats, Err(ApiError::of_gpu(&e)));
-                    next = rx.recv().ok();
-                    continue;
+            Engine::Gpu { adapter, .. } => {
+                // A driver that panics while the device opens fails this
+                // job, not the worker: the next job tries again.
+                let opened = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                    GpuContext::new(adapter)
+                }));
+                let failed = match opened {
+                    Ok(Ok(ctx)) => Ok(ctx),
+                    Ok(Err(e)) => Err(ApiError::of_gpu(&e)),
+                    Err(_) => Err(ApiError::internal(
+                        "opening the GPU device panicked; the next job tries again",
+                    )),
+                };
+                match failed {
+                    Ok(ctx) => Some(ctx),
+                    Err(e) => {
+                        finish(first, &stats, Err(e));
+                        next = rx.recv().ok();
+                        continue;
+                    }
                 }
-            },
+            }
         };
         let mut renderers = ctx.as_ref().map(crate::toning::GpuRenderers::new);
         let mut job = first;
-        loop {
-            let fresh_device = serve_job(job, &engine, renderers.as_mut(), &stats, &hold);
-            if fresh_device {
-                next = rx.recv().ok();
-                break;
+        // Whether jobs may still come: false once the queue is shut down.
+        let open = loop {
+            if serve_job(job, &engine, renderers.as_mut(), &stats, &hold) {
+                // The device is in doubt: release it now, not when the next
+                // job comes, which may be never.
+                break true;
             }
             match rx.recv() {
                 Ok(j) => job = j,
-                Err(_) => break,
+                Err(_) => break false,
             }
-        }
+        };
         drop(renderers);
         if ctx.is_some() {
             drop(ctx);
             tracing::info!("GPU context released");
+        }
+        if open {
+            next = rx.recv().ok();
         }
     }
 }
