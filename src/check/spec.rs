@@ -285,16 +285,18 @@ impl CheckSpec {
     }
 
     /// Whether `self` is a narrower bound than `other`: for all of its
-    /// options and more, or for an adapter where `other` names none. Among
-    /// the bounds of one kind that apply, a narrower one overrides a wider;
-    /// bounds for different options (f16 here, the hardware filter there)
-    /// both hold.
+    /// options and more (whatever the adapters: an option changes what is
+    /// rendered, so an adapter's bound measured without it says nothing
+    /// about a render with it), or for the same options on an adapter where
+    /// `other` names none. Among the bounds of one kind that apply, a
+    /// narrower one overrides a wider; bounds for different options (f16
+    /// here, the hardware filter there) both hold.
     fn narrower_than(&self, other: &CheckSpec) -> bool {
-        let covers = other.options.iter().all(|o| self.options.contains(o))
-            && (other.adapter.is_none() || self.adapter.is_some());
-        let more = self.options.len() > other.options.len()
-            || (self.adapter.is_some() && other.adapter.is_none());
-        covers && more
+        if !other.options.iter().all(|o| self.options.contains(o)) {
+            return false;
+        }
+        self.options.len() > other.options.len()
+            || (self.adapter.is_some() && other.adapter.is_none())
     }
 
     fn options_match(&self, on: &[AccuracyOption]) -> bool {
@@ -558,6 +560,9 @@ pub(super) mod tests {
         assert_eq!(applied(at("llvmpipe", &[HardwareFilter])), vec![0]);
         assert_eq!(applied(at("NVIDIA H100", &[])), vec![3]);
         assert_eq!(applied(at("NVIDIA H100", &[HardwareFilter])), vec![2]);
+        // The generic f16 bound, not NVIDIA's f32 one: the option decides
+        // what is rendered before the adapter does.
+        assert_eq!(applied(at("NVIDIA H100", &[Rgba16float])), vec![1]);
         // Both options: the two one-option bounds are equally narrow; both hold.
         assert_eq!(
             applied(at("NVIDIA H100", &[Rgba16float, HardwareFilter])),
