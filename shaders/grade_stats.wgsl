@@ -70,13 +70,8 @@ fn tree_halve(li: u32) {
     }
 }
 
-@compute @workgroup_size(32, 8)
-fn tree_sums(
-    @builtin(workgroup_id) wg: vec3<u32>,
-    @builtin(num_workgroups) groups: vec3<u32>,
-    @builtin(local_invocation_id) lid: vec3<u32>,
-    @builtin(local_invocation_index) li: u32,
-) {
+// The invocation's TREE_ROWS pixels of workgroup `wg`'s tile, summed.
+fn tile_sum(wg: vec3<u32>, lid: vec3<u32>) -> vec2<f32> {
     let dims = textureDimensions(src);
     let x = wg.x * TREE_X + lid.x;
     var s = vec2<f32>(0.0);
@@ -89,7 +84,33 @@ fn tree_sums(
             }
         }
     }
-    tree[li] = s;
+    return s;
+}
+
+// The invocation's share of the tiles' sums: every TREE_SIZE-th, merged.
+fn strided_sum(li: u32) -> vec2<f32> {
+    let dims = textureDimensions(src);
+    let tiles = ((dims.x + TREE_X - 1u) / TREE_X) * ((dims.y + TREE_Y * TREE_ROWS - 1u) / (TREE_Y * TREE_ROWS));
+    var s = vec2<f32>(0.0);
+    for (var i = li; i < tiles; i = i + TREE_SIZE) {
+        s = merge_sum(s, sums[i]);
+    }
+    return s;
+}
+
+fn write_mean(s: vec2<f32>) {
+    let dims = textureDimensions(src);
+    grade_mean.mean = (s.x + s.y) / (f32(dims.x) * f32(dims.y));
+}
+
+@compute @workgroup_size(32, 8)
+fn tree_sums(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(local_invocation_id) lid: vec3<u32>,
+    @builtin(local_invocation_index) li: u32,
+) {
+    tree[li] = tile_sum(wg, lid);
     workgroupBarrier();
     tree_halve(li);
     if (li == 0u) {
@@ -99,16 +120,65 @@ fn tree_sums(
 
 @compute @workgroup_size(256)
 fn tree_finish(@builtin(local_invocation_index) li: u32) {
-    let dims = textureDimensions(src);
-    let tiles = ((dims.x + TREE_X - 1u) / TREE_X) * ((dims.y + TREE_Y * TREE_ROWS - 1u) / (TREE_Y * TREE_ROWS));
-    var s = vec2<f32>(0.0);
-    for (var i = li; i < tiles; i = i + TREE_SIZE) {
-        s = merge_sum(s, sums[i]);
-    }
-    tree[li] = s;
+    tree[li] = strided_sum(li);
     workgroupBarrier();
     tree_halve(li);
     if (li == 0u) {
-        grade_mean.mean = (tree[0].x + tree[0].y) / (f32(dims.x) * f32(dims.y));
+        write_mean(tree[0]);
     }
 }
+
+//#if subgroups
+// Subgroup tree: luminance_stats' butterfly of shuffles on the sums.
+struct Lanes {
+    @builtin(local_invocation_index) li: u32,
+    @builtin(subgroup_invocation_id) lane: u32,
+    @builtin(subgroup_size) size: u32,
+    @builtin(subgroup_id) id: u32,
+    @builtin(num_subgroups) count: u32,
+}
+
+fn subgroup_merge(s: vec2<f32>, size: u32) -> vec2<f32> {
+    var r = s;
+    for (var m = 1u; m < size; m = m * 2u) {
+        r = merge_sum(r, subgroupShuffleXor(r, m));
+    }
+    return r;
+}
+
+fn workgroup_merge(s: vec2<f32>, lanes: Lanes) -> vec2<f32> {
+    let r = subgroup_merge(s, lanes.size);
+    if (lanes.lane == 0u) {
+        tree[lanes.id] = r;
+    }
+    workgroupBarrier();
+    var q = vec2<f32>(0.0);
+    for (var i = lanes.lane; i < lanes.count; i = i + lanes.size) {
+        q = merge_sum(q, tree[i]);
+    }
+    return subgroup_merge(q, lanes.size);
+}
+
+// One-dimensional (subgroup builtins need it), the tile's 32×8 layout
+// recovered from the invocation index.
+@compute @workgroup_size(256)
+fn subgroup_sums(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    lanes: Lanes,
+) {
+    let lid = vec3<u32>(lanes.li % TREE_X, lanes.li / TREE_X, 0u);
+    let s = workgroup_merge(tile_sum(wg, lid), lanes);
+    if (lanes.li == 0u) {
+        sums[wg.y * groups.x + wg.x] = s;
+    }
+}
+
+@compute @workgroup_size(256)
+fn subgroup_finish(lanes: Lanes) {
+    let s = workgroup_merge(strided_sum(lanes.li), lanes);
+    if (lanes.li == 0u) {
+        write_mean(s);
+    }
+}
+//#endif

@@ -3,7 +3,9 @@
 // `finish` over the partials), seed 000's 2×2 ping-pong downsampling
 // (`downsample_first`, `downsample_step` repeatedly, then `finish`), and a
 // workgroup tree (`tree_partials`, then `tree_finish`) for GPUs, where one
-// invocation walking thousands of partials serially is the slowest part.
+// invocation walking thousands of partials serially is the slowest part,
+// also with subgroup operations (`subgroup_partials`, `subgroup_finish`)
+// where the device has them.
 // Sums are Neumaier-compensated in f32 so 2 Mpx stay within 1e-6 of f64.
 //#include shared/colour.wgsl
 //#include shared/stats.wgsl
@@ -172,13 +174,8 @@ fn tree_halve(li: u32) {
     }
 }
 
-@compute @workgroup_size(32, 8)
-fn tree_partials(
-    @builtin(workgroup_id) wg: vec3<u32>,
-    @builtin(num_workgroups) groups: vec3<u32>,
-    @builtin(local_invocation_id) lid: vec3<u32>,
-    @builtin(local_invocation_index) li: u32,
-) {
+// The invocation's TREE_ROWS pixels of workgroup `wg`'s tile, merged.
+fn tile_partial(wg: vec3<u32>, lid: vec3<u32>) -> Partial {
     let dims = textureDimensions(hdr);
     let x = wg.x * TREE_X + lid.x;
     var p = empty_partial();
@@ -190,7 +187,27 @@ fn tree_partials(
             }
         }
     }
-    tree[li] = p;
+    return p;
+}
+
+// The invocation's share of the `level.src_size.x` partials: every
+// TREE_SIZE-th, merged.
+fn strided_partial(li: u32) -> Partial {
+    var p = empty_partial();
+    for (var i = li; i < level.src_size.x; i = i + TREE_SIZE) {
+        p = merge_partial(p, partials_a[i]);
+    }
+    return p;
+}
+
+@compute @workgroup_size(32, 8)
+fn tree_partials(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(local_invocation_id) lid: vec3<u32>,
+    @builtin(local_invocation_index) li: u32,
+) {
+    tree[li] = tile_partial(wg, lid);
     workgroupBarrier();
     tree_halve(li);
     if (li == 0u) {
@@ -203,14 +220,76 @@ fn tree_partials(
 // writes the statistics as `finish` does.
 @compute @workgroup_size(256)
 fn tree_finish(@builtin(local_invocation_index) li: u32) {
-    var p = empty_partial();
-    for (var i = li; i < level.src_size.x; i = i + TREE_SIZE) {
-        p = merge_partial(p, partials_a[i]);
-    }
-    tree[li] = p;
+    tree[li] = strided_partial(li);
     workgroupBarrier();
     tree_halve(li);
     if (li == 0u) {
         write_stats(tree[0]);
     }
 }
+
+//#if subgroups
+// Subgroup tree: the same tiles and shares, merged within each subgroup by a
+// butterfly of shuffles (lane i with lane i^1, then i^2, ...: pairwise and
+// compensated, no shared memory, no barrier); one partial per subgroup goes
+// to shared memory, and every subgroup merges those the same way, so each
+// subgroup operation runs in uniform control flow and every invocation ends
+// with the workgroup's partial.
+struct Lanes {
+    @builtin(local_invocation_index) li: u32,
+    @builtin(subgroup_invocation_id) lane: u32,
+    @builtin(subgroup_size) size: u32,
+    @builtin(subgroup_id) id: u32,
+    @builtin(num_subgroups) count: u32,
+}
+
+fn shuffle_partial(p: Partial, mask: u32) -> Partial {
+    let a = subgroupShuffleXor(vec4<f32>(p.min_y, p.max_y, p.log_sum, p.log_c), mask);
+    let b = subgroupShuffleXor(vec4<f32>(p.wlog_sum, p.wlog_c, p.w_sum, p.w_c), mask);
+    return Partial(a.x, a.y, a.z, a.w, b.x, b.y, b.z, b.w);
+}
+
+fn subgroup_merge(p: Partial, size: u32) -> Partial {
+    var r = p;
+    for (var m = 1u; m < size; m = m * 2u) {
+        r = merge_partial(r, shuffle_partial(r, m));
+    }
+    return r;
+}
+
+fn workgroup_merge(p: Partial, lanes: Lanes) -> Partial {
+    let r = subgroup_merge(p, lanes.size);
+    if (lanes.lane == 0u) {
+        tree[lanes.id] = r;
+    }
+    workgroupBarrier();
+    var q = empty_partial();
+    for (var i = lanes.lane; i < lanes.count; i = i + lanes.size) {
+        q = merge_partial(q, tree[i]);
+    }
+    return subgroup_merge(q, lanes.size);
+}
+
+// One-dimensional (subgroup builtins need it), the tile's 32×8 layout
+// recovered from the invocation index.
+@compute @workgroup_size(256)
+fn subgroup_partials(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    lanes: Lanes,
+) {
+    let lid = vec3<u32>(lanes.li % TREE_X, lanes.li / TREE_X, 0u);
+    let p = workgroup_merge(tile_partial(wg, lid), lanes);
+    if (lanes.li == 0u) {
+        partials_a[wg.y * groups.x + wg.x] = p;
+    }
+}
+
+@compute @workgroup_size(256)
+fn subgroup_finish(lanes: Lanes) {
+    let p = workgroup_merge(strided_partial(lanes.li), lanes);
+    if (lanes.li == 0u) {
+        write_stats(p);
+    }
+}
+//#endif

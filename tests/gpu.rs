@@ -157,13 +157,19 @@ fn each_stage_matches_its_reference_on_the_same_input() {
     let ctx = context();
     for scene in suite() {
         let env = scene_environment(&scene).unwrap();
-        // The adapter's own reduction, and the workgroup tree (what a GPU
-        // runs) for plans that reduce the frame (statistics or the grade's mean).
+        // The adapter's own reduction, and the workgroup trees (what a GPU
+        // runs: shared memory, and subgroups where it has them, as llvmpipe
+        // does) for plans that reduce the frame (statistics or the grade's
+        // mean).
         let reduces = ["luminance_stats", "grade_stats"]
             .iter()
             .any(|s| StagePlan::for_scene(&scene, 1).contains(s));
         let reductions = match reduces {
-            true => vec![ReductionMethod::Auto, ReductionMethod::Tree],
+            true => vec![
+                ReductionMethod::Auto,
+                ReductionMethod::Tree,
+                ReductionMethod::SubgroupTree,
+            ],
             false => vec![ReductionMethod::Auto],
         };
         for reduction in reductions {
@@ -359,6 +365,7 @@ fn every_reduction_agrees_with_f64_on_odd_and_prime_sizes() {
             ReductionMethod::BlockPartials,
             ReductionMethod::PingPong,
             ReductionMethod::Tree,
+            ReductionMethod::SubgroupTree,
             ReductionMethod::Auto,
         ] {
             let config = GpuConfig {
@@ -367,6 +374,9 @@ fn every_reduction_agrees_with_f64_on_odd_and_prime_sizes() {
             };
             let r = GpuRenderer::new(&ctx, plan.clone(), GpuInput::Flat(&img), &pipeline, config)
                 .unwrap();
+            // llvmpipe has subgroup operations: the subgroup tree really ran.
+            assert!(ctx.subgroups, "{}", ctx.adapter.name);
+            assert_eq!(r.config.reduction, reduction.resolve(ctx.traits()));
             let s = r.render(false).unwrap().stats;
             let what = format!("{w}x{h} {reduction:?}");
             assert!(

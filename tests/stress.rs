@@ -138,9 +138,11 @@ fn the_independent_statistics_catch_a_wrong_sum() {
     assert_ne!(good.log_average, other.log_average);
 }
 
-/// The workgroup tree (what `--reduction auto` runs on a GPU) on the cases
-/// whose statistics stress a reduction: every size edge, the 8.4 Mpx frame,
-/// 60 decades and subnormals, held to the same bounds here on llvmpipe.
+/// The workgroup trees (what `--reduction auto` runs on a GPU: in shared
+/// memory, and with subgroup shuffles where the adapter has them) on the
+/// cases whose statistics stress a reduction: every size edge, the 8.4 Mpx
+/// frame, 60 decades and subnormals, held to the same bounds here on
+/// llvmpipe (which has subgroup operations, with 8-wide subgroups).
 #[test]
 fn the_workgroup_tree_holds_every_bound_on_the_reduction_cases() {
     let ctx = GpuContext::new(&AdapterChoice::Default).expect("lavapipe is installed");
@@ -160,12 +162,20 @@ fn the_workgroup_tree_holds_every_bound_on_the_reduction_cases() {
         .filter(|c| names.contains(&c.name))
         .collect();
     assert_eq!(cases.len(), names.len());
-    let report = stress::run(&cases, Some(&ctx), ReductionMethod::Tree);
-    for row in report.cases.iter().filter(|r| r.renderer == "gpu") {
-        assert!(row.finite && row.passed, "{row:?}");
-        if let Some(e) = row.max_rel_error {
-            assert!(e <= row.bound, "{}: {e:e} > {:e}", row.name, row.bound);
+    assert!(ctx.subgroups, "{}", ctx.adapter.name);
+    for method in [ReductionMethod::Tree, ReductionMethod::SubgroupTree] {
+        let report = stress::run(&cases, Some(&ctx), method);
+        for row in report.cases.iter().filter(|r| r.renderer == "gpu") {
+            assert!(row.finite && row.passed, "{method:?} {row:?}");
+            if let Some(e) = row.max_rel_error {
+                assert!(
+                    e <= row.bound,
+                    "{method:?} {}: {e:e} > {:e}",
+                    row.name,
+                    row.bound
+                );
+            }
         }
+        assert!(report.passed, "{method:?}");
     }
-    assert!(report.passed);
 }

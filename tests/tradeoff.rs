@@ -37,11 +37,12 @@ fn the_sweep_measures_every_configuration_and_marks_a_consistent_front() {
     let text = String::from_utf8_lossy(&o.stdout).replace("1e999", "1e308");
     let report: serde_json::Value = serde_json::from_str(&text).unwrap();
     let points = report["points"].as_array().unwrap();
-    // f32/f16 x block/pingpong/tree x manual/hardware x 1/4/16 spp; no
+    // f32/f16 x block/pingpong/tree/subgroup tree x manual/hardware x
+    // 1/4/16 spp; no
     // bloom here; then at 1 spp no AA and the TAA variants (issue 14): clip
     // and edge-aware x two feedback ranges x two sharpen strengths, and each
     // with the Catmull-Rom history.
-    assert_eq!(points.len(), 36 + 11);
+    assert_eq!(points.len(), 48 + 11);
     let taa: Vec<&serde_json::Value> = points
         .iter()
         .filter(|p| !p["knobs"]["taa"].is_null())

@@ -83,7 +83,7 @@ pub struct GpuArgs {
     /// HDR intermediates: rgba32float (f32) or rgba16float (f16).
     #[arg(long, default_value = "rgba32float", value_parser = by_name::<HdrFormat>)]
     pub hdr_format: HdrFormat,
-    /// Luminance reduction: auto (block on a CPU adapter, tree on a GPU), block (seed 001's block partials), pingpong (seed 000's 2x2) or tree (workgroup shared-memory tree).
+    /// Luminance reduction: auto (block on a CPU adapter; on a GPU subgroup where it has subgroup operations, else tree), block (seed 001's block partials), pingpong (seed 000's 2x2), tree (workgroup shared-memory tree) or subgroup (the tree with subgroup shuffles).
     #[arg(long, default_value = "auto", value_parser = by_name::<ReductionMethod>)]
     pub reduction: ReductionMethod,
     /// Environment filtering in `sphere`: manual (the reference's bilinear) or hardware (the sampler).

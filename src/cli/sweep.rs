@@ -266,7 +266,7 @@ pub struct StressArgs {
     /// Adapter: "default" (lavapipe when present), "hardware" (the best GPU), "any", or a name substring.
     #[arg(long, default_value = "default")]
     pub adapter: AdapterChoice,
-    /// Luminance reduction on the GPU: auto (block on a CPU adapter, tree on a GPU), block, pingpong or tree.
+    /// Luminance reduction on the GPU: auto (block on a CPU adapter, subgroup or tree on a GPU), block, pingpong, tree or subgroup.
     #[arg(long, default_value = "auto", value_parser = crate::cli::by_name::<tonegate::gpu::ReductionMethod>)]
     pub reduction: tonegate::gpu::ReductionMethod,
 }

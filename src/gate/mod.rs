@@ -327,7 +327,7 @@ fn run_inner(
                 // What `--reduction auto` became on this adapter.
                 o.insert(
                     "reduction_in_effect".into(),
-                    serde_json::to_value(config.reduction.resolve(ctx.cpu_adapter))
+                    serde_json::to_value(config.reduction.resolve(ctx.traits()))
                         .unwrap_or_default(),
                 );
             }

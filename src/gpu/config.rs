@@ -75,17 +75,44 @@ pub enum ReductionMethod {
     /// then one workgroup reduces the tiles' partials the same way.
     #[serde(alias = "workgroup_tree")]
     Tree,
+    /// The tree's tiles and order of work, with subgroup operations: each
+    /// subgroup merges its invocations' partials by a butterfly of shuffles
+    /// (no shared memory, no barrier), and shared memory holds one partial
+    /// per subgroup. Needs an adapter with subgroup operations; without
+    /// them it runs as `tree`, and the configuration's notes say so.
+    #[serde(alias = "subgroup")]
+    SubgroupTree,
+}
+
+/// What an adapter offers that decides which configuration runs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct AdapterTraits {
+    /// A CPU adapter (device type `Cpu`: llvmpipe, SwiftShader).
+    pub cpu: bool,
+    /// Subgroup operations (wgpu's `SUBGROUP` feature).
+    pub subgroups: bool,
 }
 
 impl ReductionMethod {
-    /// The method that runs: `Auto` becomes block partials on a CPU adapter
-    /// (device type `Cpu`: llvmpipe, SwiftShader) and the tree elsewhere.
-    pub fn resolve(self, cpu_adapter: bool) -> ReductionMethod {
-        match (self, cpu_adapter) {
-            (ReductionMethod::Auto, true) => ReductionMethod::BlockPartials,
-            (ReductionMethod::Auto, false) => ReductionMethod::Tree,
-            (method, _) => method,
+    /// The method that runs: `Auto` becomes block partials on a CPU adapter,
+    /// the subgroup tree on a GPU with subgroup operations and the shared-
+    /// memory tree on one without; the subgroup tree asked of an adapter
+    /// without them becomes the shared-memory tree.
+    pub fn resolve(self, adapter: AdapterTraits) -> ReductionMethod {
+        match self {
+            ReductionMethod::Auto if adapter.cpu => ReductionMethod::BlockPartials,
+            ReductionMethod::Auto | ReductionMethod::SubgroupTree if adapter.subgroups => {
+                ReductionMethod::SubgroupTree
+            }
+            ReductionMethod::Auto | ReductionMethod::SubgroupTree => ReductionMethod::Tree,
+            method => method,
         }
+    }
+
+    /// Whether the method reduces by workgroup trees (the grade's mean
+    /// then does too, the same way).
+    pub fn is_tree(self) -> bool {
+        matches!(self, ReductionMethod::Tree | ReductionMethod::SubgroupTree)
     }
 }
 
@@ -142,11 +169,19 @@ impl GpuConfig {
         self,
         input_max: f32,
         plan: &StagePlan,
-        cpu_adapter: bool,
+        adapter: AdapterTraits,
     ) -> (GpuConfig, Vec<String>) {
         let mut config = self;
         let mut notes = Vec::new();
-        config.reduction = self.reduction.resolve(cpu_adapter);
+        config.reduction = self.reduction.resolve(adapter);
+        if self.reduction == ReductionMethod::SubgroupTree
+            && config.reduction != ReductionMethod::SubgroupTree
+        {
+            notes.push(
+                "reduction subgroup_tree ran as tree: the adapter has no subgroup operations"
+                    .into(),
+            );
+        }
         // f16 overflow: every HDR intermediate before `tonemap` is a filtered
         // or averaged copy of the input, so none exceeds the input's largest
         // component. Past f16's 65504 the f16 path would store +Inf, so it is
@@ -177,19 +212,19 @@ mod tests {
     use super::*;
 
     #[test]
-    fn auto_reduction_is_block_partials_on_a_cpu_adapter_and_the_tree_on_a_gpu() {
-        assert_eq!(
-            ReductionMethod::Auto.resolve(true),
-            ReductionMethod::BlockPartials
-        );
-        assert_eq!(ReductionMethod::Auto.resolve(false), ReductionMethod::Tree);
-        for m in [
-            ReductionMethod::BlockPartials,
-            ReductionMethod::PingPong,
-            ReductionMethod::Tree,
-        ] {
-            assert_eq!(m.resolve(true), m);
-            assert_eq!(m.resolve(false), m);
+    fn auto_reduction_is_block_partials_on_a_cpu_adapter_and_a_tree_on_a_gpu() {
+        let at = |cpu, subgroups| AdapterTraits { cpu, subgroups };
+        use ReductionMethod::*;
+        assert_eq!(Auto.resolve(at(true, false)), BlockPartials);
+        assert_eq!(Auto.resolve(at(true, true)), BlockPartials);
+        assert_eq!(Auto.resolve(at(false, false)), Tree);
+        assert_eq!(Auto.resolve(at(false, true)), SubgroupTree);
+        assert_eq!(SubgroupTree.resolve(at(true, true)), SubgroupTree);
+        assert_eq!(SubgroupTree.resolve(at(false, false)), Tree);
+        for m in [BlockPartials, PingPong, Tree] {
+            for a in [at(true, false), at(false, false), at(false, true)] {
+                assert_eq!(m.resolve(a), m);
+            }
         }
         let plan = StagePlan::build(
             crate::plan::Input::Flat,
@@ -200,8 +235,18 @@ mod tests {
             None,
             None,
         );
-        let (c, notes) = GpuConfig::default().in_effect(1.0, &plan, false);
-        assert_eq!(c.reduction, ReductionMethod::Tree);
+        let (c, notes) = GpuConfig::default().in_effect(1.0, &plan, at(false, false));
+        assert_eq!(c.reduction, Tree);
+        assert!(notes.is_empty());
+        let asked = GpuConfig {
+            reduction: SubgroupTree,
+            ..Default::default()
+        };
+        let (c, notes) = asked.in_effect(1.0, &plan, at(false, false));
+        assert_eq!(c.reduction, Tree);
+        assert!(notes[0].contains("no subgroup operations"), "{notes:?}");
+        let (c, notes) = asked.in_effect(1.0, &plan, at(false, true));
+        assert_eq!(c.reduction, SubgroupTree);
         assert!(notes.is_empty());
     }
 }

@@ -166,6 +166,10 @@ pub struct GpuContext {
     /// Whether the adapter is a CPU (llvmpipe, SwiftShader): `--reduction
     /// auto` picks what is fast there.
     pub cpu_adapter: bool,
+    /// Whether the device has subgroup operations (wgpu's `SUBGROUP`): the
+    /// reductions' subgroup tree needs them, and the shaders that have one
+    /// are composed with it (`shaders::compose`).
+    pub subgroups: bool,
     errors: Arc<Mutex<Vec<GpuError>>>,
     /// Compiled pipelines by (stage, entry, format, override constants): a
     /// context that renders many images (the server's GPU worker, `check`)
@@ -204,7 +208,8 @@ impl GpuContext {
         let wanted = wgpu::Features::TIMESTAMP_QUERY
             | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS
             | wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES
-            | wgpu::Features::FLOAT32_FILTERABLE;
+            | wgpu::Features::FLOAT32_FILTERABLE
+            | wgpu::Features::SUBGROUP;
         let features = adapter.features() & wanted;
         let timestamps = features.contains(wgpu::Features::TIMESTAMP_QUERY);
         let limits = adapter.limits();
@@ -237,6 +242,7 @@ impl GpuContext {
         });
         Ok(GpuContext {
             cpu_adapter: info.device_type == wgpu::DeviceType::Cpu,
+            subgroups: features.contains(wgpu::Features::SUBGROUP),
             float32_filterable: features.contains(wgpu::Features::FLOAT32_FILTERABLE),
             timestamp_period: queue.get_timestamp_period(),
             device,
@@ -254,6 +260,14 @@ impl GpuContext {
             errors,
             pipelines: Mutex::new(Default::default()),
         })
+    }
+
+    /// What decides the configuration in effect on this device.
+    pub fn traits(&self) -> super::config::AdapterTraits {
+        super::config::AdapterTraits {
+            cpu: self.cpu_adapter,
+            subgroups: self.subgroups,
+        }
     }
 
     /// The first error wgpu reported since the last call, if any.

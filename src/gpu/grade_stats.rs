@@ -2,27 +2,27 @@
 //! the workgroup tree of `luminance_stats`.
 
 use super::stages::{bind_group, groups, pipeline, storage_buffer, Bind, Dispatch};
-use super::{GpuContext, HdrFormat};
+use super::{GpuContext, HdrFormat, ReductionMethod};
 
 const BLOCK: u32 = 16;
 
-/// Mean luminance of `src` into `mean` (one f32), by the tree when `tree`,
-/// else by block sums (the ping-pong method has no grade variant: its
-/// plans reduce the grade's mean by blocks).
+/// Mean luminance of `src` into `mean` (one f32), by the tree (shared
+/// memory or subgroups) when `method` is one (already resolved), else by
+/// block sums (the ping-pong method has no grade variant: its plans reduce
+/// the grade's mean by blocks).
 pub fn grade_stats(
     ctx: &GpuContext,
     format: HdrFormat,
-    tree: bool,
+    method: ReductionMethod,
     src: &wgpu::Texture,
     mean: &wgpu::Buffer,
 ) -> Vec<Dispatch> {
-    let (side, entries, first_groups) = match tree {
-        true => {
-            let t = super::luminance_stats::TREE_TILE;
-            let tiles = (groups(src.width(), t), groups(src.height(), t));
-            (t, ("tree_sums", "tree_finish"), tiles)
-        }
-        false => {
+    let t = super::luminance_stats::TREE_TILE;
+    let tiles = (groups(src.width(), t), groups(src.height(), t));
+    let (side, entries, first_groups) = match method {
+        ReductionMethod::Tree => (t, ("tree_sums", "tree_finish"), tiles),
+        ReductionMethod::SubgroupTree => (t, ("subgroup_sums", "subgroup_finish"), tiles),
+        _ => {
             let blocks = groups(src.width(), BLOCK) * groups(src.height(), BLOCK);
             (BLOCK, ("block_sums", "finish"), (groups(blocks, 64), 1))
         }

@@ -11,7 +11,9 @@ pub mod stages;
 pub mod timing;
 mod wiring;
 
-pub use config::{EnvFilter, Execution, GpuConfig, HdrFormat, ReductionMethod, TaaFault, F16_MAX};
+pub use config::{
+    AdapterTraits, EnvFilter, Execution, GpuConfig, HdrFormat, ReductionMethod, TaaFault, F16_MAX,
+};
 pub use context::{choose, AdapterChoice, AdapterReport, Candidate, GpuContext};
 pub use renderer::{GpuFrame, GpuInput, GpuRenderer, GpuStats};
 

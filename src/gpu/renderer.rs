@@ -194,7 +194,7 @@ impl<'a> GpuRenderer<'a> {
         config: GpuConfig,
     ) -> Result<GpuRenderer<'a>, GpuError> {
         let requested = config;
-        let (config, notes) = config.in_effect(input.max_component(), &plan, ctx.cpu_adapter);
+        let (config, notes) = config.in_effect(input.max_component(), &plan, ctx.traits());
         let (width, height) = input.size();
         ctx.check_size(width, height)?;
         let taa = plan.taa().is_some();
@@ -283,7 +283,7 @@ impl<'a> GpuRenderer<'a> {
         }
         let (config, _) =
             self.requested
-                .in_effect(max_component(&img.pixels), &self.plan, self.ctx.cpu_adapter);
+                .in_effect(max_component(&img.pixels), &self.plan, self.ctx.traits());
         if config != self.config {
             return false;
         }

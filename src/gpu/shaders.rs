@@ -93,32 +93,54 @@ fn raw(path: &str) -> Option<&'static str> {
     SOURCES.iter().find(|(p, _)| *p == path).map(|(_, s)| *s)
 }
 
-/// The complete source of stage `name` with includes expanded (each once) and
-/// `HDR_FORMAT` replaced. Panics only on a missing file, which the shader
+/// The complete source of stage `name` with includes expanded (each once),
+/// `HDR_FORMAT` replaced, and the lines between `//#if subgroups` and
+/// `//#endif` kept only when `subgroups` (the device has subgroup
+/// operations: a module that uses them does not validate on one without).
+/// Panics only on a missing file or an unclosed section, which the shader
 /// tests catch at `cargo test` time.
-pub fn compose(name: &str, format: HdrFormat) -> String {
+pub fn compose(name: &str, format: HdrFormat, subgroups: bool) -> String {
     let mut out = String::new();
     let mut included: Vec<&str> = Vec::new();
-    expand(&format!("{name}.wgsl"), &mut out, &mut included);
+    expand(&format!("{name}.wgsl"), &mut out, &mut included, subgroups);
     out.replace("HDR_FORMAT", format.wgsl_name())
 }
 
-fn expand<'a>(path: &'a str, out: &mut String, included: &mut Vec<&'a str>) {
+fn expand<'a>(path: &'a str, out: &mut String, included: &mut Vec<&'a str>, subgroups: bool) {
     let text = raw(path).unwrap_or_else(|| panic!("shader {path} is not embedded"));
+    let mut skipping = false;
+    let mut open = false;
     for line in text.lines() {
+        match line.trim() {
+            "//#if subgroups" => {
+                assert!(!open, "{path}: nested //#if");
+                open = true;
+                skipping = !subgroups;
+                continue;
+            }
+            "//#endif" => {
+                assert!(open, "{path}: //#endif without //#if");
+                open = false;
+                skipping = false;
+                continue;
+            }
+            _ if skipping => continue,
+            _ => {}
+        }
         if let Some(inc) = line.trim().strip_prefix("//#include ") {
             let inc = inc.trim();
             let known = SOURCES.iter().find(|(p, _)| *p == inc).map(|(p, _)| *p);
             let inc = known.unwrap_or_else(|| panic!("{path}: unknown include {inc}"));
             if !included.contains(&inc) {
                 included.push(inc);
-                expand(inc, out, included);
+                expand(inc, out, included, subgroups);
             }
         } else {
             out.push_str(line);
             out.push('\n');
         }
     }
+    assert!(!open, "{path}: //#if without //#endif");
 }
 
 #[cfg(test)]
@@ -127,9 +149,13 @@ mod tests {
 
     #[test]
     fn every_stage_shader_validates_with_naga_for_both_formats() {
-        for format in [HdrFormat::Rgba16Float, HdrFormat::Rgba32Float] {
+        for (format, subgroups) in [
+            (HdrFormat::Rgba16Float, false),
+            (HdrFormat::Rgba32Float, false),
+            (HdrFormat::Rgba32Float, true),
+        ] {
             for name in stage_names() {
-                let src = compose(name, format);
+                let src = compose(name, format, subgroups);
                 let module = naga::front::wgsl::parse_str(&src).unwrap_or_else(|e| {
                     panic!("{name}.wgsl: {}", e.emit_to_string_with_path(&src, name))
                 });
@@ -146,10 +172,24 @@ mod tests {
 
     #[test]
     fn includes_expand_once() {
-        let src = compose("grade_stats", HdrFormat::Rgba32Float);
+        let src = compose("grade_stats", HdrFormat::Rgba32Float, false);
         assert_eq!(src.matches("fn kahan_add").count(), 1);
         assert!(!src.contains("//#include"));
-        assert!(compose("sphere", HdrFormat::Rgba16Float).contains("rgba16float"));
+        assert!(compose("sphere", HdrFormat::Rgba16Float, false).contains("rgba16float"));
+    }
+
+    #[test]
+    fn subgroup_sections_appear_only_for_a_device_with_subgroups() {
+        for stage in ["luminance_stats", "grade_stats"] {
+            let without = compose(stage, HdrFormat::Rgba32Float, false);
+            let with = compose(stage, HdrFormat::Rgba32Float, true);
+            assert!(!without.contains("subgroupShuffleXor"), "{stage}");
+            assert!(with.contains("subgroupShuffleXor"), "{stage}");
+            assert!(!with.contains("//#if") && !with.contains("//#endif"));
+            // Everything else is the same.
+            assert!(with.len() > without.len());
+            assert!(with.contains("fn tree_finish") && without.contains("fn tree_finish"));
+        }
     }
 
     #[test]

@@ -37,7 +37,9 @@ pub fn pipeline(
         .device
         .create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some(&label),
-            source: wgpu::ShaderSource::Wgsl(super::shaders::compose(stage, format).into()),
+            source: wgpu::ShaderSource::Wgsl(
+                super::shaders::compose(stage, format, ctx.subgroups).into(),
+            ),
         });
     let p = ctx
         .device

@@ -227,13 +227,7 @@ impl<'p> Wiring<'_, 'p> {
             Stage::GradeStats => {
                 let base = self.display.clone().ok_or(order("tonemap"))?;
                 let mean = shared_buffer(ctx, "tonegate.grade_stats", 4);
-                let d = super::grade_stats::grade_stats(
-                    ctx,
-                    format,
-                    self.reduction == super::ReductionMethod::Tree,
-                    &base,
-                    &mean,
-                );
+                let d = super::grade_stats::grade_stats(ctx, format, self.reduction, &base, &mean);
                 self.grade_mean = Some(mean);
                 d
             }

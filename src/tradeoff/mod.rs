@@ -87,6 +87,7 @@ impl Knobs {
             ReductionMethod::BlockPartials => "block",
             ReductionMethod::PingPong => "pingpong",
             ReductionMethod::Tree => "tree",
+            ReductionMethod::SubgroupTree => "subgroup",
             ReductionMethod::Auto => "auto",
         };
         let e = match self.env_filter {
@@ -129,6 +130,7 @@ pub fn sweep(scene: &Scene, spps: &[u32], downsamples: &[u32]) -> Vec<Knobs> {
             ReductionMethod::BlockPartials,
             ReductionMethod::PingPong,
             ReductionMethod::Tree,
+            ReductionMethod::SubgroupTree,
         ] {
             for env_filter in [EnvFilter::Manual, EnvFilter::Hardware] {
                 for &bloom_downsample in &ds {
@@ -496,10 +498,11 @@ mod tests {
         // ranges and two sharpen strengths, and with the Catmull-Rom history.
         let taa = 1 + 2 * (2 * 2 + 1);
         assert_eq!(taa_knobs().len(), taa);
-        // Formats × reductions (block, pingpong, tree) × filters × ds × spp.
-        assert_eq!(a.len(), 2 * 3 * 2 * 3 * 3 + taa);
-        assert_eq!(b.len(), 2 * 3 * 2 * 3 + taa);
-        assert_eq!(sweep(&plain, &[4, 16], &[2]).len(), 2 * 3 * 2 * 2);
+        // Formats × reductions (block, pingpong, tree, subgroup tree) ×
+        // filters × ds × spp.
+        assert_eq!(a.len(), 2 * 4 * 2 * 3 * 3 + taa);
+        assert_eq!(b.len(), 2 * 4 * 2 * 3 + taa);
+        assert_eq!(sweep(&plain, &[4, 16], &[2]).len(), 2 * 4 * 2 * 2);
         let edge = b
             .iter()
             .find(|k| k.taa.is_some_and(|t| t.variant == TaaVariant::EdgeAware))
