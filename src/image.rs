@@ -68,10 +68,43 @@ impl<P: Copy> Image<P> {
     where
         P: Sync,
     {
+        let mut pixels = Vec::with_capacity(self.pixels.len());
+        advise_huge_pages(&pixels);
+        self.pixels
+            .par_iter()
+            .map(|&p| f(p))
+            .collect_into_vec(&mut pixels);
         Image {
             width: self.width,
             height: self.height,
-            pixels: self.pixels.par_iter().map(|&p| f(p)).collect(),
+            pixels,
+        }
+    }
+}
+
+/// Asks the kernel to back `v`'s allocation, not yet touched, with
+/// transparent huge pages where it is large enough to hold some: a frame
+/// buffer of tens of MB then takes tens of page faults instead of
+/// thousands (a 2048x1024 f64 frame is 12,288 4-KiB pages). Only advice: a
+/// kernel that refuses it, or another OS, keeps small pages.
+pub fn advise_huge_pages<T>(v: &Vec<T>) {
+    #[cfg(target_os = "linux")]
+    {
+        const HUGE: usize = 2 << 20;
+        let bytes = v.capacity() * std::mem::size_of::<T>();
+        if bytes < 2 * HUGE {
+            return;
+        }
+        let start = v.as_ptr() as usize;
+        let first = start.next_multiple_of(HUGE);
+        let end = (start + bytes) / HUGE * HUGE;
+        if end > first {
+            // SAFETY: madvise on whole pages inside `v`'s own allocation;
+            // MADV_HUGEPAGE changes how pages are backed, never their
+            // contents or the mapping's validity.
+            unsafe {
+                libc::madvise(first as *mut libc::c_void, end - first, libc::MADV_HUGEPAGE);
+            }
         }
     }
 }

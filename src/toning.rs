@@ -4,7 +4,7 @@
 
 use crate::error::{Error, Result};
 use crate::gpu::{GpuConfig, GpuContext};
-use crate::image::{HdrImage, LinearImage, Rgb8Image};
+use crate::image::{HdrImage, Rgb8Image};
 use crate::plan::StagePlan;
 use crate::reference::luminance_stats::LuminanceStats;
 use crate::reference::tonemap::ToneParams;
@@ -276,9 +276,10 @@ pub struct Toned {
     pub plan: StagePlan,
     pub stats: LuminanceStats,
     pub tone: ToneParams,
-    /// The linear display-referred image entering `encode`, when asked for
-    /// (an HDR output file); on the GPU it is one more full-size readback.
-    pub display: Option<LinearImage>,
+    /// The linear display-referred image entering `encode`, narrowed to f32
+    /// as an HDR file stores it, when asked for (an HDR output file); on the
+    /// GPU it is one more full-size readback.
+    pub display: Option<HdrImage>,
     /// `encode`'s 8-bit frame: always from the GPU; from the CPU reference
     /// only when the display image was not asked for (an HDR output never
     /// uses it, and the encode was 44 % of such a run).
@@ -470,7 +471,11 @@ fn gpu_flat(
     let r = renderers.renderer(img, &plan, pipeline, config)?;
     let out = r.render(true)?;
     let display = if want_display {
-        Some(r.read_output("display")?.unwrap_or_else(|| img.to_linear()))
+        Some(
+            r.read_output("display")?
+                .map(|d| d.to_hdr())
+                .unwrap_or_else(|| img.clone()),
+        )
     } else {
         None
     };

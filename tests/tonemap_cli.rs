@@ -90,3 +90,99 @@ fn an_hdr_output_skips_the_encode_and_a_png_is_the_exact_encode() {
         }
     }
 }
+
+/// A plan of statistics and `tonemap` alone goes from the input to the
+/// file a pixel at a time (a band of rows at once for a PFM, an image of
+/// the results for other formats), with none of the staged path's
+/// full-frame f64 images: the files must hold exactly the staged path's
+/// display image, for every operator and colour path, on an input with
+/// black, subnormal, huge and clamped-negative pixels and an odd size.
+#[test]
+fn a_pixelwise_plan_writes_exactly_what_the_staged_path_computes() {
+    use tonegate::scene::{ColourPath, OperatorKind};
+    use tonegate::toning::{Preset, ToneSettings};
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("in.pfm");
+    let mut img = BuiltinEnv::Night.generate(257, 129);
+    img.pixels[0] = [0.0; 3];
+    img.pixels[1] = [1e-40, 2e-41, 0.0];
+    img.pixels[2] = [3e30, 1e30, 2e30];
+    img.pixels[3] = [-1.0, 0.5, 0.25];
+    img.pixels[500] = [0.0, 0.0, 1e-3];
+    write_image_hdr(&input, &img).unwrap();
+    let (loaded, _) = load_hdr(&input, &LoadOptions::default()).unwrap();
+    let cases: Vec<(Vec<&str>, ToneSettings)> = vec![
+        (vec![], ToneSettings::default()),
+        (
+            vec!["--preset", "reinhard02"],
+            ToneSettings {
+                preset: Some(Preset::Reinhard02),
+                ..Default::default()
+            },
+        ),
+        (
+            vec!["--operator", "seed001", "--key", "auto", "--colour", "xyy"],
+            ToneSettings {
+                operator: OperatorKind::Seed001,
+                key: Some("auto".into()),
+                colour: ColourPath::Xyy,
+                ..Default::default()
+            },
+        ),
+        (
+            vec!["--key", "0.3", "--log-average", "0.5"],
+            ToneSettings {
+                key: Some("0.3".into()),
+                log_average: Some(0.5),
+                ..Default::default()
+            },
+        ),
+    ];
+    for (args, settings) in cases {
+        let resolved = settings.resolve().unwrap();
+        let pipeline = resolved.pipeline();
+        let (staged_plan, staged) = tonegate::reference::render_flat(&loaded, &pipeline).unwrap();
+        let want = staged.display.to_hdr();
+        for ext in ["pfm", "exr"] {
+            let out = dir.path().join(format!("out.{ext}"));
+            let mut all = vec![
+                "tonemap",
+                input.to_str().unwrap(),
+                "-o",
+                out.to_str().unwrap(),
+            ];
+            all.extend(&args);
+            all.push("--json");
+            let run = common::tonegate(&all);
+            assert!(
+                run.status.success(),
+                "{args:?}: {}",
+                String::from_utf8_lossy(&run.stderr)
+            );
+            let report: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+            let names: Vec<&str> = staged_plan
+                .names()
+                .into_iter()
+                .filter(|s| *s != "encode")
+                .collect();
+            assert_eq!(plan(&report), names, "{args:?}");
+            let (got, _) = load_hdr(&out, &LoadOptions::default()).unwrap();
+            assert_eq!((got.width, got.height), (want.width, want.height));
+            let bits = |i: &tonegate::image::HdrImage| -> Vec<u32> {
+                i.pixels.iter().flatten().map(|v| v.to_bits()).collect()
+            };
+            assert!(
+                bits(&got) == bits(&want),
+                "{args:?} .{ext}: not the staged display image"
+            );
+            // The report's figure, to 1e-15: serde_json's default parser
+            // may land one ulp (2.2e-16 relative) off the printed value.
+            let reported = report["tone"]["log_average"].as_f64().unwrap();
+            let want_la = staged.tone.log_average;
+            assert!(
+                (reported - want_la).abs() <= 1e-15 * want_la.abs(),
+                "{args:?}: log-average {reported} vs {want_la}"
+            );
+        }
+    }
+}

@@ -159,32 +159,48 @@ pub fn tonemap(a: TonemapArgs) -> Result<ExitCode> {
         .and_then(|e| e.to_str())
         .unwrap_or("")
         .to_ascii_lowercase();
-    let out = tonegate::toning::tone_map(
-        &img,
-        &resolved.pipeline(),
-        ctx.as_ref().map(|c| (c, a.gpu_options.config())),
-        ext != "png",
-    )?;
-    let plan = &out.plan;
-    match (&out.display, &out.frame) {
-        (Some(display), _) if ext != "png" => {
-            tonegate::io::write_image_hdr(&a.output, &display.to_hdr())?
+    let pipeline = resolved.pipeline();
+    // A CPU tone map to PFM whose plan is statistics and `tonemap` alone
+    // goes straight from the input to the file, a band of rows at a time:
+    // the same bytes as the staged path, without its full-frame images.
+    let pixelwise = match (&ctx, ext.as_str()) {
+        (None, "pfm") => tonegate::reference::pixelwise_tone(&img, &pipeline).transpose()?,
+        _ => None,
+    };
+    let (plan, stats, tone) = match pixelwise {
+        Some(t) => {
+            tonegate::io::write_pfm_mapped(&a.output, &img, |c| t.map(c))?;
+            (t.plan, t.stats, t.tone)
         }
-        (_, Some(frame)) => tonegate::io::write_png8(&a.output, frame)?,
-        _ => {
-            return Err(invalid(
-                "the tone-map made no image for the output (a tonegate bug)",
-            ))
+        None => {
+            let out = tonegate::toning::tone_map(
+                &img,
+                &pipeline,
+                ctx.as_ref().map(|c| (c, a.gpu_options.config())),
+                ext != "png",
+            )?;
+            match (&out.display, &out.frame) {
+                (Some(display), _) if ext != "png" => {
+                    tonegate::io::write_image_hdr(&a.output, display)?
+                }
+                (_, Some(frame)) => tonegate::io::write_png8(&a.output, frame)?,
+                _ => {
+                    return Err(invalid(
+                        "the tone-map made no image for the output (a tonegate bug)",
+                    ))
+                }
+            }
+            (out.plan, out.stats, out.tone)
         }
-    }
+    };
     if a.json {
         let report = serde_json::json!({
             "input": load_report,
             "output": a.output,
             "renderer": if a.gpu { "gpu" } else { "cpu-reference" },
             "plan": plan.names(),
-            "stats": out.stats,
-            "tone": out.tone,
+            "stats": stats,
+            "tone": tone,
         });
         write_json(Path::new("-"), "the tone-map report", &report)?;
     } else {
@@ -196,8 +212,8 @@ pub fn tonemap(a: TonemapArgs) -> Result<ExitCode> {
             load_report.min_luminance,
             load_report.max_luminance,
             load_report.dynamic_range_stops,
-            out.tone.key,
-            out.tone.log_average,
+            tone.key,
+            tone.log_average,
             a.output.display()
         );
     }

@@ -189,6 +189,34 @@ pub fn write_image_hdr(path: &Path, img: &HdrImage) -> Result<(), HdrIoError> {
     })
 }
 
+/// Writes `img` with `map` applied to every pixel as a `.pfm` (f32 RGB),
+/// a band of rows at a time: the tone map of a large image straight to its
+/// file, with no image of the results in memory.
+pub fn write_pfm_mapped(
+    path: &Path,
+    img: &HdrImage,
+    map: impl Fn([f32; 3]) -> [f32; 3] + Sync,
+) -> Result<(), HdrIoError> {
+    let file = path.display().to_string();
+    let is_pfm = path
+        .extension()
+        .is_some_and(|e| e.to_string_lossy().eq_ignore_ascii_case("pfm"));
+    if !is_pfm {
+        return Err(HdrIoError::UnsupportedExtension {
+            file,
+            supported: ".pfm",
+        });
+    }
+    png::check_consistent(&file, img)?;
+    write_atomically(path, |writer| {
+        pfm::encode_mapped(writer, img, map).map_err(|source| HdrIoError::Io {
+            file: file.clone(),
+            action: "write",
+            source,
+        })
+    })
+}
+
 /// Writes an 8-bit RGB PNG (the path must end in `.png`).
 pub fn write_png8(path: &Path, img: &Rgb8Image) -> Result<(), HdrIoError> {
     png::write_png8(path, img)

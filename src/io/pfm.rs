@@ -80,7 +80,10 @@ pub(crate) fn decode(
     }
 
     let mut pixels = vec![[0.0f32; 3]; pixel_count];
-    let mut row = vec![0u8; row_bytes];
+    crate::image::advise_huge_pages(&pixels);
+    // An RGB file in the host's byte order is read straight into the pixels.
+    let direct = channels == 3 && little_endian == cfg!(target_endian = "little");
+    let mut row = vec![0u8; if direct { 0 } else { row_bytes }];
     let decode_sample = |b: &[u8]| {
         let bytes = [b[0], b[1], b[2], b[3]];
         if little_endian {
@@ -90,12 +93,18 @@ pub(crate) fn decode(
         }
     };
     for stored_row in 0..h as usize {
-        reader
-            .read_exact(&mut row)
-            .map_err(|e| io_or_truncated(file, FORMAT, e))?;
         // Stored bottom-to-top: the first stored row is the image's last.
         let y = h as usize - 1 - stored_row;
         let target = &mut pixels[y * w as usize..(y + 1) * w as usize];
+        if direct {
+            reader
+                .read_exact(bytemuck::cast_slice_mut(target))
+                .map_err(|e| io_or_truncated(file, FORMAT, e))?;
+            continue;
+        }
+        reader
+            .read_exact(&mut row)
+            .map_err(|e| io_or_truncated(file, FORMAT, e))?;
         for (pixel, samples) in target.iter_mut().zip(row.chunks_exact(channels * 4)) {
             *pixel = if channels == 3 {
                 [
@@ -132,23 +141,38 @@ fn parse_size(token: &str, what: &str) -> Result<u64, String> {
 /// Writes an RGB PFM: little-endian (scale −1), rows bottom to top, the
 /// layout most readers expect.
 pub(crate) fn encode(writer: &mut impl Write, image: &HdrImage) -> std::io::Result<()> {
+    encode_mapped(writer, image, |c| c)
+}
+
+/// [`encode`] of `image` with `map` applied to every pixel, a band of rows
+/// at a time on every core, with no image of the results.
+pub(crate) fn encode_mapped(
+    writer: &mut impl Write,
+    image: &HdrImage,
+    map: impl Fn([f32; 3]) -> [f32; 3] + Sync,
+) -> std::io::Result<()> {
+    use rayon::prelude::*;
+    const BAND: usize = 64;
     write!(writer, "PF\n{} {}\n-1.0\n", image.width, image.height)?;
     let width = image.width as usize;
-    let mut row = Vec::with_capacity(width * 12);
-    for y in (0..image.height as usize).rev() {
-        let pixels = &image.pixels[y * width..(y + 1) * width];
-        if cfg!(target_endian = "little") {
-            // The scale -1.0 says little-endian: the samples as they are.
-            writer.write_all(bytemuck::cast_slice(pixels))?;
-            continue;
-        }
-        row.clear();
-        for pixel in pixels {
-            for component in pixel {
-                row.extend_from_slice(&component.to_le_bytes());
-            }
-        }
-        writer.write_all(&row)?;
+    let mut band = vec![[0.0f32; 3]; BAND.min(image.height as usize) * width];
+    // Bottom band first, each band's rows bottom to top.
+    let mut end = image.height as usize;
+    while end > 0 {
+        let start = end.saturating_sub(BAND);
+        let out = &mut band[..(end - start) * width];
+        out.par_chunks_mut(width.max(1))
+            .enumerate()
+            .for_each(|(i, row)| {
+                let y = end - 1 - i;
+                let pixels = &image.pixels[y * width..(y + 1) * width];
+                for (o, &c) in row.iter_mut().zip(pixels) {
+                    // Little-endian samples whatever the host's order.
+                    *o = map(c).map(|v| f32::from_bits(v.to_bits().to_le()));
+                }
+            });
+        writer.write_all(bytemuck::cast_slice(out))?;
+        end = start;
     }
     Ok(())
 }

@@ -79,14 +79,27 @@ pub fn luminance_stats(
     weights: [f64; 3],
     delta: f64,
 ) -> LuminanceStats {
-    let width = img.width.max(1) as usize;
-    let rows: Vec<Partial> = img
-        .pixels
+    luminance_stats_of(&img.pixels, img.width, |c| c, needs, weights, delta)
+}
+
+/// [`luminance_stats`] of `width`-wide rows of any pixel type that `to_f64`
+/// widens (exactly, for f32 samples): the same sums in the same order, so
+/// the same bits as the statistics of the widened image, without it.
+pub fn luminance_stats_of<P: Copy + Sync>(
+    pixels: &[P],
+    width: u32,
+    to_f64: impl Fn(P) -> [f64; 3] + Sync,
+    needs: StatsNeeds,
+    weights: [f64; 3],
+    delta: f64,
+) -> LuminanceStats {
+    let width = width.max(1) as usize;
+    let rows: Vec<Partial> = pixels
         .par_chunks(width)
         .map(|row| {
             let mut p = Partial::new();
             for &c in row {
-                let y = crate::color::luminance_with(c, weights);
+                let y = crate::color::luminance_with(to_f64(c), weights);
                 if needs.log_average || needs.weighted_log_average {
                     let l = libm::log(delta + y);
                     // Also kept for the weighted mean's Σw = 0 fallback.
@@ -111,7 +124,7 @@ pub fn luminance_stats(
         total.min = total.min.min(r.min);
         total.max = total.max.max(r.max);
     }
-    let n = img.pixel_count().max(1) as f64;
+    let n = pixels.len().max(1) as f64;
     let log_average = libm::exp(total.log_sum.value() / n);
     let weight_sum = total.weight_sum.value();
     let weighted = if weight_sum > 0.0 {

@@ -346,7 +346,8 @@ pub struct FlatDisplay {
     pub plan: StagePlan,
     pub stats: LuminanceStats,
     pub tone: ToneParams,
-    pub display: LinearImage,
+    /// Narrowed to f32 (rounded to nearest), as an HDR file stores it.
+    pub display: HdrImage,
 }
 
 /// [`render_flat`] up to `encode`, which is left out, stopping between
@@ -361,12 +362,85 @@ pub fn render_flat_display_until(
     if stop() {
         return Ok(None);
     }
+    if let Some(t) = pixelwise_tone(img, p) {
+        let t = t?;
+        let display = img.par_map(|c| t.map(c));
+        return Ok(Some(FlatDisplay {
+            plan: t.plan,
+            stats: t.stats,
+            tone: t.tone,
+            display,
+        }));
+    }
     let made = run_stages_until(&plan, img.to_linear(), p, stop, false)?;
     Ok(made.map(|m| FlatDisplay {
         plan,
         stats: m.stats,
         tone: m.tone,
-        display: m.display.unwrap_or(m.toned),
+        display: m.display.unwrap_or(m.toned).to_hdr(),
+    }))
+}
+
+/// A flat image's tone map whose plan is statistics and `tonemap` alone
+/// (no bloom, no grade), resolved: the display image is then a function of
+/// each input pixel ([`PixelwiseTone::map`]), with the same bits as the
+/// staged path (each pixel widened to f64, tone-mapped and narrowed), and
+/// needs neither of the staged path's two full-frame f64 copies, which cost
+/// the CPU path most of its time in page faults.
+pub struct PixelwiseTone {
+    /// [`render_flat`]'s plan without `encode`.
+    pub plan: StagePlan,
+    pub stats: LuminanceStats,
+    pub tone: ToneParams,
+    to_xyz: [[f64; 3]; 3],
+    to_rgb: [[f64; 3]; 3],
+}
+
+impl PixelwiseTone {
+    /// The display-referred pixel of input pixel `c`, narrowed to f32.
+    #[inline]
+    pub fn map(&self, c: [f32; 3]) -> [f32; 3] {
+        tonemap::tonemap_pixel(c.map(f64::from), &self.tone, &self.to_xyz, &self.to_rgb)
+            .map(|v| v as f32)
+    }
+}
+
+/// The pixelwise tone map of `img` under `p`, or `None` when its plan has
+/// more than statistics and `tonemap` (an error when the statistics cannot
+/// resolve the operator).
+pub fn pixelwise_tone(img: &HdrImage, p: &Pipeline) -> Option<Result<PixelwiseTone, PlanError>> {
+    let plan =
+        StagePlan::build(crate::plan::Input::Flat, p.operator, p.bloom, p.grade).without_encode();
+    let pixelwise = plan
+        .stages()
+        .iter()
+        .all(|s| matches!(s, Stage::LuminanceStats(_) | Stage::Tonemap { .. }));
+    if !pixelwise {
+        return None;
+    }
+    let (weights, delta) = tonemap::operator_constants(p.operator);
+    let mut stats = LuminanceStats::default();
+    for stage in plan.stages() {
+        if let Stage::LuminanceStats(needs) = stage {
+            stats = luminance_stats::luminance_stats_of(
+                &img.pixels,
+                img.width,
+                |c: [f32; 3]| c.map(f64::from),
+                *needs,
+                weights,
+                delta,
+            );
+        }
+    }
+    Some(tonemap::resolve(p.operator, &stats).map(|tone| {
+        let to_xyz = tonemap::rgb_to_xyz(tone.weights);
+        PixelwiseTone {
+            plan,
+            stats,
+            tone,
+            to_xyz,
+            to_rgb: tonemap::invert3(to_xyz),
+        }
     }))
 }
 
