@@ -130,13 +130,7 @@ fn tree_finish(@builtin(local_invocation_index) li: u32) {
 
 //#if subgroups
 // Subgroup tree: luminance_stats' butterfly of shuffles on the sums.
-struct Lanes {
-    @builtin(local_invocation_index) li: u32,
-    @builtin(subgroup_invocation_id) lane: u32,
-    @builtin(subgroup_size) size: u32,
-    @builtin(subgroup_id) id: u32,
-    @builtin(num_subgroups) count: u32,
-}
+//#include shared/subgroup.wgsl
 
 fn subgroup_merge(s: vec2<f32>, size: u32) -> vec2<f32> {
     var r = s;

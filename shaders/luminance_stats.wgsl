@@ -235,13 +235,7 @@ fn tree_finish(@builtin(local_invocation_index) li: u32) {
 // to shared memory, and every subgroup merges those the same way, so each
 // subgroup operation runs in uniform control flow and every invocation ends
 // with the workgroup's partial.
-struct Lanes {
-    @builtin(local_invocation_index) li: u32,
-    @builtin(subgroup_invocation_id) lane: u32,
-    @builtin(subgroup_size) size: u32,
-    @builtin(subgroup_id) id: u32,
-    @builtin(num_subgroups) count: u32,
-}
+//#include shared/subgroup.wgsl
 
 fn shuffle_partial(p: Partial, mask: u32) -> Partial {
     let a = subgroupShuffleXor(vec4<f32>(p.min_y, p.max_y, p.log_sum, p.log_c), mask);

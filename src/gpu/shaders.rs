@@ -44,6 +44,10 @@ const SOURCES: &[(&str, &str)] = &[
         "shared/downsample.wgsl",
         include_str!("../../shaders/shared/downsample.wgsl"),
     ),
+    (
+        "shared/subgroup.wgsl",
+        include_str!("../../shaders/shared/subgroup.wgsl"),
+    ),
     ("sphere.wgsl", include_str!("../../shaders/sphere.wgsl")),
     (
         "luminance_stats.wgsl",
