@@ -430,6 +430,28 @@ pub fn tone_map_until(
             }))
         }
         None => {
+            if let Some(t) = crate::reference::pixelwise_tone(img, pipeline) {
+                // Statistics and `tonemap` alone: each 8-bit pixel straight
+                // from its input pixel, the staged path's bytes (tested).
+                let t = t?;
+                if stop() {
+                    return Ok(None);
+                }
+                let frame = t.frame(img, pipeline.encoding);
+                let plan = StagePlan::build(
+                    crate::plan::Input::Flat,
+                    pipeline.operator,
+                    pipeline.bloom,
+                    pipeline.grade,
+                );
+                return Ok(Some(Toned {
+                    plan,
+                    stats: t.stats,
+                    tone: t.tone,
+                    display: None,
+                    frame: Some(frame),
+                }));
+            }
             let Some((plan, out)) = crate::reference::render_flat_until(img, pipeline, stop)?
             else {
                 return Ok(None);

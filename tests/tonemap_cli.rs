@@ -93,10 +93,11 @@ fn an_hdr_output_skips_the_encode_and_a_png_is_the_exact_encode() {
 
 /// A plan of statistics and `tonemap` alone goes from the input to the
 /// file a pixel at a time (a band of rows at once for a PFM, an image of
-/// the results for other formats), with none of the staged path's
-/// full-frame f64 images: the files must hold exactly the staged path's
-/// display image, for every operator and colour path, on an input with
-/// black, subnormal, huge and clamped-negative pixels and an odd size.
+/// the results for other formats, the 8-bit frame for a PNG), with none of
+/// the staged path's full-frame f64 images: the files must hold exactly
+/// the staged path's display image (or frame), for every operator and
+/// colour path, on an input with black, subnormal, huge and
+/// clamped-negative pixels and an odd size.
 #[test]
 fn a_pixelwise_plan_writes_exactly_what_the_staged_path_computes() {
     use tonegate::scene::{ColourPath, OperatorKind};
@@ -143,7 +144,7 @@ fn a_pixelwise_plan_writes_exactly_what_the_staged_path_computes() {
         let pipeline = resolved.pipeline();
         let (staged_plan, staged) = tonegate::reference::render_flat(&loaded, &pipeline).unwrap();
         let want = staged.display.to_hdr();
-        for ext in ["pfm", "exr"] {
+        for ext in ["pfm", "exr", "png"] {
             let out = dir.path().join(format!("out.{ext}"));
             let mut all = vec![
                 "tonemap",
@@ -160,6 +161,13 @@ fn a_pixelwise_plan_writes_exactly_what_the_staged_path_computes() {
                 String::from_utf8_lossy(&run.stderr)
             );
             let report: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+            if ext == "png" {
+                // The 8-bit frame: encode's bytes, and its plan.
+                assert_eq!(plan(&report), staged_plan.names(), "{args:?}");
+                let got = read_png8(&out).unwrap();
+                assert!(got == staged.frame, "{args:?} .png: not the staged frame");
+                continue;
+            }
             let names: Vec<&str> = staged_plan
                 .names()
                 .into_iter()

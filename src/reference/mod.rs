@@ -397,11 +397,24 @@ pub struct PixelwiseTone {
 }
 
 impl PixelwiseTone {
-    /// The display-referred pixel of input pixel `c`, narrowed to f32.
+    /// The display-referred pixel of input pixel `c`, in f64 (what `encode`
+    /// takes).
+    #[inline]
+    pub fn display(&self, c: [f32; 3]) -> [f64; 3] {
+        tonemap::tonemap_pixel(c.map(f64::from), &self.tone, &self.to_xyz, &self.to_rgb)
+    }
+
+    /// [`PixelwiseTone::display`] narrowed to f32, as an HDR file stores it.
     #[inline]
     pub fn map(&self, c: [f32; 3]) -> [f32; 3] {
-        tonemap::tonemap_pixel(c.map(f64::from), &self.tone, &self.to_xyz, &self.to_rgb)
-            .map(|v| v as f32)
+        self.display(c).map(|v| v as f32)
+    }
+
+    /// `encode`'s 8-bit frame of `img`, from each input pixel: the bytes of
+    /// the staged path's frame without its full-frame images.
+    pub fn frame(&self, img: &HdrImage, encoding: Encoding) -> Rgb8Image {
+        let encoder = encode::Encoder::new(encoding);
+        img.par_map(|c| self.display(c).map(|v| encoder.channel(v)))
     }
 }
 
