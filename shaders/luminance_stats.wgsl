@@ -233,8 +233,10 @@ fn tree_finish(@builtin(local_invocation_index) li: u32) {
 // butterfly of shuffles (lane i with lane i^1, then i^2, ...: pairwise and
 // compensated, no shared memory, no barrier); one partial per subgroup goes
 // to shared memory, and every subgroup merges those the same way, so each
-// subgroup operation runs in uniform control flow and every invocation ends
-// with the workgroup's partial.
+// subgroup operation runs in uniform control flow; invocation 0's result is
+// the one used. Subgroups are assumed full: 256 invocations fill any
+// power-of-two subgroup size up to 128, though Vulkan does not promise full
+// subgroups unless a pipeline asks for them.
 //#include shared/subgroup.wgsl
 
 fn shuffle_partial(p: Partial, mask: u32) -> Partial {

@@ -390,6 +390,9 @@ impl<'a> GpuRenderers<'a> {
                 return Ok(&self.kept[self.kept.len() - 1].1);
             }
         }
+        // An image too large for the adapter is refused before any kept
+        // renderer is dropped to make room for it.
+        self.ctx.check_size(img.width, img.height)?;
         let wanted = img.width as u64 * img.height as u64;
         while !self.kept.is_empty()
             && (self.kept.len() >= self.keep || self.pixels() + wanted > self.keep_pixels)
@@ -490,18 +493,23 @@ fn gpu_flat(
     if want_display {
         config.execution = crate::gpu::Execution::Staged;
     }
-    let r = renderers.renderer(img, &plan, pipeline, config)?;
-    let out = r.render(true)?;
-    let display = if want_display {
-        Some(
-            r.read_output("display")?
-                .map(|d| d.to_hdr())
-                .unwrap_or_else(|| img.clone()),
-        )
-    } else {
-        None
-    };
+    let rendered = renderers
+        .renderer(img, &plan, pipeline, config)
+        .and_then(|r| {
+            let out = r.render(true)?;
+            let display = match want_display {
+                true => Some(
+                    r.read_output("display")?
+                        .map(|d| d.to_hdr())
+                        .unwrap_or_else(|| img.clone()),
+                ),
+                false => None,
+            };
+            Ok((out, display))
+        });
+    // Whatever the outcome, a renderer over the budget is not kept.
     renderers.release_oversize();
+    let (out, display) = rendered?;
     let s = out.stats;
     let (weights, _) = crate::reference::tonemap::operator_constants(pipeline.operator);
     let tone = ToneParams {

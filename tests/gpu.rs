@@ -1046,6 +1046,22 @@ fn kept_renderers_render_what_fresh_ones_do() {
         );
         assert!(kept.pixels() <= budget);
     }
+    // An image wider than the adapter allows is refused without dropping
+    // the renderers kept.
+    let limit = ctx.limits.max_texture_dimension_2d;
+    let wide = tonegate::env::BuiltinEnv::Night.generate(limit + 1, 1);
+    let refused = tone_map_until(
+        &wide,
+        &pipeline,
+        Some((&mut kept, GpuConfig::default())),
+        false,
+        &|| false,
+    )
+    .map(|_| ())
+    .unwrap_err()
+    .to_string();
+    assert!(refused.contains("texture limit"), "{refused}");
+    assert_eq!(kept.len(), 1, "the kept renderer survives a refused image");
 }
 
 /// `tonegate render` writes the frames it renders with frames in flight:

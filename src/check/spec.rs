@@ -313,6 +313,13 @@ impl CheckSpec {
         if !rule.subject.valid_bound(rule.bound) {
             return Err(format!("bound out of range in {:?}", self.check));
         }
+        // Options are a set: a repeat would make a bound look narrower
+        // than the same bound without it.
+        for (i, o) in self.options.iter().enumerate() {
+            if self.options[..i].contains(o) {
+                return Err(format!("option {} listed twice", o.name()));
+            }
+        }
         Ok(())
     }
 
@@ -580,5 +587,12 @@ pub(super) mod tests {
             toml::from_str("max_flip_mean = 0.003\noptions = [\"rgba16float\"]").unwrap();
         assert_eq!(parsed.options, vec![Rgba16float]);
         assert!(toml::from_str::<CheckSpec>("max_flip_mean = 0.003\noptions = [\"f64\"]").is_err());
+        // A repeated option would make the bound outrank itself without it.
+        let twice: CheckSpec =
+            toml::from_str("max_flip_mean = 0.003\noptions = [\"rgba16float\", \"rgba16float\"]")
+                .unwrap();
+        let why = twice.validate().unwrap_err();
+        assert!(why.contains("rgba16float listed twice"), "{why}");
+        assert!(parsed.validate().is_ok());
     }
 }

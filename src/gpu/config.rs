@@ -59,7 +59,8 @@ pub enum EnvFilter {
 #[serde(rename_all = "snake_case")]
 pub enum ReductionMethod {
     /// Per adapter ([`ReductionMethod::resolve`]): block partials on a CPU
-    /// adapter, the workgroup tree on a GPU.
+    /// adapter; on a GPU the subgroup tree where it has subgroup
+    /// operations, else the shared-memory tree.
     #[default]
     Auto,
     /// Seed 001: one pass of barrier-free 16×16 block partials, one combine.
@@ -107,12 +108,6 @@ impl ReductionMethod {
             ReductionMethod::Auto | ReductionMethod::SubgroupTree => ReductionMethod::Tree,
             method => method,
         }
-    }
-
-    /// Whether the method reduces by workgroup trees (the grade's mean
-    /// then does too, the same way).
-    pub fn is_tree(self) -> bool {
-        matches!(self, ReductionMethod::Tree | ReductionMethod::SubgroupTree)
     }
 }
 

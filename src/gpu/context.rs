@@ -283,6 +283,17 @@ impl GpuContext {
         }
     }
 
+    /// The first error wgpu reported since the last call, if any, with the
+    /// ones after it (its consequences) forgotten.
+    pub fn take_first_error(&self) -> Result<(), GpuError> {
+        let mut v = self
+            .errors
+            .lock()
+            .map_err(|_| GpuError::Validation("error sink poisoned".into()))?;
+        let first = v.drain(..).next();
+        first.map_or(Ok(()), Err)
+    }
+
     /// Waits for all submitted work, then reports any error it raised.
     pub fn wait(&self) -> Result<(), GpuError> {
         self.device

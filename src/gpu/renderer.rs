@@ -537,17 +537,21 @@ impl<'a> GpuRenderer<'a> {
             .unwrap_or_else(|poisoned| poisoned.into_inner())
     }
 
-    /// Waits until the ticket's submission is done, then reports any error
-    /// the device raised.
+    /// Waits until the ticket's submission is done, then reports the first
+    /// error the device raised, whether or not the wait succeeded (a
+    /// submission that failed validation is never done, and its validation
+    /// error says why better than the wait), and forgets the rest: one fault
+    /// raises several (at `finish` and at `submit`), which would otherwise
+    /// fail the frames after it.
     fn wait_ticket(&self, ticket: &Ticket) -> Result<(), GpuError> {
-        self.ctx
-            .device
-            .poll(wgpu::PollType::Wait {
-                submission_index: Some(ticket.submission.clone()),
-                timeout: None,
-            })
-            .map_err(|e| GpuError::DeviceLost(e.to_string()))?;
-        self.ctx.take_error()
+        let waited = self.ctx.device.poll(wgpu::PollType::Wait {
+            submission_index: Some(ticket.submission.clone()),
+            timeout: None,
+        });
+        self.ctx.take_first_error()?;
+        waited
+            .map(|_| ())
+            .map_err(|e| GpuError::DeviceLost(e.to_string()))
     }
 
     fn read_ticket(&self, ticket: &Ticket) -> Result<GpuFrame, GpuError> {
