@@ -4,6 +4,12 @@
 //! prints the per-stage breakdown and the floor ratio for the same plan.
 //! Both executions are measured in the same run: staged (one kernel per
 //! stage) and fused (the display-referred stages merged).
+//!
+//! `kept_renderers`: the server's GPU tone map of six images of different
+//! sizes in turn, all in the 1024×512 size class, with renderers kept for
+//! exact sizes (four kept, so every image makes a new one) and for size
+//! classes (one kept renderer takes them all): what a renderer's textures,
+//! buffers and bind groups cost to make on this adapter.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use tonegate::conventions::rotation_matrix;
@@ -44,5 +50,47 @@ fn full_plan(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, full_plan);
+fn kept_renderers(c: &mut Criterion) {
+    use tonegate::toning::{tone_map_until, GpuRenderers, ToneSettings};
+    let ctx = GpuContext::new(&AdapterChoice::Default).unwrap_or_else(|e| panic!("{e}"));
+    let settings = ToneSettings {
+        bloom: 0.04,
+        ..Default::default()
+    };
+    let resolved = settings.resolve().unwrap_or_else(|e| panic!("{e}"));
+    let pipeline = resolved.pipeline();
+    let images: Vec<_> = [
+        (1024, 512),
+        (1000, 500),
+        (1010, 505),
+        (1020, 510),
+        (990, 495),
+        (970, 480),
+    ]
+    .into_iter()
+    .map(|(w, h)| tonegate::env::BuiltinEnv::Sky.generate(w, h))
+    .collect();
+    let mut group = c.benchmark_group("kept_renderers");
+    group.sample_size(10);
+    for classes in [false, true] {
+        let mut kept = GpuRenderers::new(&ctx);
+        if !classes {
+            kept = kept.exact_sizes();
+        }
+        let mut n = 0usize;
+        let tag = if classes { "size_class" } else { "exact_size" };
+        group.bench_function(format!("six_sizes_1024x512_{tag}"), |b| {
+            b.iter(|| {
+                n += 1;
+                let img = &images[n % images.len()];
+                let gpu = Some((&mut kept, GpuConfig::default()));
+                tone_map_until(img, &pipeline, gpu, false, &|| false)
+                    .unwrap_or_else(|e| panic!("{e}"))
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, full_plan, kept_renderers);
 criterion_main!(benches);

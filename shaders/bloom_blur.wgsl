@@ -15,6 +15,8 @@ override RADIUS: u32 = 6u;
 // dispatch by the same number.
 const RUN: i32 = 4;
 
+//#include shared/extent.wgsl
+
 // Up to 2·64 + 1 taps, four to a row (uniform arrays have a 16-byte
 // stride). A uniform buffer, not a storage one: llvmpipe loads a uniform
 // value once for all lanes from a uniform buffer, but loads storage lane by
@@ -29,7 +31,7 @@ fn weight(k: i32) -> f32 {
 
 @compute @workgroup_size(64, 1)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    let dims = vec2<i32>(textureDimensions(src));
+    let dims = vec2<i32>(extent.low);
     // The first pixel of this invocation's run.
     var first = vec2<i32>(i32(id.x) * RUN, i32(id.y));
     var along = dims.x;

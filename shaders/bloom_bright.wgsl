@@ -2,6 +2,7 @@
 //#include shared/colour.wgsl
 //#include shared/stats.wgsl
 //#include shared/bright.wgsl
+//#include shared/extent.wgsl
 
 // Read as a uniform: see tonemap.wgsl.
 @group(0) @binding(0) var<uniform> stats: Stats;
@@ -10,7 +11,7 @@
 
 @compute @workgroup_size(64, 1)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    let dims = textureDimensions(src);
+    let dims = extent.frame;
     if (id.x >= dims.x || id.y >= dims.y) {
         return;
     }

@@ -1,6 +1,7 @@
 // bloom_composite: C = C_tone + k·upsample(C_bloom), bilinear with texel
 // centres aligned, clamped at the edges (reference/bloom_composite.rs).
 //#include shared/upsample.wgsl
+//#include shared/extent.wgsl
 
 override STRENGTH: f32 = 0.5;
 
@@ -10,10 +11,10 @@ override STRENGTH: f32 = 0.5;
 
 @compute @workgroup_size(64, 1)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    let dims = textureDimensions(toned);
+    let dims = extent.frame;
     if (id.x >= dims.x || id.y >= dims.y) {
         return;
     }
-    let c = textureLoad(toned, id.xy, 0).rgb + STRENGTH * upsample_at(bloom, id.x, id.y, dims);
+    let c = textureLoad(toned, id.xy, 0).rgb + STRENGTH * upsample_at(bloom, id.x, id.y, dims, extent.low);
     textureStore(composite_out, vec2<i32>(id.xy), vec4<f32>(c, 1.0));
 }

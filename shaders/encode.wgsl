@@ -2,13 +2,14 @@
 // a buffer the host reads back without row padding (reference/encode.rs).
 
 //#include shared/encode.wgsl
+//#include shared/extent.wgsl
 
 @group(0) @binding(0) var src: texture_2d<f32>;
 @group(0) @binding(1) var<storage, read_write> frame_out: array<u32>;
 
 @compute @workgroup_size(64, 1)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    let dims = textureDimensions(src);
+    let dims = extent.frame;
     if (id.x >= dims.x || id.y >= dims.y) {
         return;
     }

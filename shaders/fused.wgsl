@@ -11,6 +11,7 @@
 //#include shared/upsample.wgsl
 //#include shared/encode.wgsl
 //#include shared/downsample.wgsl
+//#include shared/extent.wgsl
 
 // The bright pass reads the tone-mapped frame (seed 004), not the HDR one.
 override BRIGHT_FROM_TONED: bool = false;
@@ -32,11 +33,11 @@ override STRENGTH: f32 = 0.5;
 // (blocks cut by the right or bottom edge average the pixels they have).
 @compute @workgroup_size(64, 1)
 fn bright_low(@builtin(global_invocation_id) id: vec3<u32>) {
-    let out_dims = textureDimensions(low_out);
+    let out_dims = extent.low;
     if (id.x >= out_dims.x || id.y >= out_dims.y) {
         return;
     }
-    let b = downsample_block(id.xy, textureDimensions(hdr));
+    let b = downsample_block(id.xy, extent.frame);
     var acc = vec3<f32>(0.0);
     for (var y = b.y; y < b.w; y = y + 1u) {
         for (var x = b.x; x < b.z; x = x + 1u) {
@@ -54,13 +55,13 @@ fn bright_low(@builtin(global_invocation_id) id: vec3<u32>) {
 // from the HDR frame to the packed 8-bit frame.
 @compute @workgroup_size(64, 1)
 fn tail(@builtin(global_invocation_id) id: vec3<u32>) {
-    let dims = textureDimensions(hdr);
+    let dims = extent.frame;
     if (id.x >= dims.x || id.y >= dims.y) {
         return;
     }
     var c = toned(textureLoad(hdr, id.xy, 0).rgb, resolved.scale, resolved.white);
     if (BLOOM) {
-        c = c + STRENGTH * upsample_at(bloom, id.x, id.y, dims);
+        c = c + STRENGTH * upsample_at(bloom, id.x, id.y, dims, extent.low);
     }
     frame_out[id.y * dims.x + id.x] = pack_rgba8(c);
 }

@@ -1,6 +1,7 @@
 // grade: seed 004's brightness, contrast (mix with the mean-luminance grey)
 // and saturation (mix with the pixel's luminance), as reference/grade.rs.
 //#include shared/colour.wgsl
+//#include shared/extent.wgsl
 
 override BRIGHTNESS: f32 = 1.0;
 override CONTRAST: f32 = 1.0;
@@ -17,7 +18,7 @@ struct GradeMean {
 
 @compute @workgroup_size(64, 1)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    let dims = textureDimensions(src);
+    let dims = extent.frame;
     if (id.x >= dims.x || id.y >= dims.y) {
         return;
     }

@@ -1,9 +1,12 @@
 // grade_stats: mean BT.709 luminance of the frame entering the grade
 // (contrast's grey), by barrier-free block sums and one ordered combine
 // (`block_sums`, `finish`: CPU adapters), or by a workgroup tree
-// (`tree_sums`, `tree_finish`: GPUs), as luminance_stats reduces.
+// (`tree_sums`, `tree_finish`: GPUs), as luminance_stats reduces. Blocks and
+// tiles cover the texture, pixels are read inside `extent.frame` only (see
+// luminance_stats.wgsl).
 //#include shared/colour.wgsl
 //#include shared/stats.wgsl
+//#include shared/extent.wgsl
 
 override BLOCK_W: u32 = 16u;
 override BLOCK_H: u32 = 16u;
@@ -18,9 +21,10 @@ struct GradeMean {
 
 @compute @workgroup_size(64)
 fn block_sums(@builtin(global_invocation_id) id: vec3<u32>) {
-    let dims = textureDimensions(src);
-    let bx_count = (dims.x + BLOCK_W - 1u) / BLOCK_W;
-    let by_count = (dims.y + BLOCK_H - 1u) / BLOCK_H;
+    let grid = textureDimensions(src);
+    let dims = extent.frame;
+    let bx_count = (grid.x + BLOCK_W - 1u) / BLOCK_W;
+    let by_count = (grid.y + BLOCK_H - 1u) / BLOCK_H;
     if (id.x >= bx_count * by_count) {
         return;
     }
@@ -38,8 +42,9 @@ fn block_sums(@builtin(global_invocation_id) id: vec3<u32>) {
 
 @compute @workgroup_size(1)
 fn finish() {
-    let dims = textureDimensions(src);
-    let blocks = ((dims.x + BLOCK_W - 1u) / BLOCK_W) * ((dims.y + BLOCK_H - 1u) / BLOCK_H);
+    let grid = textureDimensions(src);
+    let dims = extent.frame;
+    let blocks = ((grid.x + BLOCK_W - 1u) / BLOCK_W) * ((grid.y + BLOCK_H - 1u) / BLOCK_H);
     var s = vec2<f32>(0.0);
     for (var i = 0u; i < blocks; i = i + 1u) {
         s = kahan_add(s.x, s.y, sums[i].x);
@@ -72,7 +77,7 @@ fn tree_halve(li: u32) {
 
 // The invocation's TREE_ROWS pixels of workgroup `wg`'s tile, summed.
 fn tile_sum(wg: vec3<u32>, lid: vec3<u32>) -> vec2<f32> {
-    let dims = textureDimensions(src);
+    let dims = extent.frame;
     let x = wg.x * TREE_X + lid.x;
     var s = vec2<f32>(0.0);
     if (x < dims.x) {
@@ -89,8 +94,8 @@ fn tile_sum(wg: vec3<u32>, lid: vec3<u32>) -> vec2<f32> {
 
 // The invocation's share of the tiles' sums: every TREE_SIZE-th, merged.
 fn strided_sum(li: u32) -> vec2<f32> {
-    let dims = textureDimensions(src);
-    let tiles = ((dims.x + TREE_X - 1u) / TREE_X) * ((dims.y + TREE_Y * TREE_ROWS - 1u) / (TREE_Y * TREE_ROWS));
+    let grid = textureDimensions(src);
+    let tiles = ((grid.x + TREE_X - 1u) / TREE_X) * ((grid.y + TREE_Y * TREE_ROWS - 1u) / (TREE_Y * TREE_ROWS));
     var s = vec2<f32>(0.0);
     for (var i = li; i < tiles; i = i + TREE_SIZE) {
         s = merge_sum(s, sums[i]);
@@ -99,7 +104,7 @@ fn strided_sum(li: u32) -> vec2<f32> {
 }
 
 fn write_mean(s: vec2<f32>) {
-    let dims = textureDimensions(src);
+    let dims = extent.frame;
     grade_mean.mean = (s.x + s.y) / (f32(dims.x) * f32(dims.y));
 }
 

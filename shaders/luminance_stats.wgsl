@@ -7,8 +7,12 @@
 // also with subgroup operations (`subgroup_partials`, `subgroup_finish`)
 // where the device has them.
 // Sums are Neumaier-compensated in f32 so 2 Mpx stay within 1e-6 of f64.
+// Blocks, tiles and levels cover the textures (a size class, see
+// shared/extent.wgsl); only pixels inside `extent.frame` are read, so those
+// beyond it reduce to empty partials, which every merge leaves unchanged.
 //#include shared/colour.wgsl
 //#include shared/stats.wgsl
+//#include shared/extent.wgsl
 
 override LUM_R: f32 = 0.2126;
 override LUM_G: f32 = 0.7152;
@@ -65,9 +69,10 @@ fn add_pixel(p: Partial, c: vec3<f32>) -> Partial {
 // 6–12× faster than a shared-memory tree.
 @compute @workgroup_size(64)
 fn block_partials(@builtin(global_invocation_id) id: vec3<u32>) {
-    let dims = textureDimensions(hdr);
-    let bx_count = (dims.x + BLOCK_W - 1u) / BLOCK_W;
-    let by_count = (dims.y + BLOCK_H - 1u) / BLOCK_H;
+    let grid = textureDimensions(hdr);
+    let dims = extent.frame;
+    let bx_count = (grid.x + BLOCK_W - 1u) / BLOCK_W;
+    let by_count = (grid.y + BLOCK_H - 1u) / BLOCK_H;
     if (id.x >= bx_count * by_count) {
         return;
     }
@@ -97,7 +102,7 @@ fn downsample_first(@builtin(global_invocation_id) id: vec3<u32>) {
     for (var dy = 0u; dy < 2u; dy = dy + 1u) {
         for (var dx = 0u; dx < 2u; dx = dx + 1u) {
             let s = vec2<u32>(id.x * 2u + dx, id.y * 2u + dy);
-            if (s.x < level.src_size.x && s.y < level.src_size.y) {
+            if (s.x < extent.frame.x && s.y < extent.frame.y) {
                 p = add_pixel(p, textureLoad(hdr, s, 0).rgb);
             }
         }
@@ -138,7 +143,7 @@ fn finish() {
 // The statistics of the whole frame's partial `p`. Σw = 0 falls back to the
 // plain log-average.
 fn write_stats(p: Partial) {
-    let dims = textureDimensions(hdr);
+    let dims = extent.frame;
     let n = f32(dims.x) * f32(dims.y);
     let log_average = exp((p.log_sum + p.log_c) / n);
     let w = p.w_sum + p.w_c;
@@ -176,7 +181,7 @@ fn tree_halve(li: u32) {
 
 // The invocation's TREE_ROWS pixels of workgroup `wg`'s tile, merged.
 fn tile_partial(wg: vec3<u32>, lid: vec3<u32>) -> Partial {
-    let dims = textureDimensions(hdr);
+    let dims = extent.frame;
     let x = wg.x * TREE_X + lid.x;
     var p = empty_partial();
     if (x < dims.x) {

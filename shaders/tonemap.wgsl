@@ -3,6 +3,7 @@
 //#include shared/colour.wgsl
 //#include shared/stats.wgsl
 //#include shared/tone.wgsl
+//#include shared/extent.wgsl
 
 // 0 = seed 000, 1 = seed 001, 2 = Reinhard 2002 (see `gpu::OperatorCode`).
 override OPERATOR: u32 = 0u;
@@ -67,7 +68,7 @@ fn resolve() {
 
 @compute @workgroup_size(64, 1)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    let dims = textureDimensions(hdr);
+    let dims = extent.frame;
     if (id.x >= dims.x || id.y >= dims.y) {
         return;
     }

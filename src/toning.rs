@@ -295,25 +295,44 @@ pub fn tone_map(
     gpu: Option<(&GpuContext, GpuConfig)>,
     want_display: bool,
 ) -> Result<Toned> {
-    let mut kept = gpu.map(|(ctx, config)| (GpuRenderers::new(ctx), config));
+    // One image: textures of its own size, nothing kept for a class.
+    let mut kept = gpu.map(|(ctx, config)| (GpuRenderers::new(ctx).exact_sizes(), config));
     let gpu = kept.as_mut().map(|(r, config)| (r, *config));
     tone_map_until(img, pipeline, gpu, want_display, &|| false)?
         .ok_or_else(|| invalid("the tone-map stopped before its end"))
 }
 
 /// Renderers kept between images on one device (the server's GPU worker):
-/// an image of a size, plan, settings and configuration seen before is
-/// uploaded into that renderer's input ([`GpuRenderer::reload`]) instead of
-/// creating its textures, buffers and bind groups again. At most
-/// [`GpuRenderers::KEEP`] renderers and [`GpuRenderers::KEEP_PIXELS`]
-/// pixels are kept (by default), the least recently used dropped first; a
-/// renderer over the pixel budget alone is dropped once its image is done.
+/// an image of a size class, plan, settings and configuration seen before
+/// is uploaded into that renderer's input ([`GpuRenderer::reload`]) instead
+/// of creating its textures, buffers and bind groups again. A renderer's
+/// textures have its class's size ([`size_class`]) and it renders any image
+/// of the class in their top-left corner. At most [`GpuRenderers::KEEP`]
+/// renderers and [`GpuRenderers::KEEP_PIXELS`] pixels of textures are kept
+/// (by default), the least recently used dropped first; a renderer over the
+/// pixel budget alone is dropped once its image is done.
 pub struct GpuRenderers<'a> {
     ctx: &'a GpuContext,
     /// (key, renderer), the most recently used last.
     kept: Vec<(String, crate::gpu::GpuRenderer<'a>)>,
     keep: usize,
     keep_pixels: u64,
+    /// Whether renderers are made for size classes (else for exact sizes).
+    classes: bool,
+}
+
+/// The size class of a `width`×`height` image on an adapter whose textures
+/// are at most `limit` wide and tall: each side rounded up to a multiple of
+/// a sixteenth of its next power of two, and of 64 at least. A class's side
+/// is at most 12.5 % or 63 pixels longer than any image's in it; there are
+/// eight classes per doubling of a side beyond 1024, and multiples of 64 up
+/// to it (1920×1080 is in 1920×1152).
+pub fn size_class(width: u32, height: u32, limit: u32) -> (u32, u32) {
+    let side = |d: u32| {
+        let step = (d.max(1).next_power_of_two() / 16).max(64);
+        d.div_ceil(step).saturating_mul(step).min(limit).max(d)
+    };
+    (side(width), side(height))
 }
 
 impl<'a> GpuRenderers<'a> {
@@ -334,23 +353,27 @@ impl<'a> GpuRenderers<'a> {
             kept: Vec::new(),
             keep: keep.max(1),
             keep_pixels,
+            classes: true,
         }
     }
 
-    /// The pixels of the frames the kept renderers are for.
+    /// Renderers made for each image's exact size, not its class: for one
+    /// image, where nothing is reused.
+    pub fn exact_sizes(mut self) -> Self {
+        self.classes = false;
+        self
+    }
+
+    /// The pixels of the kept renderers' textures (their capacities).
     pub fn pixels(&self) -> u64 {
-        self.kept
-            .iter()
-            .map(|(_, r)| r.width() as u64 * r.height() as u64)
-            .sum()
+        self.kept.iter().map(|(_, r)| capacity_pixels(r)).sum()
     }
 
     /// Drops a renderer larger than the pixel budget on its own: it served
     /// its image and is not kept idle on the device.
     pub fn release_oversize(&mut self) {
         let budget = self.keep_pixels;
-        self.kept
-            .retain(|(_, r)| r.width() as u64 * r.height() as u64 <= budget);
+        self.kept.retain(|(_, r)| capacity_pixels(r) <= budget);
     }
 
     pub fn ctx(&self) -> &'a GpuContext {
@@ -367,9 +390,10 @@ impl<'a> GpuRenderers<'a> {
     }
 
     /// A renderer of `plan` for `img` with `pipeline` and `config`: a kept
-    /// one reloaded with `img`, or a new one, kept after the least recently
-    /// used ones it has no room beside were dropped (before it is created,
-    /// so the device never holds more than the budget and the new one).
+    /// one of its size class reloaded with `img`, or a new one, kept after
+    /// the least recently used ones it has no room beside were dropped
+    /// (before it is created, so the device never holds more than the budget
+    /// and the new one).
     pub fn renderer(
         &mut self,
         img: &HdrImage,
@@ -377,10 +401,21 @@ impl<'a> GpuRenderers<'a> {
         pipeline: &Pipeline,
         config: GpuConfig,
     ) -> Result<&crate::gpu::GpuRenderer<'a>> {
+        // An image too large for the adapter is refused before any kept
+        // renderer is dropped to make room for it.
+        self.ctx.check_size(img.width, img.height)?;
+        let class = match self.classes {
+            true => size_class(
+                img.width,
+                img.height,
+                self.ctx.limits.max_texture_dimension_2d,
+            ),
+            false => (img.width, img.height),
+        };
         let key = format!(
             "{}x{} {:?} {pipeline:?} {config:?}",
-            img.width,
-            img.height,
+            class.0,
+            class.1,
             plan.names()
         );
         if let Some(i) = self.kept.iter().position(|(k, _)| *k == key) {
@@ -390,25 +425,28 @@ impl<'a> GpuRenderers<'a> {
                 return Ok(&self.kept[self.kept.len() - 1].1);
             }
         }
-        // An image too large for the adapter is refused before any kept
-        // renderer is dropped to make room for it.
-        self.ctx.check_size(img.width, img.height)?;
-        let wanted = img.width as u64 * img.height as u64;
+        let wanted = class.0 as u64 * class.1 as u64;
         while !self.kept.is_empty()
             && (self.kept.len() >= self.keep || self.pixels() + wanted > self.keep_pixels)
         {
             self.kept.remove(0);
         }
-        let r = crate::gpu::GpuRenderer::new(
+        let r = crate::gpu::GpuRenderer::with_capacity(
             self.ctx,
             plan.clone(),
             crate::gpu::GpuInput::Flat(img),
             pipeline,
             config,
+            class,
         )?;
         self.kept.push((key, r));
         Ok(&self.kept[self.kept.len() - 1].1)
     }
+}
+
+fn capacity_pixels(r: &crate::gpu::GpuRenderer) -> u64 {
+    let (w, h) = r.capacity();
+    w as u64 * h as u64
 }
 
 /// [`tone_map`], asking `stop` between stages (the CPU reference) or before
@@ -540,6 +578,34 @@ fn gpu_flat(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_size_class_is_at_most_an_eighth_or_63_pixels_longer_on_a_side() {
+        let limit = 16384;
+        let mut classes = std::collections::BTreeSet::new();
+        for d in 1..=limit {
+            let (c, _) = size_class(d, 1, limit);
+            assert!(c >= d && c <= limit, "{d} -> {c}");
+            assert!(
+                c as f64 <= (d as f64 * 1.125).max(d as f64 + 63.0),
+                "{d} -> {c}"
+            );
+            // A class holds every size between its smaller neighbour and it.
+            assert_eq!(size_class(c, 1, limit).0, c, "{d} -> {c}");
+            classes.insert(c);
+        }
+        // Eight per doubling beyond 1024, multiples of 64 up to it.
+        let octave = |lo: u32, hi: u32| classes.range(lo + 1..=hi).count();
+        assert_eq!(octave(1024, 2048), 8);
+        assert_eq!(octave(8192, 16384), 8);
+        assert_eq!(octave(0, 1024), 16);
+        assert_eq!(size_class(1000, 500, limit), (1024, 512));
+        assert_eq!(size_class(1920, 1080, limit), (1920, 1152));
+        assert_eq!(size_class(3840, 2160, limit), (3840, 2304));
+        // Capped by the adapter's limit, never below the image.
+        assert_eq!(size_class(8100, 10, 8192), (8192, 64));
+        assert_eq!(size_class(8192, 8192, 8192), (8192, 8192));
+    }
 
     #[cfg(feature = "cli")]
     #[test]

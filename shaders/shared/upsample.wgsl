@@ -1,9 +1,16 @@
 // The bloom's bilinear upsample to the full frame, texel centres aligned,
 // clamped at the edges (reference/bloom_composite.rs); shared by the
-// `bloom_composite` stage and the fused tail (fused.wgsl).
+// `bloom_composite` stage and the fused tail (fused.wgsl). `full` is the
+// frame's size and `low_size` the bloom's (shared/extent.wgsl).
 
-fn upsample_at(bloom: texture_2d<f32>, x: u32, y: u32, full: vec2<u32>) -> vec3<f32> {
-    let low = vec2<i32>(textureDimensions(bloom));
+fn upsample_at(
+    bloom: texture_2d<f32>,
+    x: u32,
+    y: u32,
+    full: vec2<u32>,
+    low_size: vec2<u32>,
+) -> vec3<f32> {
+    let low = vec2<i32>(low_size);
     let fx = (f32(x) + 0.5) * f32(low.x) / f32(full.x) - 0.5;
     let fy = (f32(y) + 0.5) * f32(low.y) / f32(full.y) - 0.5;
     let x0f = floor(fx);

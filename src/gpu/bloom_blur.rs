@@ -7,6 +7,7 @@ use crate::reference::bloom_blur::gaussian_weights;
 /// Pixels each invocation writes; `RUN` in bloom_blur.wgsl.
 const RUN: u32 = 4;
 
+#[allow(clippy::too_many_arguments)]
 pub fn bloom_blur(
     ctx: &GpuContext,
     format: HdrFormat,
@@ -15,6 +16,7 @@ pub fn bloom_blur(
     src: &wgpu::Texture,
     tmp: &wgpu::Texture,
     blur_out: &wgpu::Texture,
+    extent: &wgpu::Buffer,
 ) -> Vec<Dispatch> {
     // `array<vec4<f32>, 33>` in bloom_blur.wgsl: room for radius 64.
     let mut w = [0f32; 4 * 33];
@@ -45,11 +47,7 @@ pub fn bloom_blur(
         } else {
             (w, h.div_ceil(RUN))
         };
-        Dispatch {
-            pipeline: p,
-            bind_group: bg,
-            groups: (groups(x, GROUP_X), y),
-        }
+        Dispatch::new(p, bg, (groups(x, GROUP_X), y)).sized(ctx, extent)
     };
     vec![pass(true, src, tmp), pass(false, tmp, blur_out)]
 }

@@ -18,6 +18,7 @@ pub fn bright_constants(bloom: &Bloom, weights: [f64; 3]) -> [(&'static str, f64
     ]
 }
 
+#[allow(clippy::too_many_arguments)]
 pub fn bloom_bright(
     ctx: &GpuContext,
     format: HdrFormat,
@@ -26,6 +27,7 @@ pub fn bloom_bright(
     stats: &wgpu::Buffer,
     src: &wgpu::Texture,
     bright_out: &wgpu::Texture,
+    extent: &wgpu::Buffer,
 ) -> Dispatch {
     let p = pipeline(
         ctx,
@@ -40,5 +42,5 @@ pub fn bloom_bright(
         (2, Bind::Texture(bright_out)),
     ];
     let bg = bind_group(ctx, &p, "tonegate.bloom_bright", &binds);
-    dispatch_2d(p, bg, src.width(), src.height())
+    dispatch_2d(p, bg, src.width(), src.height()).sized(ctx, extent)
 }

@@ -10,6 +10,7 @@ pub fn bloom_composite(
     toned: &wgpu::Texture,
     bloom: &wgpu::Texture,
     composite_out: &wgpu::Texture,
+    extent: &wgpu::Buffer,
 ) -> Dispatch {
     let p = pipeline(
         ctx,
@@ -28,5 +29,5 @@ pub fn bloom_composite(
             (2, Bind::Texture(composite_out)),
         ],
     );
-    dispatch_2d(p, bg, toned.width(), toned.height())
+    dispatch_2d(p, bg, toned.width(), toned.height()).sized(ctx, extent)
 }

@@ -9,6 +9,7 @@ pub fn bloom_downsample(
     factor: u32,
     src: &wgpu::Texture,
     low_out: &wgpu::Texture,
+    extent: &wgpu::Buffer,
 ) -> Dispatch {
     let p = pipeline(
         ctx,
@@ -23,5 +24,5 @@ pub fn bloom_downsample(
         "tonegate.bloom_downsample",
         &[(0, Bind::Texture(src)), (1, Bind::Texture(low_out))],
     );
-    dispatch_2d(p, bg, low_out.width(), low_out.height())
+    dispatch_2d(p, bg, low_out.width(), low_out.height()).sized(ctx, extent)
 }

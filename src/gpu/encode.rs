@@ -18,6 +18,7 @@ pub fn encode(
     encoding: Encoding,
     src: &wgpu::Texture,
     frame_out: &wgpu::Buffer,
+    extent: &wgpu::Buffer,
 ) -> Dispatch {
     let p = pipeline(ctx, "encode", "main", format, &encode_constants(encoding));
     let bg = bind_group(
@@ -26,5 +27,5 @@ pub fn encode(
         "tonegate.encode",
         &[(0, Bind::Texture(src)), (1, Bind::Buffer(frame_out))],
     );
-    dispatch_2d(p, bg, src.width(), src.height())
+    dispatch_2d(p, bg, src.width(), src.height()).sized(ctx, extent)
 }

@@ -46,7 +46,7 @@ pub fn wire(w: &mut Wiring, stage: &Stage) -> Result<Option<Pass>, GpuError> {
                 "bloom_bright+bloom_downsample"
             };
             dispatches.push(bright_low(
-                ctx, format, t, b, from_toned, w.weights, &w.stats, &w.hdr, &out,
+                ctx, format, t, b, from_toned, w.weights, &w.stats, &w.hdr, &out, &w.extent,
             ));
             w.low = Some(out);
             Pass::every_frame(name, dispatches)
@@ -84,6 +84,7 @@ pub fn wire(w: &mut Wiring, stage: &Stage) -> Result<Option<Pass>, GpuError> {
                 &w.stats,
                 &w.hdr,
                 &w.frame,
+                &w.extent,
             ));
             Pass::every_frame(name, dispatches)
         }
@@ -103,6 +104,7 @@ pub fn bright_low(
     stats: &wgpu::Buffer,
     hdr: &wgpu::Texture,
     low_out: &wgpu::Texture,
+    extent: &wgpu::Buffer,
 ) -> Dispatch {
     let mut constants = vec![
         ("COLOUR", tone.colour),
@@ -123,7 +125,7 @@ pub fn bright_low(
             (5, Bind::Texture(low_out)),
         ],
     );
-    dispatch_2d(p, bg, low_out.width(), low_out.height())
+    dispatch_2d(p, bg, low_out.width(), low_out.height()).sized(ctx, extent)
 }
 
 /// tonemap → [bloom_composite →] encode, into the packed frame buffer.
@@ -138,6 +140,7 @@ pub fn tail(
     stats: &wgpu::Buffer,
     hdr: &wgpu::Texture,
     frame_out: &wgpu::Buffer,
+    extent: &wgpu::Buffer,
 ) -> Dispatch {
     let mut constants = vec![
         ("COLOUR", tone.colour),
@@ -168,5 +171,5 @@ pub fn tail(
             (4, Bind::Buffer(frame_out)),
         ],
     );
-    dispatch_2d(p, bg, hdr.width(), hdr.height())
+    dispatch_2d(p, bg, hdr.width(), hdr.height()).sized(ctx, extent)
 }

@@ -11,6 +11,7 @@ pub fn grade(
     mean: &wgpu::Buffer,
     src: &wgpu::Texture,
     graded_out: &wgpu::Texture,
+    extent: &wgpu::Buffer,
 ) -> Dispatch {
     let constants = [
         ("BRIGHTNESS", g.brightness.get()),
@@ -28,5 +29,5 @@ pub fn grade(
             (2, Bind::Texture(graded_out)),
         ],
     );
-    dispatch_2d(p, bg, src.width(), src.height())
+    dispatch_2d(p, bg, src.width(), src.height()).sized(ctx, extent)
 }

@@ -16,6 +16,7 @@ pub fn grade_stats(
     method: ReductionMethod,
     src: &wgpu::Texture,
     mean: &wgpu::Buffer,
+    extent: &wgpu::Buffer,
 ) -> Vec<Dispatch> {
     let t = super::luminance_stats::TREE_TILE;
     let tiles = (groups(src.width(), t), groups(src.height(), t));
@@ -37,11 +38,7 @@ pub fn grade_stats(
         "tonegate.grade_stats",
         &[(0, Bind::Texture(src)), (1, Bind::Buffer(&sums))],
     );
-    let first = Dispatch {
-        pipeline: p,
-        bind_group: bg,
-        groups: first_groups,
-    };
+    let first = Dispatch::new(p, bg, first_groups).sized(ctx, extent);
     let p = pipeline(ctx, "grade_stats", entries.1, format, &constants);
     let bg = bind_group(
         ctx,
@@ -53,12 +50,5 @@ pub fn grade_stats(
             (2, Bind::Buffer(mean)),
         ],
     );
-    vec![
-        first,
-        Dispatch {
-            pipeline: p,
-            bind_group: bg,
-            groups: (1, 1),
-        },
-    ]
+    vec![first, Dispatch::new(p, bg, (1, 1)).sized(ctx, extent)]
 }

@@ -24,6 +24,7 @@ pub fn luminance_stats(
     delta: f64,
     hdr: &wgpu::Texture,
     stats: &wgpu::Buffer,
+    extent: &wgpu::Buffer,
 ) -> Vec<Dispatch> {
     let (w, h) = (hdr.width(), hdr.height());
     let constants = [
@@ -81,11 +82,7 @@ pub fn luminance_stats(
                 "tonegate.luminance_stats",
                 &[(0, Bind::Texture(hdr)), (1, Bind::Buffer(&a))],
             );
-            out.push(Dispatch {
-                pipeline: p,
-                bind_group: bg,
-                groups: first_groups,
-            });
+            out.push(Dispatch::new(p, bg, first_groups).sized(ctx, extent));
             let lv = level((n, 1), (1, 1));
             let p = pipeline(ctx, "luminance_stats", combine, format, &constants);
             let bg = bind_group(
@@ -93,17 +90,12 @@ pub fn luminance_stats(
                 &p,
                 "tonegate.luminance_stats.finish",
                 &[
-                    (0, Bind::Texture(hdr)),
                     (1, Bind::Buffer(&a)),
                     (3, Bind::Buffer(stats)),
                     (4, Bind::Buffer(&lv)),
                 ],
             );
-            out.push(Dispatch {
-                pipeline: p,
-                bind_group: bg,
-                groups: (1, 1),
-            });
+            out.push(Dispatch::new(p, bg, (1, 1)).sized(ctx, extent));
         }
         ReductionMethod::PingPong => {
             // log2 levels, each ceil(size/2): odd sizes keep their last row/column.
@@ -131,11 +123,10 @@ pub fn luminance_stats(
                     (4, Bind::Buffer(&lv)),
                 ],
             );
-            out.push(Dispatch {
-                pipeline: p,
-                bind_group: bg,
-                groups: (groups(first.0, super::stages::GROUP_X), first.1),
-            });
+            out.push(
+                Dispatch::new(p, bg, (groups(first.0, super::stages::GROUP_X), first.1))
+                    .sized(ctx, extent),
+            );
             let step = pipeline(
                 ctx,
                 "luminance_stats",
@@ -159,11 +150,11 @@ pub fn luminance_stats(
                         (4, Bind::Buffer(&lv)),
                     ],
                 );
-                out.push(Dispatch {
-                    pipeline: p,
-                    bind_group: bg,
-                    groups: (groups(next.0, super::stages::GROUP_X), next.1),
-                });
+                out.push(Dispatch::new(
+                    p,
+                    bg,
+                    (groups(next.0, super::stages::GROUP_X), next.1),
+                ));
                 current = 1 - current;
                 size = next;
             }
@@ -174,17 +165,12 @@ pub fn luminance_stats(
                 &finish,
                 "tonegate.luminance_stats.finish",
                 &[
-                    (0, Bind::Texture(hdr)),
                     (1, Bind::Buffer(&bufs[current])),
                     (3, Bind::Buffer(stats)),
                     (4, Bind::Buffer(&lv)),
                 ],
             );
-            out.push(Dispatch {
-                pipeline: finish,
-                bind_group: bg,
-                groups: (1, 1),
-            });
+            out.push(Dispatch::new(finish, bg, (1, 1)).sized(ctx, extent));
         }
     }
     out

@@ -4,7 +4,9 @@
 
 use super::config::{Execution, GpuConfig};
 use super::sphere::Environment;
-use super::stages::{hdr_texture, read_buffer, shared_buffer, storage_buffer, upload};
+use super::stages::{
+    extent_buffer, hdr_texture, read_buffer, shared_buffer, storage_buffer, upload, Extent,
+};
 use super::timing::Queries;
 use super::wiring::Wiring;
 use super::{GpuContext, GpuError, HdrFormat};
@@ -12,6 +14,7 @@ use crate::conventions::{Camera, Mat3};
 use crate::image::{HdrImage, LinearImage, Rgb8Image};
 use crate::perf::StageTiming;
 use crate::plan::StagePlan;
+use crate::reference::bloom_downsample::downsampled_size;
 use crate::reference::tonemap::operator_constants;
 use crate::reference::Pipeline;
 use serde::Serialize;
@@ -77,6 +80,8 @@ struct Staging {
 pub struct Ticket {
     slot: usize,
     read_frame: bool,
+    /// The frame's size (a kept renderer's image may change between frames).
+    size: (u32, u32),
     start: std::time::Instant,
     submission: wgpu::SubmissionIndex,
     /// Each map's outcome, tagged with its buffer: 0 statistics, 1 frame,
@@ -160,8 +165,14 @@ pub struct GpuRenderer<'a> {
     requested: GpuConfig,
     /// A flat input's texture, which [`GpuRenderer::reload`] refills.
     input: Option<wgpu::Texture>,
-    width: u32,
-    height: u32,
+    /// The size of the frames rendered now ([`GpuRenderer::reload`] may
+    /// change it within the capacity), and the size of the textures.
+    size: std::sync::Mutex<(u32, u32)>,
+    capacity: (u32, u32),
+    /// The bloom's downsampling factor, which sizes its low-resolution level.
+    bloom_factor: Option<u32>,
+    /// The `Extent` uniform the sized entry points read (stages::Extent).
+    extent: wgpu::Buffer,
     camera: Option<Camera>,
     uniforms: Option<wgpu::Buffer>,
     /// Per plan stage, its dispatches (one compute pass each), and those of
@@ -193,12 +204,37 @@ impl<'a> GpuRenderer<'a> {
         pipeline: &Pipeline,
         config: GpuConfig,
     ) -> Result<GpuRenderer<'a>, GpuError> {
+        Self::with_capacity(ctx, plan, input, pipeline, config, (0, 0))
+    }
+
+    /// [`GpuRenderer::new`] with textures and buffers of at least
+    /// `capacity`: a flat renderer that [`GpuRenderer::reload`] can then
+    /// refill with any image up to that size (a server's size class). A
+    /// sphere renderer's frames are the camera's size.
+    pub fn with_capacity(
+        ctx: &'a GpuContext,
+        plan: StagePlan,
+        input: GpuInput,
+        pipeline: &Pipeline,
+        config: GpuConfig,
+        capacity: (u32, u32),
+    ) -> Result<GpuRenderer<'a>, GpuError> {
         let requested = config;
         let (config, notes) = config.in_effect(input.max_component(), &plan, ctx.traits());
         let (width, height) = input.size();
         ctx.check_size(width, height)?;
+        let capacity = match input {
+            GpuInput::Flat(_) => (width.max(capacity.0), height.max(capacity.1)),
+            GpuInput::Sphere { .. } => (width, height),
+        };
+        ctx.check_size(capacity.0, capacity.1)?;
+        let bloom_factor = plan.stages().iter().find_map(|s| match s {
+            crate::plan::Stage::BloomDownsample { factor } => Some(*factor),
+            _ => None,
+        });
+        let extent = extent_buffer(ctx, extent_of((width, height), bloom_factor));
         let taa = plan.taa().is_some();
-        let mut wiring = frame_resources(ctx, &input, pipeline, config, (width, height), taa)?;
+        let mut wiring = frame_resources(ctx, &input, pipeline, config, capacity, taa, extent)?;
         let input_texture = match input {
             GpuInput::Flat(_) => Some(wiring.hdr.clone()),
             GpuInput::Sphere { .. } => None,
@@ -229,9 +265,10 @@ impl<'a> GpuRenderer<'a> {
             environment,
             outputs,
             taa,
+            extent,
             ..
         } = wiring;
-        let frame_bytes = width as u64 * height as u64 * 4;
+        let frame_bytes = capacity.0 as u64 * capacity.1 as u64 * 4;
         Ok(GpuRenderer {
             ctx,
             plan,
@@ -239,8 +276,10 @@ impl<'a> GpuRenderer<'a> {
             notes,
             requested,
             input: input_texture,
-            width,
-            height,
+            size: std::sync::Mutex::new((width, height)),
+            capacity,
+            bloom_factor,
+            extent,
             camera,
             uniforms: environment.map(|(_, uniforms)| uniforms),
             passes,
@@ -270,15 +309,18 @@ impl<'a> GpuRenderer<'a> {
 
     /// Replaces a flat input with `img` for the next frames, keeping every
     /// texture, buffer and bind group: what a server rendering many images
-    /// of one size and one set of settings reuses. False (nothing changed)
-    /// when the renderer cannot take it: a sphere renderer, another size,
-    /// or an input that would change the configuration in effect (f16
-    /// intermediates promoted to f32, or no longer).
+    /// of one set of settings reuses. An image smaller than the capacity is
+    /// rendered in its top-left corner: the sized entry points read its
+    /// size from the `Extent` uniform, rewritten here, and nothing outside
+    /// it. False (nothing changed) when the renderer cannot take it: a
+    /// sphere renderer, an image larger than the capacity, or an input that
+    /// would change the configuration in effect (f16 intermediates promoted
+    /// to f32, or no longer).
     pub fn reload(&self, img: &HdrImage) -> bool {
         let Some(texture) = &self.input else {
             return false;
         };
-        if (img.width, img.height) != (self.width, self.height) {
+        if img.width > self.capacity.0 || img.height > self.capacity.1 {
             return false;
         }
         let (config, _) =
@@ -288,15 +330,37 @@ impl<'a> GpuRenderer<'a> {
             return false;
         }
         upload(self.ctx, texture, img, self.config.hdr_format);
+        let mut size = self.lock_size();
+        if *size != (img.width, img.height) {
+            *size = (img.width, img.height);
+            let extent = extent_of(*size, self.bloom_factor);
+            self.ctx
+                .queue
+                .write_buffer(&self.extent, 0, bytemuck::bytes_of(&extent));
+        }
         true
     }
 
-    pub fn width(&self) -> u32 {
-        self.width
+    fn lock_size(&self) -> std::sync::MutexGuard<'_, (u32, u32)> {
+        self.size
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
     }
 
+    /// The width of the frames rendered now.
+    pub fn width(&self) -> u32 {
+        self.lock_size().0
+    }
+
+    /// The height of the frames rendered now.
     pub fn height(&self) -> u32 {
-        self.height
+        self.lock_size().1
+    }
+
+    /// The size of the renderer's textures and buffers: the largest image
+    /// [`GpuRenderer::reload`] takes.
+    pub fn capacity(&self) -> (u32, u32) {
+        self.capacity
     }
 
     /// The adapter the passes run on.
@@ -413,6 +477,7 @@ impl<'a> GpuRenderer<'a> {
     /// [`FRAMES_IN_FLIGHT`] frames may be submitted and not yet collected.
     pub fn submit(&self, read_frame: bool) -> Result<Ticket, GpuError> {
         let start = std::time::Instant::now();
+        let size = *self.lock_size();
         let n = self
             .submitted
             .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
@@ -450,7 +515,7 @@ impl<'a> GpuRenderer<'a> {
                 0,
                 &staging.frame,
                 0,
-                self.width as u64 * self.height as u64 * 4,
+                size.0 as u64 * size.1 as u64 * 4,
             );
         }
         let submission = self.ctx.queue.submit([encoder.finish()]);
@@ -469,6 +534,7 @@ impl<'a> GpuRenderer<'a> {
         Ok(Ticket {
             slot,
             read_frame,
+            size,
             start,
             submission,
             mapped,
@@ -574,12 +640,12 @@ impl<'a> GpuRenderer<'a> {
             // Buffers are at least 16 bytes: a frame under 4 pixels has padding.
             let pixels = view
                 .chunks_exact(4)
-                .take(self.width as usize * self.height as usize)
+                .take(ticket.size.0 as usize * ticket.size.1 as usize)
                 .map(|c| [c[0], c[1], c[2]])
                 .collect();
             Some(Rgb8Image {
-                width: self.width,
-                height: self.height,
+                width: ticket.size.0,
+                height: ticket.size.1,
                 pixels,
             })
         } else {
@@ -653,7 +719,21 @@ impl<'a> GpuRenderer<'a> {
         let Some((_, texture)) = found else {
             return Ok(None);
         };
-        let (w, h) = (texture.width(), texture.height());
+        // The part the frame covers: a texture of the capacity holds the
+        // frame, one of the bloom's level at the capacity holds its level.
+        let extent = extent_of(*self.lock_size(), self.bloom_factor);
+        let texture_size = (texture.width(), texture.height());
+        let (w, h) = if texture_size == self.capacity {
+            (extent.frame[0], extent.frame[1])
+        } else if Some(texture_size)
+            == self
+                .bloom_factor
+                .map(|f| downsampled_size(self.capacity.0, self.capacity.1, f))
+        {
+            (extent.low[0], extent.low[1])
+        } else {
+            texture_size
+        };
         let single = texture.format() == wgpu::TextureFormat::R32Float;
         let bpp = if single {
             4
@@ -684,7 +764,11 @@ impl<'a> GpuRenderer<'a> {
                     rows_per_image: Some(h),
                 },
             },
-            texture.size(),
+            wgpu::Extent3d {
+                width: w,
+                height: h,
+                depth_or_array_layers: 1,
+            },
         );
         self.ctx.queue.submit([encoder.finish()]);
         let bytes = self.ctx.read_buffer(&buf)?;
@@ -721,8 +805,17 @@ impl<'a> GpuRenderer<'a> {
     }
 }
 
-/// The frame's fixed resources and its input uploaded: what the plan's
-/// stages are then wired between.
+/// The extent of a frame of `size` with the bloom's `factor`.
+fn extent_of(size: (u32, u32), bloom_factor: Option<u32>) -> Extent {
+    let low = bloom_factor.map_or(size, |f| downsampled_size(size.0, size.1, f));
+    Extent {
+        frame: [size.0, size.1],
+        low: [low.0, low.1],
+    }
+}
+
+/// The frame's fixed resources (textures of `width`×`height`, the capacity)
+/// and its input uploaded: what the plan's stages are then wired between.
 fn frame_resources<'a, 'p>(
     ctx: &'a GpuContext,
     input: &GpuInput,
@@ -730,6 +823,7 @@ fn frame_resources<'a, 'p>(
     config: GpuConfig,
     (width, height): (u32, u32),
     taa: bool,
+    extent: wgpu::Buffer,
 ) -> Result<Wiring<'a, 'p>, GpuError> {
     let format = config.hdr_format;
     let (weights, delta) = operator_constants(pipeline.operator);
@@ -780,6 +874,7 @@ fn frame_resources<'a, 'p>(
             std::mem::size_of::<GpuStats>() as u64,
         ),
         frame: storage_buffer(ctx, "tonegate.encode", width as u64 * height as u64 * 4),
+        extent,
         environment,
         outputs: Vec::new(),
         display: None,

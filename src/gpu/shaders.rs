@@ -45,6 +45,10 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../shaders/shared/downsample.wgsl"),
     ),
     (
+        "shared/extent.wgsl",
+        include_str!("../../shaders/shared/extent.wgsl"),
+    ),
+    (
         "shared/subgroup.wgsl",
         include_str!("../../shaders/shared/subgroup.wgsl"),
     ),

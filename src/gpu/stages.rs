@@ -111,7 +111,8 @@ pub fn read_buffer(ctx: &GpuContext, label: &str, size: u64) -> wgpu::Buffer {
     })
 }
 
-/// Uploads `img` (RGB f32) into an RGBA texture of `format`.
+/// Uploads `img` (RGB f32) into the top-left corner of an RGBA texture of
+/// `format` at least as large.
 pub fn upload(
     ctx: &GpuContext,
     texture: &wgpu::Texture,
@@ -150,7 +151,11 @@ pub fn upload(
             bytes_per_row: Some(img.width * format.bytes_per_pixel()),
             rows_per_image: Some(img.height),
         },
-        texture.size(),
+        wgpu::Extent3d {
+            width: img.width,
+            height: img.height,
+            depth_or_array_layers: 1,
+        },
     );
 }
 
@@ -241,19 +246,76 @@ pub fn groups(n: u32, size: u32) -> u32 {
     n.div_ceil(size)
 }
 
-/// A dispatch: pipeline, bind group and workgroup counts.
+/// A dispatch: pipeline, bind group and workgroup counts, and for an entry
+/// point that reads the frame's extent (shaders/shared/extent.wgsl), the
+/// bind group of group 1 holding it.
 pub struct Dispatch {
     pub pipeline: wgpu::ComputePipeline,
     pub bind_group: wgpu::BindGroup,
     pub groups: (u32, u32),
+    pub extent: Option<wgpu::BindGroup>,
 }
 
 impl Dispatch {
+    pub fn new(
+        pipeline: wgpu::ComputePipeline,
+        bind_group: wgpu::BindGroup,
+        groups: (u32, u32),
+    ) -> Dispatch {
+        Dispatch {
+            pipeline,
+            bind_group,
+            groups,
+            extent: None,
+        }
+    }
+
+    /// Binds `extent` (the renderer's [`Extent`] uniform) as group 1: only
+    /// for entry points that read it, since layouts are derived per entry.
+    pub fn sized(mut self, ctx: &GpuContext, extent: &wgpu::Buffer) -> Dispatch {
+        self.extent = Some(ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("tonegate.extent"),
+            layout: &self.pipeline.get_bind_group_layout(1),
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: extent.as_entire_binding(),
+            }],
+        }));
+        self
+    }
+
     pub fn record(&self, pass: &mut wgpu::ComputePass<'_>) {
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &self.bind_group, &[]);
+        if let Some(extent) = &self.extent {
+            pass.set_bind_group(1, extent, &[]);
+        }
         pass.dispatch_workgroups(self.groups.0, self.groups.1, 1);
     }
+}
+
+/// Mirrors `Extent` in shaders/shared/extent.wgsl: the image's size and its
+/// bloom's low-resolution size, inside textures that may be larger (a
+/// renderer kept for a size class).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct Extent {
+    pub frame: [u32; 2],
+    pub low: [u32; 2],
+}
+
+/// The uniform buffer of an [`Extent`], rewritten when a kept renderer takes
+/// an image of another size.
+pub fn extent_buffer(ctx: &GpuContext, extent: Extent) -> wgpu::Buffer {
+    let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("tonegate.extent"),
+        size: std::mem::size_of::<Extent>() as u64,
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    ctx.queue
+        .write_buffer(&buffer, 0, bytemuck::bytes_of(&extent));
+    buffer
 }
 
 /// Workgroup shape of the per-pixel passes: 64 pixels along a row, so a
@@ -267,11 +329,7 @@ pub fn dispatch_2d(
     width: u32,
     height: u32,
 ) -> Dispatch {
-    Dispatch {
-        pipeline,
-        bind_group,
-        groups: (groups(width, GROUP_X), height),
-    }
+    Dispatch::new(pipeline, bind_group, (groups(width, GROUP_X), height))
 }
 
 #[cfg(test)]

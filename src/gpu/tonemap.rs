@@ -126,11 +126,7 @@ pub fn resolve(
         "tonegate.tonemap.resolve",
         &[(0, Bind::Buffer(&params.config)), (1, Bind::Buffer(stats))],
     );
-    Dispatch {
-        pipeline: p,
-        bind_group: bg,
-        groups: (1, 1),
-    }
+    Dispatch::new(p, bg, (1, 1))
 }
 
 pub fn tonemap(
@@ -140,6 +136,7 @@ pub fn tonemap(
     stats: &wgpu::Buffer,
     hdr: &wgpu::Texture,
     toned_out: &wgpu::Texture,
+    extent: &wgpu::Buffer,
 ) -> Vec<Dispatch> {
     let main = pipeline(ctx, "tonemap", "main", format, &params.constants());
     let bg = bind_group(
@@ -155,6 +152,6 @@ pub fn tonemap(
     );
     vec![
         resolve(ctx, format, params, stats),
-        dispatch_2d(main, bg, hdr.width(), hdr.height()),
+        dispatch_2d(main, bg, hdr.width(), hdr.height()).sized(ctx, extent),
     ]
 }

@@ -65,6 +65,9 @@ pub struct Wiring<'a, 'p> {
     pub stats: wgpu::Buffer,
     /// `encode`'s packed 8-bit frame.
     pub frame: wgpu::Buffer,
+    /// The part of the textures the frame covers (`stages::Extent`): the
+    /// textures are `width`×`height`, which a size class may make larger.
+    pub extent: wgpu::Buffer,
     /// The environment and the frame uniforms `sphere` reads.
     pub environment: Option<(Environment, wgpu::Buffer)>,
     /// Stage outputs that can be read back: (stage name, texture).
@@ -163,11 +166,20 @@ impl<'p> Wiring<'_, 'p> {
                 self.delta,
                 &self.hdr,
                 &self.stats,
+                &self.extent,
             ),
             Stage::Tonemap { .. } => {
                 let out = self.texture(name, self.width, self.height);
                 let params = ToneParams::new(ctx, self.pipeline.operator, self.fault_gain);
-                let d = super::tonemap::tonemap(ctx, format, &params, &self.stats, &self.hdr, &out);
+                let d = super::tonemap::tonemap(
+                    ctx,
+                    format,
+                    &params,
+                    &self.stats,
+                    &self.hdr,
+                    &out,
+                    &self.extent,
+                );
                 self.outputs.push((name, out.clone()));
                 self.toned = Some(out.clone());
                 self.display = Some(out);
@@ -188,6 +200,7 @@ impl<'p> Wiring<'_, 'p> {
                     &self.stats,
                     &src,
                     &out,
+                    &self.extent,
                 );
                 self.bright = Some(out);
                 vec![d]
@@ -196,7 +209,14 @@ impl<'p> Wiring<'_, 'p> {
                 let (lw, lh) = downsampled_size(self.width, self.height, *factor);
                 let out = self.texture(name, lw, lh);
                 let src = self.bright.take().ok_or(order("bloom_bright"))?;
-                let d = super::bloom_downsample::bloom_downsample(ctx, format, *factor, &src, &out);
+                let d = super::bloom_downsample::bloom_downsample(
+                    ctx,
+                    format,
+                    *factor,
+                    &src,
+                    &out,
+                    &self.extent,
+                );
                 self.low = Some(out);
                 vec![d]
             }
@@ -206,8 +226,16 @@ impl<'p> Wiring<'_, 'p> {
                 let (w, h) = (src.width(), src.height());
                 let tmp = hdr_texture(ctx, "tonegate.bloom_blur.horizontal", w, h, format);
                 let out = self.texture(name, w, h);
-                let d =
-                    super::bloom_blur::bloom_blur(ctx, format, *radius, sigma, &src, &tmp, &out);
+                let d = super::bloom_blur::bloom_blur(
+                    ctx,
+                    format,
+                    *radius,
+                    sigma,
+                    &src,
+                    &tmp,
+                    &out,
+                    &self.extent,
+                );
                 self.outputs.push((name, out.clone()));
                 self.blurred = Some(out);
                 d
@@ -218,7 +246,13 @@ impl<'p> Wiring<'_, 'p> {
                 let blurred = self.blurred.clone().ok_or(order("bloom_blur"))?;
                 let out = self.texture(name, self.width, self.height);
                 let d = super::bloom_composite::bloom_composite(
-                    ctx, format, strength, &base, &blurred, &out,
+                    ctx,
+                    format,
+                    strength,
+                    &base,
+                    &blurred,
+                    &out,
+                    &self.extent,
                 );
                 self.outputs.push((name, out.clone()));
                 self.display = Some(out);
@@ -227,7 +261,14 @@ impl<'p> Wiring<'_, 'p> {
             Stage::GradeStats => {
                 let base = self.display.clone().ok_or(order("tonemap"))?;
                 let mean = shared_buffer(ctx, "tonegate.grade_stats", 4);
-                let d = super::grade_stats::grade_stats(ctx, format, self.reduction, &base, &mean);
+                let d = super::grade_stats::grade_stats(
+                    ctx,
+                    format,
+                    self.reduction,
+                    &base,
+                    &mean,
+                    &self.extent,
+                );
                 self.grade_mean = Some(mean);
                 d
             }
@@ -243,7 +284,7 @@ impl<'p> Wiring<'_, 'p> {
                     .clone()
                     .unwrap_or_else(|| shared_buffer(ctx, "tonegate.grade.unused_mean", 4));
                 let out = self.texture(name, self.width, self.height);
-                let d = super::grade::grade(ctx, format, g, &mean, &base, &out);
+                let d = super::grade::grade(ctx, format, g, &mean, &base, &out, &self.extent);
                 self.outputs.push((name, out.clone()));
                 self.display = Some(out);
                 vec![d]
@@ -257,6 +298,7 @@ impl<'p> Wiring<'_, 'p> {
                     self.pipeline.encoding,
                     &base,
                     &self.frame,
+                    &self.extent,
                 )]
             }
         };
