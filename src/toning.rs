@@ -329,7 +329,8 @@ pub struct GpuRenderers<'a> {
 /// to it (1920×1080 is in 1920×1152).
 pub fn size_class(width: u32, height: u32, limit: u32) -> (u32, u32) {
     let side = |d: u32| {
-        let step = (d.max(1).next_power_of_two() / 16).max(64);
+        let power = d.max(1).checked_next_power_of_two().unwrap_or(1 << 31);
+        let step = (power / 16).max(64);
         d.div_ceil(step).saturating_mul(step).min(limit).max(d)
     };
     (side(width), side(height))
@@ -404,14 +405,29 @@ impl<'a> GpuRenderers<'a> {
         // An image too large for the adapter is refused before any kept
         // renderer is dropped to make room for it.
         self.ctx.check_size(img.width, img.height)?;
+        let exact = (img.width, img.height);
         let class = match self.classes {
             true => size_class(
                 img.width,
                 img.height,
                 self.ctx.limits.max_texture_dimension_2d,
             ),
-            false => (img.width, img.height),
+            false => exact,
         };
+        // A class that the budget or the adapter's buffers cannot hold gives
+        // way to the image's own size: kept if that fits the budget, else
+        // rendered once and dropped (`release_oversize`).
+        let pixels = |(w, h): (u32, u32)| w as u64 * h as u64;
+        let buffer_limit = self
+            .ctx
+            .limits
+            .max_storage_buffer_binding_size
+            .min(self.ctx.limits.max_buffer_size);
+        let fits = |size| {
+            pixels(size) <= self.keep_pixels
+                && pixels(size) * crate::gpu::MAX_BUFFER_BYTES_PER_PIXEL <= buffer_limit
+        };
+        let class = if fits(class) { class } else { exact };
         let key = format!(
             "{}x{} {:?} {pipeline:?} {config:?}",
             class.0,
@@ -425,7 +441,7 @@ impl<'a> GpuRenderers<'a> {
                 return Ok(&self.kept[self.kept.len() - 1].1);
             }
         }
-        let wanted = class.0 as u64 * class.1 as u64;
+        let wanted = pixels(class);
         while !self.kept.is_empty()
             && (self.kept.len() >= self.keep || self.pixels() + wanted > self.keep_pixels)
         {

@@ -6,7 +6,7 @@ use super::{GpuContext, HdrFormat, ReductionMethod};
 use crate::plan::StatsNeeds;
 
 /// Bytes of one `Partial` (8 × f32).
-const PARTIAL_BYTES: u64 = 32;
+pub(crate) const PARTIAL_BYTES: u64 = 32;
 /// Pixels per invocation of the block method.
 pub const BLOCK: u32 = 16;
 /// Side of the square tile one workgroup of the tree method reduces

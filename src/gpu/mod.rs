@@ -15,7 +15,7 @@ pub use config::{
     AdapterTraits, EnvFilter, Execution, GpuConfig, HdrFormat, ReductionMethod, TaaFault, F16_MAX,
 };
 pub use context::{choose, AdapterChoice, AdapterReport, Candidate, GpuContext};
-pub use renderer::{GpuFrame, GpuInput, GpuRenderer, GpuStats};
+pub use renderer::{GpuFrame, GpuInput, GpuRenderer, GpuStats, MAX_BUFFER_BYTES_PER_PIXEL};
 
 #[derive(Debug, thiserror::Error)]
 pub enum GpuError {

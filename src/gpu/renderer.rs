@@ -67,6 +67,11 @@ pub struct GpuFrame {
 /// being read on the host.
 pub const FRAMES_IN_FLIGHT: usize = 3;
 
+/// The most bytes per frame pixel any one buffer of a renderer takes: the
+/// ping-pong reduction's first level, a 32-byte partial per 2×2 block (the
+/// packed frame takes 4). What a size class's buffers are checked against.
+pub const MAX_BUFFER_BYTES_PER_PIXEL: u64 = super::luminance_stats::PARTIAL_BYTES / 4;
+
 /// The host-readable copies of one frame in flight.
 struct Staging {
     stats: wgpu::Buffer,
