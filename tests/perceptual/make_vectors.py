@@ -4,7 +4,8 @@
 Writes tests/perceptual/vectors.json, which tests/metrics_perceptual.rs checks
 the Rust implementations against. Run it through make_vectors.sh, which pins
 the versions (requirements.txt); CI regenerates the file and requires it to be
-exactly the committed one.
+the committed one (floats to the last bits numpy's per-CPU SIMD loops move:
+ci/same_vectors.py).
 
 The references, each computed independently of tonegate:
   FLIP, HDR-FLIP  NVIDIA's flip-evaluator (its C++ through nanobind)
