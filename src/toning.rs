@@ -404,7 +404,7 @@ impl<'a> GpuRenderers<'a> {
     ) -> Result<&crate::gpu::GpuRenderer<'a>> {
         // An image too large for the adapter is refused before any kept
         // renderer is dropped to make room for it.
-        self.ctx.check_size(img.width, img.height)?;
+        self.ctx.check_frame(img.width, img.height)?;
         let exact = (img.width, img.height);
         let class = match self.classes {
             true => size_class(
@@ -414,19 +414,12 @@ impl<'a> GpuRenderers<'a> {
             ),
             false => exact,
         };
-        // A class that the budget or the adapter's buffers cannot hold gives
-        // way to the image's own size: kept if that fits the budget, else
-        // rendered once and dropped (`release_oversize`).
+        // A class that the budget or the adapter cannot hold gives way to
+        // the image's own size: kept if that fits the budget, else rendered
+        // once and dropped (`release_oversize`).
         let pixels = |(w, h): (u32, u32)| w as u64 * h as u64;
-        let buffer_limit = self
-            .ctx
-            .limits
-            .max_storage_buffer_binding_size
-            .min(self.ctx.limits.max_buffer_size);
-        let fits = |size| {
-            pixels(size) <= self.keep_pixels
-                && pixels(size) * crate::gpu::MAX_BUFFER_BYTES_PER_PIXEL <= buffer_limit
-        };
+        let fits =
+            |(w, h)| pixels((w, h)) <= self.keep_pixels && self.ctx.check_frame(w, h).is_ok();
         let class = if fits(class) { class } else { exact };
         let key = format!(
             "{}x{} {:?} {pipeline:?} {config:?}",

@@ -1157,6 +1157,26 @@ fn kept_renderers_render_what_fresh_ones_do() {
     .to_string();
     assert!(refused.contains("texture limit"), "{refused}");
     assert_eq!(kept.len(), 1, "the kept renderer survives a refused image");
+
+    // A frame within the texture limit whose largest buffer (8 bytes a
+    // pixel) is over the adapter's buffer limits is refused before anything
+    // is created; one row fewer is taken. (llvmpipe: 16384-pixel textures,
+    // 128 MiB storage bindings, so the refusal is exercised here.)
+    let buffers = ctx
+        .limits
+        .max_storage_buffer_binding_size
+        .min(ctx.limits.max_buffer_size);
+    let rows = (buffers / 8 / limit as u64 + 1) as u32;
+    if ctx.adapter.name.contains("llvmpipe") {
+        assert!(rows <= limit, "{buffers} bytes, {limit} pixels a side");
+    }
+    if rows <= limit {
+        let refused = ctx.check_frame(limit, rows).unwrap_err().to_string();
+        assert!(refused.contains("buffer limit"), "{refused}");
+        ctx.check_frame(limit, rows - 1).unwrap();
+    } else {
+        ctx.check_frame(limit, limit).unwrap();
+    }
 }
 
 /// `tonegate render` writes the frames it renders with frames in flight:

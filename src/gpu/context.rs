@@ -1,5 +1,6 @@
 //! Headless wgpu context: adapter choice, device, error capture.
 
+use super::renderer::MAX_BUFFER_BYTES_PER_PIXEL;
 use super::GpuError;
 use serde::Serialize;
 use std::sync::{Arc, Mutex};
@@ -309,6 +310,27 @@ impl GpuContext {
             return Err(GpuError::TooLarge {
                 width,
                 height,
+                limit,
+            });
+        }
+        Ok(())
+    }
+
+    /// Refuses frames a renderer cannot hold: larger than one texture, or
+    /// needing a buffer (at [`MAX_BUFFER_BYTES_PER_PIXEL`]) over the adapter's
+    /// buffer and storage-binding limits.
+    pub fn check_frame(&self, width: u32, height: u32) -> Result<(), GpuError> {
+        self.check_size(width, height)?;
+        let bytes = width as u64 * height as u64 * MAX_BUFFER_BYTES_PER_PIXEL;
+        let limit = self
+            .limits
+            .max_storage_buffer_binding_size
+            .min(self.limits.max_buffer_size);
+        if bytes > limit {
+            return Err(GpuError::FrameTooLarge {
+                width,
+                height,
+                bytes,
                 limit,
             });
         }

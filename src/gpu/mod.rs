@@ -15,7 +15,7 @@ pub use config::{
     AdapterTraits, EnvFilter, Execution, GpuConfig, HdrFormat, ReductionMethod, TaaFault, F16_MAX,
 };
 pub use context::{choose, AdapterChoice, AdapterReport, Candidate, GpuContext};
-pub use renderer::{GpuFrame, GpuInput, GpuRenderer, GpuStats, MAX_BUFFER_BYTES_PER_PIXEL};
+pub use renderer::{GpuFrame, GpuInput, GpuRenderer, GpuStats};
 
 #[derive(Debug, thiserror::Error)]
 pub enum GpuError {
@@ -38,6 +38,14 @@ pub enum GpuError {
     /// The frame exceeds what the adapter can hold in one texture.
     #[error("{width}x{height} exceeds the adapter's texture limit of {limit} pixels per side")]
     TooLarge { width: u32, height: u32, limit: u32 },
+    /// The frame needs a buffer larger than the adapter allows.
+    #[error("{width}x{height} needs {bytes}-byte buffers, over the adapter's buffer limit of {limit} bytes")]
+    FrameTooLarge {
+        width: u32,
+        height: u32,
+        bytes: u64,
+        limit: u64,
+    },
     /// The environment map exceeds one storage buffer binding.
     #[error("environment {width}x{height} needs {bytes} bytes, over the adapter's storage-buffer binding limit of {limit}; use a smaller map")]
     EnvironmentTooLarge {

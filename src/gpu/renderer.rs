@@ -69,8 +69,8 @@ pub const FRAMES_IN_FLIGHT: usize = 3;
 
 /// The most bytes per frame pixel any one buffer of a renderer takes: the
 /// ping-pong reduction's first level, a 32-byte partial per 2×2 block (the
-/// packed frame takes 4). What a size class's buffers are checked against.
-pub const MAX_BUFFER_BYTES_PER_PIXEL: u64 = super::luminance_stats::PARTIAL_BYTES / 4;
+/// packed frame takes 4). What `GpuContext::check_frame` holds a frame to.
+pub(crate) const MAX_BUFFER_BYTES_PER_PIXEL: u64 = super::luminance_stats::PARTIAL_BYTES / 4;
 
 /// The host-readable copies of one frame in flight.
 struct Staging {
@@ -227,12 +227,12 @@ impl<'a> GpuRenderer<'a> {
         let requested = config;
         let (config, notes) = config.in_effect(input.max_component(), &plan, ctx.traits());
         let (width, height) = input.size();
-        ctx.check_size(width, height)?;
+        ctx.check_frame(width, height)?;
         let capacity = match input {
             GpuInput::Flat(_) => (width.max(capacity.0), height.max(capacity.1)),
             GpuInput::Sphere { .. } => (width, height),
         };
-        ctx.check_size(capacity.0, capacity.1)?;
+        ctx.check_frame(capacity.0, capacity.1)?;
         let bloom_factor = plan.stages().iter().find_map(|s| match s {
             crate::plan::Stage::BloomDownsample { factor } => Some(*factor),
             _ => None,

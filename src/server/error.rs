@@ -111,7 +111,7 @@ impl ApiError {
             G::NoAdapter | G::AdapterNotFound { .. } => {
                 Self::unavailable("no_adapter", e.to_string(), 60)
             }
-            G::TooLarge { .. } | G::EnvironmentTooLarge { .. } => {
+            G::TooLarge { .. } | G::FrameTooLarge { .. } | G::EnvironmentTooLarge { .. } => {
                 Self::new(StatusCode::PAYLOAD_TOO_LARGE, "too_large", e.to_string())
             }
             _ => Self::new(

@@ -350,7 +350,10 @@ fn run_job(
     let tonemap_ms = ms(start);
     drop(img);
     if let Err(crate::Error::Gpu(e)) = &result {
-        if !matches!(e, crate::gpu::GpuError::TooLarge { .. }) {
+        if !matches!(
+            e,
+            crate::gpu::GpuError::TooLarge { .. } | crate::gpu::GpuError::FrameTooLarge { .. }
+        ) {
             // A lost device is not coming back: the next job opens a new one.
             *fresh_device = true;
         }
