@@ -129,6 +129,33 @@ impl Rgb8Image {
 }
 
 impl HdrImage {
+    /// A smooth, deterministic HDR ramp (the stress suite's range and size
+    /// cases) with detail: luminance from `lo` to `hi`
+    /// geometrically along x, a ripple along y, colour varying with position.
+    pub fn ramp(width: u32, height: u32, lo: f64, hi: f64) -> HdrImage {
+        let span = (hi / lo).ln();
+        HdrImage::from_fn(width, height, |x, y| {
+            let t = if width > 1 {
+                x as f64 / (width - 1) as f64
+            } else {
+                0.5
+            };
+            let r = if height > 1 {
+                y as f64 / (height - 1) as f64
+            } else {
+                0.5
+            };
+            let v = lo * (span * t).exp() * (1.0 + 0.25 * (12.0 * r).sin());
+            [(v * 1.1) as f32, v as f32, (v * (0.7 + 0.3 * r)) as f32]
+        })
+    }
+
+    /// The largest component, at least 0, NaN ignored: no stage before the
+    /// tone curve makes a value above it.
+    pub fn max_component(&self) -> f32 {
+        max_component(&self.pixels)
+    }
+
     /// Widens to the reference's f64 working precision (exact).
     pub fn to_linear(&self) -> LinearImage {
         self.par_map(|p| [p[0] as f64, p[1] as f64, p[2] as f64])
@@ -139,5 +166,65 @@ impl LinearImage {
     /// Narrows to f32 for writing (rounds to nearest).
     pub fn to_hdr(&self) -> HdrImage {
         self.par_map(|p| [p[0] as f32, p[1] as f32, p[2] as f32])
+    }
+}
+
+/// The largest component of `pixels`, at least 0, NaN ignored. Eight
+/// independent lanes (a comparison, not `f32::max`) let the compiler use
+/// vector maxima: the serial NaN-aware fold took 2.5 ms of a 1024×512
+/// request.
+fn max_component(pixels: &[[f32; 3]]) -> f32 {
+    let flat: &[f32] = bytemuck::cast_slice(pixels);
+    let mut lanes = [0.0f32; 8];
+    let chunks = flat.chunks_exact(8);
+    let rest = chunks.remainder();
+    for chunk in chunks {
+        for (m, &v) in lanes.iter_mut().zip(chunk) {
+            // A NaN compares false and is skipped, as f32::max skips it.
+            *m = if v > *m { v } else { *m };
+        }
+    }
+    rest.iter()
+        .chain(&lanes)
+        .fold(0.0f32, |m, &v| if v > m { v } else { m })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::max_component;
+
+    #[test]
+    fn max_component_is_the_serial_fold_at_any_length_with_nan_and_negatives() {
+        let serial = |p: &[[f32; 3]]| {
+            p.iter()
+                .flat_map(|p| p.iter().copied())
+                .fold(0.0f32, f32::max)
+        };
+        let mut seed = 7u32;
+        let mut next = move || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 8) as f32 / (1 << 24) as f32
+        };
+        for n in [0usize, 1, 2, 3, 5, 8, 11, 64, 1001] {
+            let mut p: Vec<[f32; 3]> = (0..n)
+                .map(|_| [next() * 10.0 - 5.0, next(), -next()])
+                .collect();
+            assert_eq!(max_component(&p), serial(&p), "{n}");
+            if n > 2 {
+                // The largest value in every possible lane position, and a
+                // NaN in front of it, are still found.
+                for at in 0..(3 * n).min(17) {
+                    let mut q = p.clone();
+                    q[at / 3][at % 3] = 1e30;
+                    if at > 0 {
+                        q[(at - 1) / 3][(at - 1) % 3] = f32::NAN;
+                    }
+                    assert_eq!(max_component(&q), 1e30, "{n} at {at}");
+                }
+                p[0][0] = f32::INFINITY;
+                assert_eq!(max_component(&p), f32::INFINITY);
+            }
+        }
+        assert_eq!(max_component(&[[-1.0, f32::NAN, -3.0]]), 0.0);
     }
 }

@@ -90,14 +90,15 @@ pub struct BenchReport {
 }
 
 /// The full plan the speed targets are stated for: sphere + statistics
-/// (seed 001: weighted log-average, min, max) + tonemap + bloom at ½ + encode.
+/// (`reinhard-auto-key`'s: weighted log-average, min, max) + tonemap + bloom
+/// at ½ + encode.
 pub fn bench_operator() -> (Operator, Bloom) {
-    let op = Operator::Seed001 {
+    let op = Operator::ReinhardAutoKey {
         key: Key::Auto,
         colour: ColourPath::Ratio,
     };
     let bloom = Bloom {
-        bright_pass: BrightPass::Seed001,
+        bright_pass: BrightPass::Scaled,
         threshold: NonNegative::try_from(50.0).unwrap_or_else(|_| unreachable!()),
         downsample: Factor::try_from(2).unwrap_or_else(|_| unreachable!()),
         radius: Radius::try_from(6).unwrap_or_else(|_| unreachable!()),
@@ -357,7 +358,7 @@ impl std::fmt::Display for BenchReport {
             self.frame_wall_ms_with_readback.p50,
             self.frame_wall_ms_with_readback.p95,
             self.frame_wall_ms_with_readback.p99,
-            super::renderer::FRAMES_IN_FLIGHT,
+            super::FRAMES_IN_FLIGHT,
             self.frame_wall_ms_serial.p50,
             self.frame_wall_ms_serial.p95,
             self.frame_wall_ms_serial.p99

@@ -63,13 +63,16 @@ pub enum ReductionMethod {
     /// operations, else the shared-memory tree.
     #[default]
     Auto,
-    /// Seed 001: one pass of barrier-free 16×16 block partials, one combine.
-    /// Fastest on llvmpipe, where barriers are expensive; on a discrete GPU
-    /// its one-invocation combine of thousands of partials dominated the
-    /// frame (1.66 ms of 1.94 at 1080p on an H100, issue 13).
+    /// The reduction of the modified Reinhard for training simulators
+    /// (docs/bibliography.md): one pass of barrier-free 16×16 block partials,
+    /// one combine. Fastest on llvmpipe, where barriers are expensive; on a
+    /// discrete GPU its one-invocation combine of thousands of partials
+    /// dominated the frame (1.66 ms of 1.94 at 1080p on an NVIDIA H100 80GB
+    /// HBM3, Vulkan driver 580.159.04, build a4e9bd9 of 2026-11-21).
     #[serde(alias = "block")]
     BlockPartials,
-    /// Seed 000: log₂ passes of 2×2 downsampling.
+    /// The reduction of Reinhard's global operator in real time: log₂ passes
+    /// of 2×2 downsampling.
     #[serde(alias = "pingpong")]
     PingPong,
     /// Workgroup tree: 256 invocations reduce a 32×32 tile in shared memory,
@@ -157,6 +160,21 @@ pub enum TaaFault {
 }
 
 impl GpuConfig {
+    /// The accuracy options this configuration has in effect, which bounds
+    /// for them apply to (after an f16 promotion to f32 there is no f16 left
+    /// to excuse).
+    pub fn accuracy_options(&self) -> Vec<crate::check::AccuracyOption> {
+        use crate::check::AccuracyOption;
+        let mut v = Vec::new();
+        if self.hdr_format == HdrFormat::Rgba16Float {
+            v.push(AccuracyOption::Rgba16float);
+        }
+        if self.env_filter == EnvFilter::Hardware {
+            v.push(AccuracyOption::HardwareFilter);
+        }
+        v
+    }
+
     /// What runs for `plan` on an input whose largest component is
     /// `input_max` on an adapter that is (or is not) a CPU, and why it
     /// differs from `self` (the renderer's notes).
@@ -223,7 +241,7 @@ mod tests {
         }
         let plan = StagePlan::build(
             crate::plan::Input::Flat,
-            &crate::scene::Operator::Seed001 {
+            &crate::scene::Operator::ReinhardAutoKey {
                 key: crate::scene::Key::Auto,
                 colour: crate::scene::ColourPath::Ratio,
             },

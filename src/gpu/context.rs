@@ -1,6 +1,5 @@
 //! Headless wgpu context: adapter choice, device, error capture.
 
-use super::renderer::MAX_BUFFER_BYTES_PER_PIXEL;
 use super::GpuError;
 use serde::Serialize;
 use std::sync::{Arc, Mutex};
@@ -175,8 +174,14 @@ pub struct GpuContext {
     /// Compiled pipelines by (stage, entry, format, override constants): a
     /// context that renders many images (the server's GPU worker, `check`)
     /// compiles each variant once. Bounded by [`PIPELINE_CACHE_LIMIT`].
-    pub(crate) pipelines: Mutex<std::collections::HashMap<PipelineKey, wgpu::ComputePipeline>>,
+    pipelines: Mutex<std::collections::HashMap<PipelineKey, wgpu::ComputePipeline>>,
 }
+
+/// The most bytes per frame pixel any one buffer of a renderer may take:
+/// what [`GpuContext::check_frame`] holds a frame to. The largest today is
+/// the ping-pong reduction's first level, a 32-byte partial per 2×2 block;
+/// `luminance_stats` asserts at compile time that it stays within this.
+pub(crate) const MAX_BUFFER_BYTES_PER_PIXEL: u64 = 8;
 
 /// Stage, entry point, format and override constants (values as f64 bits).
 pub(crate) type PipelineKey = (String, String, super::HdrFormat, Vec<(String, u64)>);
@@ -184,7 +189,7 @@ pub(crate) type PipelineKey = (String, String, super::HdrFormat, Vec<(String, u6
 /// Distinct pipeline variants a context keeps; beyond it the cache starts
 /// over (override constants include image sizes, so a server seeing many
 /// sizes would otherwise grow without end).
-pub(crate) const PIPELINE_CACHE_LIMIT: usize = 256;
+const PIPELINE_CACHE_LIMIT: usize = 256;
 
 impl GpuContext {
     /// Opens the adapter `choice` selects, with timestamp queries when it has them.
@@ -301,6 +306,37 @@ impl GpuContext {
             .poll(wgpu::PollType::wait_indefinitely())
             .map_err(|e| GpuError::DeviceLost(e.to_string()))?;
         self.take_error()
+    }
+
+    /// The pipeline cached under `key`, or the one `compile` makes, then
+    /// kept (the cache starts over past [`PIPELINE_CACHE_LIMIT`] variants).
+    pub(crate) fn cached_pipeline(
+        &self,
+        key: PipelineKey,
+        compile: impl FnOnce() -> wgpu::ComputePipeline,
+    ) -> wgpu::ComputePipeline {
+        let mut cache = self
+            .pipelines
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner());
+        if let Some(p) = cache.get(&key) {
+            return p.clone();
+        }
+        let p = compile();
+        if cache.len() >= PIPELINE_CACHE_LIMIT {
+            cache.clear();
+        }
+        cache.insert(key, p.clone());
+        p
+    }
+
+    /// How many compiled pipelines the context keeps now.
+    #[cfg(test)]
+    pub(crate) fn cached_pipelines(&self) -> usize {
+        self.pipelines
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
+            .len()
     }
 
     /// Refuses frames larger than one texture can hold.

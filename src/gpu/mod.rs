@@ -5,6 +5,8 @@
 pub mod bench;
 pub mod config;
 pub mod context;
+pub mod pool;
+pub mod readback;
 pub mod renderer;
 pub mod shaders;
 pub mod stages;
@@ -15,7 +17,10 @@ pub use config::{
     AdapterTraits, EnvFilter, Execution, GpuConfig, HdrFormat, ReductionMethod, TaaFault, F16_MAX,
 };
 pub use context::{choose, AdapterChoice, AdapterReport, Candidate, GpuContext};
-pub use renderer::{GpuFrame, GpuInput, GpuRenderer, GpuStats};
+pub use luminance_stats::GpuStats;
+pub use pool::{size_class, RendererPool};
+pub use readback::{GpuFrame, Ticket, FRAMES_IN_FLIGHT};
+pub use renderer::{GpuInput, GpuRenderer};
 
 #[derive(Debug, thiserror::Error)]
 pub enum GpuError {
@@ -80,6 +85,7 @@ mod floor;
 mod fused;
 mod grade;
 mod grade_stats;
+mod inspect;
 mod luminance_stats;
 pub mod sphere;
 mod taa;

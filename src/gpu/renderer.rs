@@ -3,109 +3,18 @@
 //! stage reads and writes is wired in `wiring` (and `fused`).
 
 use super::config::{Execution, GpuConfig};
-use super::sphere::Environment;
-use super::stages::{
-    extent_buffer, hdr_texture, read_buffer, shared_buffer, storage_buffer, upload, Extent,
-};
+use super::readback::{GpuFrame, Ring, Sources, Ticket, FRAMES_IN_FLIGHT};
+use super::sphere::FrameUniforms;
+use super::stages::{extent_buffer, upload, Extent};
 use super::timing::Queries;
 use super::wiring::Wiring;
-use super::{GpuContext, GpuError, HdrFormat};
+use super::{GpuContext, GpuError};
 use crate::conventions::{Camera, Mat3};
-use crate::image::{HdrImage, LinearImage, Rgb8Image};
+use crate::image::HdrImage;
 use crate::perf::StageTiming;
 use crate::plan::StagePlan;
 use crate::reference::bloom_downsample::downsampled_size;
-use crate::reference::tonemap::operator_constants;
 use crate::reference::Pipeline;
-use serde::Serialize;
-
-/// The statistics and resolved parameters the GPU used (mirrors `Stats` in
-/// shaders/shared/stats.wgsl).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct GpuStats {
-    pub log_average: f32,
-    pub weighted_log_average: f32,
-    pub min: f32,
-    pub max: f32,
-    pub weight_sum: f32,
-    pub key: f32,
-    pub adaptation: f32,
-    pub scale: f32,
-    /// Lwhite (white² is the reference's `white_sq`); <= 0 or +Inf: never burn.
-    pub white: f32,
-}
-
-impl GpuStats {
-    /// The statistics in the reference's shape, for comparing and reporting.
-    pub fn luminance_stats(&self) -> crate::reference::luminance_stats::LuminanceStats {
-        crate::reference::luminance_stats::LuminanceStats {
-            log_average: Some(self.log_average as f64),
-            weighted_log_average: Some(self.weighted_log_average as f64),
-            min: Some(self.min as f64),
-            max: Some(self.max as f64),
-            weight_sum: Some(self.weight_sum as f64),
-        }
-    }
-}
-
-/// One rendered frame.
-#[derive(Clone, Debug)]
-pub struct GpuFrame {
-    /// The encoded frame, when read back.
-    pub frame: Option<Rgb8Image>,
-    pub stats: GpuStats,
-    /// GPU time of each stage of the plan (empty without timestamp support).
-    pub timings: Vec<StageTiming>,
-    /// Wall-clock time from submit to results on the host.
-    pub wall_ms: f64,
-}
-
-/// Frames a renderer keeps in flight ([`GpuRenderer::frames`]): each has its
-/// own host-readable copies, so frame n is mapped and copied out while frame
-/// n+1 renders. Three cover a frame being rendered, one being copied and one
-/// being read on the host.
-pub const FRAMES_IN_FLIGHT: usize = 3;
-
-/// The most bytes per frame pixel any one buffer of a renderer takes: the
-/// ping-pong reduction's first level, a 32-byte partial per 2×2 block (the
-/// packed frame takes 4). What `GpuContext::check_frame` holds a frame to.
-pub(crate) const MAX_BUFFER_BYTES_PER_PIXEL: u64 = super::luminance_stats::PARTIAL_BYTES / 4;
-
-/// The host-readable copies of one frame in flight.
-struct Staging {
-    stats: wgpu::Buffer,
-    frame: wgpu::Buffer,
-    /// The frame's resolved timestamps, when the adapter has them.
-    timing: Option<wgpu::Buffer>,
-}
-
-/// A submitted frame: [`GpuRenderer::collect`] waits for it and reads it.
-#[must_use = "a submitted frame holds its staging slot until it is collected"]
-pub struct Ticket {
-    slot: usize,
-    read_frame: bool,
-    /// The frame's size (a kept renderer's image may change between frames).
-    size: (u32, u32),
-    start: std::time::Instant,
-    submission: wgpu::SubmissionIndex,
-    /// Each map's outcome, tagged with its buffer: 0 statistics, 1 frame,
-    /// 2 timestamps.
-    mapped: std::sync::mpsc::Receiver<(usize, Result<(), wgpu::BufferAsyncError>)>,
-}
-
-/// Mirrors `FrameUniforms` in shaders/shared/frame.wgsl.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
-struct FrameUniforms {
-    rot: [[f32; 4]; 3],
-    size: [u32; 2],
-    tan_half: f32,
-    aspect: f32,
-    jitter: [f32; 2],
-    /// WGSL rounds the struct up to 16 bytes.
-    _pad: [f32; 2],
-}
 
 /// Where the frame comes from.
 pub enum GpuInput<'i> {
@@ -135,32 +44,15 @@ impl GpuInput<'_> {
             GpuInput::Sphere { env, .. } => env,
             GpuInput::Flat(img) => img,
         };
-        max_component(&img.pixels)
+        img.max_component()
     }
 }
 
-/// The largest component of `pixels`, at least 0, NaN ignored. Eight
-/// independent lanes (a comparison, not `f32::max`) let the compiler use
-/// vector maxima: the serial NaN-aware fold took 2.5 ms of a 1024×512
-/// request.
-fn max_component(pixels: &[[f32; 3]]) -> f32 {
-    let flat: &[f32] = bytemuck::cast_slice(pixels);
-    let mut lanes = [0.0f32; 8];
-    let chunks = flat.chunks_exact(8);
-    let rest = chunks.remainder();
-    for chunk in chunks {
-        for (m, &v) in lanes.iter_mut().zip(chunk) {
-            // A NaN compares false and is skipped, as f32::max skips it.
-            *m = if v > *m { v } else { *m };
-        }
-    }
-    rest.iter()
-        .chain(&lanes)
-        .fold(0.0f32, |m, &v| if v > m { v } else { m })
-}
-
+/// A stage plan built on one context: its passes, textures and buffers,
+/// rendered frame after frame (`readback`: submit, collect, frames in
+/// flight; `inspect`: a stage's output read back).
 pub struct GpuRenderer<'a> {
-    ctx: &'a GpuContext,
+    pub(super) ctx: &'a GpuContext,
     pub plan: StagePlan,
     /// The configuration in effect (after any f16 → f32 promotion).
     pub config: GpuConfig,
@@ -173,9 +65,9 @@ pub struct GpuRenderer<'a> {
     /// The size of the frames rendered now ([`GpuRenderer::reload`] may
     /// change it within the capacity), and the size of the textures.
     size: std::sync::Mutex<(u32, u32)>,
-    capacity: (u32, u32),
+    pub(super) capacity: (u32, u32),
     /// The bloom's downsampling factor, which sizes its low-resolution level.
-    bloom_factor: Option<u32>,
+    pub(super) bloom_factor: Option<u32>,
     /// The `Extent` uniform the sized entry points read (stages::Extent).
     extent: wgpu::Buffer,
     camera: Option<Camera>,
@@ -184,18 +76,15 @@ pub struct GpuRenderer<'a> {
     /// odd frames where they alternate (the TAA history).
     passes: Vec<super::wiring::Pass>,
     /// The TAA history pair and uniforms, in a TAA plan.
-    taa: Option<super::taa::TaaResources>,
+    pub(super) taa: Option<super::taa::TaaResources>,
     /// Whether the next frame is odd (reads the second history texture).
-    odd: std::sync::atomic::AtomicBool,
+    pub(super) odd: std::sync::atomic::AtomicBool,
     /// Stage outputs that can be read back: (stage name, texture).
-    outputs: Vec<(&'static str, wgpu::Texture)>,
+    pub(super) outputs: Vec<(&'static str, wgpu::Texture)>,
     stats: wgpu::Buffer,
     frame_buf: wgpu::Buffer,
-    /// One set of host-readable copies per frame in flight, and which are
-    /// taken by a frame not yet collected.
-    staging: Vec<Staging>,
-    busy: std::sync::Mutex<[bool; FRAMES_IN_FLIGHT]>,
-    submitted: std::sync::atomic::AtomicUsize,
+    /// One set of host-readable copies per frame in flight.
+    ring: Ring,
     queries: Option<Queries>,
 }
 
@@ -239,7 +128,7 @@ impl<'a> GpuRenderer<'a> {
         });
         let extent = extent_buffer(ctx, extent_of((width, height), bloom_factor));
         let taa = plan.taa().is_some();
-        let mut wiring = frame_resources(ctx, &input, pipeline, config, capacity, taa, extent)?;
+        let mut wiring = Wiring::new(ctx, &input, pipeline, config, capacity, taa, extent)?;
         let input_texture = match input {
             GpuInput::Flat(_) => Some(wiring.hdr.clone()),
             GpuInput::Sphere { .. } => None,
@@ -291,21 +180,7 @@ impl<'a> GpuRenderer<'a> {
             taa,
             odd: std::sync::atomic::AtomicBool::new(false),
             outputs,
-            staging: (0..FRAMES_IN_FLIGHT)
-                .map(|_| Staging {
-                    stats: read_buffer(
-                        ctx,
-                        "tonegate.luminance_stats.read",
-                        std::mem::size_of::<GpuStats>() as u64,
-                    ),
-                    frame: read_buffer(ctx, "tonegate.encode.read", frame_bytes.max(16)),
-                    timing: queries
-                        .as_ref()
-                        .map(|q| read_buffer(ctx, "tonegate.timestamps.read", q.slot_bytes())),
-                })
-                .collect(),
-            busy: Default::default(),
-            submitted: Default::default(),
+            ring: Ring::new(ctx, frame_bytes, queries.as_ref().map(|q| q.slot_bytes())),
             stats,
             frame_buf: frame,
             queries,
@@ -330,7 +205,7 @@ impl<'a> GpuRenderer<'a> {
         }
         let (config, _) =
             self.requested
-                .in_effect(max_component(&img.pixels), &self.plan, self.ctx.traits());
+                .in_effect(img.max_component(), &self.plan, self.ctx.traits());
         if config != self.config {
             return false;
         }
@@ -346,7 +221,7 @@ impl<'a> GpuRenderer<'a> {
         true
     }
 
-    fn lock_size(&self) -> std::sync::MutexGuard<'_, (u32, u32)> {
+    pub(super) fn lock_size(&self) -> std::sync::MutexGuard<'_, (u32, u32)> {
         self.size
             .lock()
             .unwrap_or_else(|poisoned| poisoned.into_inner())
@@ -481,191 +356,30 @@ impl<'a> GpuRenderer<'a> {
     /// starts mapping its results without waiting for them. At most
     /// [`FRAMES_IN_FLIGHT`] frames may be submitted and not yet collected.
     pub fn submit(&self, read_frame: bool) -> Result<Ticket, GpuError> {
-        let start = std::time::Instant::now();
         let size = *self.lock_size();
-        let n = self
-            .submitted
-            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        let slot = n % FRAMES_IN_FLIGHT;
-        {
-            let mut busy = self.lock_busy();
-            if busy[slot] {
-                return Err(GpuError::Readback(format!(
-                    "more than {FRAMES_IN_FLIGHT} frames submitted and not collected"
-                )));
-            }
-            busy[slot] = true;
-        }
-        let staging = &self.staging[slot];
-        let mut encoder = self
-            .ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("tonegate.frame"),
-            });
-        self.encode(&mut encoder, slot as u32);
-        if let (Some(q), Some(dst)) = (&self.queries, &staging.timing) {
-            q.copy_slot(&mut encoder, slot as u32, dst);
-        }
-        encoder.copy_buffer_to_buffer(
-            &self.stats,
-            0,
-            &staging.stats,
-            0,
-            std::mem::size_of::<GpuStats>() as u64,
-        );
-        if read_frame {
-            encoder.copy_buffer_to_buffer(
-                &self.frame_buf,
-                0,
-                &staging.frame,
-                0,
-                size.0 as u64 * size.1 as u64 * 4,
-            );
-        }
-        let submission = self.ctx.queue.submit([encoder.finish()]);
+        let sources = Sources {
+            stats: &self.stats,
+            frame: &self.frame_buf,
+            queries: self.queries.as_ref(),
+        };
+        let ticket = self
+            .ring
+            .submit(self.ctx, sources, read_frame, size, |encoder, slot| {
+                self.encode(encoder, slot)
+            })?;
         if self.taa.is_some() {
             // The frame just submitted wrote the other history texture.
             self.odd
                 .fetch_xor(true, std::sync::atomic::Ordering::Relaxed);
         }
-        let (tx, mapped) = std::sync::mpsc::channel();
-        for (i, buffer) in self.ticket_buffers(slot, read_frame) {
-            let tx = tx.clone();
-            buffer.slice(..).map_async(wgpu::MapMode::Read, move |r| {
-                let _ = tx.send((i, r));
-            });
-        }
-        Ok(Ticket {
-            slot,
-            read_frame,
-            size,
-            start,
-            submission,
-            mapped,
-        })
+        Ok(ticket)
     }
 
-    /// The staging buffers a frame in `slot` maps, tagged as in
-    /// [`Ticket::mapped`].
-    fn ticket_buffers(
-        &self,
-        slot: usize,
-        read_frame: bool,
-    ) -> impl Iterator<Item = (usize, &wgpu::Buffer)> {
-        let staging = &self.staging[slot];
-        [
-            Some(&staging.stats),
-            read_frame.then_some(&staging.frame),
-            staging.timing.as_ref(),
-        ]
-        .into_iter()
-        .enumerate()
-        .filter_map(|(i, b)| b.map(|b| (i, b)))
-    }
-
-    /// Waits for a submitted frame and reads its results. Its staging slot
-    /// is free again afterwards whatever the outcome: every buffer whose map
-    /// succeeded or is still pending is unmapped (which cancels a pending
-    /// one), so a failed frame leaves nothing mapped for the next frame's
-    /// copies to trip over.
+    /// Waits for a submitted frame and reads its results; its staging slot
+    /// is free again afterwards whatever the outcome.
     pub fn collect(&self, ticket: Ticket) -> Result<GpuFrame, GpuError> {
-        let waited = self.wait_ticket(&ticket);
-        let mut outcome: [Option<Result<(), wgpu::BufferAsyncError>>; 3] = Default::default();
-        while let Ok((i, r)) = ticket.mapped.try_recv() {
-            outcome[i] = Some(r);
-        }
-        let result = waited.and_then(|()| {
-            // The wait returns after the submission's map callbacks have run.
-            for (i, _) in self.ticket_buffers(ticket.slot, ticket.read_frame) {
-                match &outcome[i] {
-                    Some(Ok(())) => {}
-                    Some(Err(e)) => return Err(GpuError::Readback(e.to_string())),
-                    None => {
-                        return Err(GpuError::Readback(
-                            "a frame's results were not mapped after its submission finished"
-                                .into(),
-                        ))
-                    }
-                }
-            }
-            self.read_ticket(&ticket)
-        });
-        for (i, buffer) in self.ticket_buffers(ticket.slot, ticket.read_frame) {
-            // A failed map left its buffer unmapped already; unmapping it
-            // again would be a validation error on the device.
-            if !matches!(outcome[i], Some(Err(_))) {
-                buffer.unmap();
-            }
-        }
-        self.lock_busy()[ticket.slot] = false;
-        result
-    }
-
-    fn lock_busy(&self) -> std::sync::MutexGuard<'_, [bool; FRAMES_IN_FLIGHT]> {
-        self.busy
-            .lock()
-            .unwrap_or_else(|poisoned| poisoned.into_inner())
-    }
-
-    /// Waits until the ticket's submission is done, then reports the first
-    /// error the device raised, whether or not the wait succeeded (a
-    /// submission that failed validation is never done, and its validation
-    /// error says why better than the wait), and forgets the rest: one fault
-    /// raises several (at `finish` and at `submit`), which would otherwise
-    /// fail the frames after it.
-    fn wait_ticket(&self, ticket: &Ticket) -> Result<(), GpuError> {
-        let waited = self.ctx.device.poll(wgpu::PollType::Wait {
-            submission_index: Some(ticket.submission.clone()),
-            timeout: None,
-        });
-        self.ctx.take_first_error()?;
-        waited
-            .map(|_| ())
-            .map_err(|e| GpuError::DeviceLost(e.to_string()))
-    }
-
-    fn read_ticket(&self, ticket: &Ticket) -> Result<GpuFrame, GpuError> {
-        let staging = &self.staging[ticket.slot];
-        let mapped = |b: &wgpu::Buffer| -> Result<Vec<u8>, GpuError> {
-            Ok(b.slice(..)
-                .get_mapped_range()
-                .map_err(|e| GpuError::Readback(e.to_string()))?
-                .to_vec())
-        };
-        let stats_bytes = mapped(&staging.stats)?;
-        let stats: GpuStats =
-            bytemuck::pod_read_unaligned(&stats_bytes[..std::mem::size_of::<GpuStats>()]);
-        let frame = if ticket.read_frame {
-            let view = staging
-                .frame
-                .slice(..)
-                .get_mapped_range()
-                .map_err(|e| GpuError::Readback(e.to_string()))?;
-            // Buffers are at least 16 bytes: a frame under 4 pixels has padding.
-            let pixels = view
-                .chunks_exact(4)
-                .take(ticket.size.0 as usize * ticket.size.1 as usize)
-                .map(|c| [c[0], c[1], c[2]])
-                .collect();
-            Some(Rgb8Image {
-                width: ticket.size.0,
-                height: ticket.size.1,
-                pixels,
-            })
-        } else {
-            None
-        };
-        let timings = match (&self.queries, &staging.timing) {
-            (Some(q), Some(b)) => q.parse(&mapped(b)?, &self.stage_names(), self.ctx),
-            _ => Vec::new(),
-        };
-        Ok(GpuFrame {
-            frame,
-            stats,
-            timings,
-            wall_ms: ticket.start.elapsed().as_secs_f64() * 1e3,
-        })
+        self.ring
+            .collect(self.ctx, ticket, self.queries.as_ref(), &self.stage_names())
     }
 
     /// Renders `frames` in order with up to [`FRAMES_IN_FLIGHT`] in flight:
@@ -703,234 +417,13 @@ impl<'a> GpuRenderer<'a> {
         }
         result
     }
-
-    /// Reads back the output texture of `stage` ("sphere", "taa_sobel",
-    /// "taa", "tonemap", "bloom_blur", "bloom_composite", "grade", "display"
-    /// for the frame entering `encode`, or "taa_history" for the unsharpened
-    /// TAA blend of the last frame) as f64, or None when the plan has no such
-    /// stage.
-    pub fn read_output(&self, stage: &str) -> Result<Option<LinearImage>, GpuError> {
-        // The TAA history the last frame wrote: the texture the next frame reads.
-        let history = self.taa.as_ref().map(|t| {
-            let odd = self.odd.load(std::sync::atomic::Ordering::Relaxed);
-            ("taa_history", &t.history[usize::from(odd)])
-        });
-        let found = self
-            .outputs
-            .iter()
-            .map(|(n, t)| (*n, t))
-            .chain(history)
-            .find(|(n, _)| *n == stage);
-        let Some((_, texture)) = found else {
-            return Ok(None);
-        };
-        // The part the frame covers: a texture of the capacity holds the
-        // frame, one of the bloom's level at the capacity holds its level.
-        let extent = extent_of(*self.lock_size(), self.bloom_factor);
-        let texture_size = (texture.width(), texture.height());
-        let (w, h) = if texture_size == self.capacity {
-            (extent.frame[0], extent.frame[1])
-        } else if Some(texture_size)
-            == self
-                .bloom_factor
-                .map(|f| downsampled_size(self.capacity.0, self.capacity.1, f))
-        {
-            (extent.low[0], extent.low[1])
-        } else {
-            texture_size
-        };
-        let single = texture.format() == wgpu::TextureFormat::R32Float;
-        let bpp = if single {
-            4
-        } else {
-            self.config.hdr_format.bytes_per_pixel()
-        };
-        let row = (w * bpp).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
-            * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
-        let buf = read_buffer(self.ctx, "tonegate.readback", row as u64 * h as u64);
-        let mut encoder = self
-            .ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("tonegate.readback"),
-            });
-        encoder.copy_texture_to_buffer(
-            wgpu::TexelCopyTextureInfo {
-                texture,
-                mip_level: 0,
-                origin: wgpu::Origin3d::ZERO,
-                aspect: wgpu::TextureAspect::All,
-            },
-            wgpu::TexelCopyBufferInfo {
-                buffer: &buf,
-                layout: wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(row),
-                    rows_per_image: Some(h),
-                },
-            },
-            wgpu::Extent3d {
-                width: w,
-                height: h,
-                depth_or_array_layers: 1,
-            },
-        );
-        self.ctx.queue.submit([encoder.finish()]);
-        let bytes = self.ctx.read_buffer(&buf)?;
-        let mut pixels = Vec::with_capacity(w as usize * h as usize);
-        for y in 0..h as usize {
-            let line = &bytes[y * row as usize..y * row as usize + (w * bpp) as usize];
-            for px in line.chunks_exact(bpp as usize) {
-                if single {
-                    let v = f32::from_le_bytes([px[0], px[1], px[2], px[3]]) as f64;
-                    pixels.push([v, v, v]);
-                    continue;
-                }
-                let c = |i: usize| -> f64 {
-                    match self.config.hdr_format {
-                        HdrFormat::Rgba32Float => f32::from_le_bytes([
-                            px[4 * i],
-                            px[4 * i + 1],
-                            px[4 * i + 2],
-                            px[4 * i + 3],
-                        ]) as f64,
-                        HdrFormat::Rgba16Float => {
-                            half::f16::from_le_bytes([px[2 * i], px[2 * i + 1]]).to_f64()
-                        }
-                    }
-                };
-                pixels.push([c(0), c(1), c(2)]);
-            }
-        }
-        Ok(Some(LinearImage {
-            width: w,
-            height: h,
-            pixels,
-        }))
-    }
 }
 
 /// The extent of a frame of `size` with the bloom's `factor`.
-fn extent_of(size: (u32, u32), bloom_factor: Option<u32>) -> Extent {
+pub(super) fn extent_of(size: (u32, u32), bloom_factor: Option<u32>) -> Extent {
     let low = bloom_factor.map_or(size, |f| downsampled_size(size.0, size.1, f));
     Extent {
         frame: [size.0, size.1],
         low: [low.0, low.1],
-    }
-}
-
-/// The frame's fixed resources (textures of `width`×`height`, the capacity)
-/// and its input uploaded: what the plan's stages are then wired between.
-fn frame_resources<'a, 'p>(
-    ctx: &'a GpuContext,
-    input: &GpuInput,
-    pipeline: &'p Pipeline<'p>,
-    config: GpuConfig,
-    (width, height): (u32, u32),
-    taa: bool,
-    extent: wgpu::Buffer,
-) -> Result<Wiring<'a, 'p>, GpuError> {
-    let format = config.hdr_format;
-    let (weights, delta) = operator_constants(pipeline.operator);
-    let (hdr, environment) = match input {
-        GpuInput::Sphere { env, .. } => {
-            let environment = Environment::upload(ctx, env, config.env_filter)?;
-            let uniforms = super::stages::uniform_buffer(
-                ctx,
-                "tonegate.sphere.frame",
-                &[0u8; std::mem::size_of::<FrameUniforms>()],
-            );
-            let hdr = hdr_texture(ctx, "tonegate.sphere", width, height, format);
-            (hdr, Some((environment, uniforms)))
-        }
-        GpuInput::Flat(img) => {
-            let hdr = hdr_texture(ctx, "tonegate.input", width, height, format);
-            upload(ctx, &hdr, img, format);
-            (hdr, None)
-        }
-    };
-    // A TAA plan's sphere writes the jittered frame, and `taa` the frame the
-    // operator reads.
-    let (hdr, current) = match taa {
-        true => (
-            hdr_texture(ctx, "tonegate.taa", width, height, format),
-            Some(hdr),
-        ),
-        false => (hdr, None),
-    };
-    Ok(Wiring {
-        ctx,
-        format,
-        width,
-        height,
-        pipeline,
-        reduction: config.reduction,
-        fault_gain: config.fault_gain,
-        taa_fault: config.taa_fault,
-        current,
-        amount: None,
-        taa: None,
-        weights,
-        delta,
-        hdr,
-        stats: shared_buffer(
-            ctx,
-            "tonegate.luminance_stats",
-            std::mem::size_of::<GpuStats>() as u64,
-        ),
-        frame: storage_buffer(ctx, "tonegate.encode", width as u64 * height as u64 * 4),
-        extent,
-        environment,
-        outputs: Vec::new(),
-        display: None,
-        toned: None,
-        bright: None,
-        low: None,
-        blurred: None,
-        grade_mean: None,
-        tone: None,
-        pending_resolve: false,
-        bright_source: None,
-        composite: None,
-    })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::max_component;
-
-    #[test]
-    fn max_component_is_the_serial_fold_at_any_length_with_nan_and_negatives() {
-        let serial = |p: &[[f32; 3]]| {
-            p.iter()
-                .flat_map(|p| p.iter().copied())
-                .fold(0.0f32, f32::max)
-        };
-        let mut seed = 7u32;
-        let mut next = move || {
-            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-            (seed >> 8) as f32 / (1 << 24) as f32
-        };
-        for n in [0usize, 1, 2, 3, 5, 8, 11, 64, 1001] {
-            let mut p: Vec<[f32; 3]> = (0..n)
-                .map(|_| [next() * 10.0 - 5.0, next(), -next()])
-                .collect();
-            assert_eq!(max_component(&p), serial(&p), "{n}");
-            if n > 2 {
-                // The largest value in every possible lane position, and a
-                // NaN in front of it, are still found.
-                for at in 0..(3 * n).min(17) {
-                    let mut q = p.clone();
-                    q[at / 3][at % 3] = 1e30;
-                    if at > 0 {
-                        q[(at - 1) / 3][(at - 1) % 3] = f32::NAN;
-                    }
-                    assert_eq!(max_component(&q), 1e30, "{n} at {at}");
-                }
-                p[0][0] = f32::INFINITY;
-                assert_eq!(max_component(&p), f32::INFINITY);
-            }
-        }
-        assert_eq!(max_component(&[[-1.0, f32::NAN, -3.0]]), 0.0);
     }
 }

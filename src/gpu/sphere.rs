@@ -150,3 +150,16 @@ pub fn sphere(
     };
     dispatch_2d(p, bg, hdr_out.width(), hdr_out.height())
 }
+
+/// Mirrors `FrameUniforms` in shaders/shared/frame.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub(super) struct FrameUniforms {
+    pub(super) rot: [[f32; 4]; 3],
+    pub(super) size: [u32; 2],
+    pub(super) tan_half: f32,
+    pub(super) aspect: f32,
+    pub(super) jitter: [f32; 2],
+    /// WGSL rounds the struct up to 16 bytes.
+    pub(super) _pad: [f32; 2],
+}

@@ -21,44 +21,33 @@ pub fn pipeline(
             .map(|(k, v)| ((*k).to_owned(), v.to_bits()))
             .collect(),
     );
-    let mut cache = ctx
-        .pipelines
-        .lock()
-        .unwrap_or_else(|poisoned| poisoned.into_inner());
-    if let Some(p) = cache.get(&key) {
-        return p.clone();
-    }
-    let label = if entry == "main" {
-        format!("tonegate.{stage}")
-    } else {
-        format!("tonegate.{stage}.{entry}")
-    };
-    let module = ctx
-        .device
-        .create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some(&label),
-            source: wgpu::ShaderSource::Wgsl(
-                super::shaders::compose(stage, format, ctx.subgroups).into(),
-            ),
-        });
-    let p = ctx
-        .device
-        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some(&label),
-            layout: None,
-            module: &module,
-            entry_point: Some(entry),
-            compilation_options: wgpu::PipelineCompilationOptions {
-                constants,
-                zero_initialize_workgroup_memory: false,
-            },
-            cache: None,
-        });
-    if cache.len() >= super::context::PIPELINE_CACHE_LIMIT {
-        cache.clear();
-    }
-    cache.insert(key, p.clone());
-    p
+    ctx.cached_pipeline(key, || {
+        let label = if entry == "main" {
+            format!("tonegate.{stage}")
+        } else {
+            format!("tonegate.{stage}.{entry}")
+        };
+        let module = ctx
+            .device
+            .create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(&label),
+                source: wgpu::ShaderSource::Wgsl(
+                    super::shaders::compose(stage, format, ctx.subgroups).into(),
+                ),
+            });
+        ctx.device
+            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(&label),
+                layout: None,
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants,
+                    zero_initialize_workgroup_memory: false,
+                },
+                cache: None,
+            })
+    })
 }
 
 /// An intermediate image: written as storage, read with textureLoad, copied out.
@@ -359,6 +348,6 @@ mod tests {
             &[("SPP", 4.0)],
         );
         assert_ne!(d, e, "other override constants are another pipeline");
-        assert_eq!(ctx.pipelines.lock().unwrap().len(), 4);
+        assert_eq!(ctx.cached_pipelines(), 4);
     }
 }

@@ -6,7 +6,8 @@ use super::{GpuContext, HdrFormat};
 use crate::reference::tonemap::{invert3, operator_constants, rgb_to_xyz};
 use crate::scene::{ColourPath, Key, Operator};
 
-/// The operator's constants as the shader's `ToneConfig` (28 f32).
+/// The operator's constants as the shader's `ToneConfig` (36 f32: the weights
+/// and six matrix rows as vec4s, then five scalars and three pads).
 pub fn tone_config(op: &Operator) -> [f32; 36] {
     let (weights, _) = operator_constants(op);
     let to_xyz = rgb_to_xyz(weights);
@@ -23,7 +24,7 @@ pub fn tone_config(op: &Operator) -> [f32; 36] {
         row(&mut c, 16 + 4 * i, to_rgb[i]);
     }
     let (key, white_fraction, white, fixed_lavg, fixed_max) = match op {
-        Operator::Seed000 {
+        Operator::ReinhardGlobal {
             key,
             white_fraction,
             log_average,
@@ -36,7 +37,7 @@ pub fn tone_config(op: &Operator) -> [f32; 36] {
             log_average.map(|v| v.get()).unwrap_or(0.0),
             max_luminance.map(|v| v.get()).unwrap_or(0.0),
         ),
-        Operator::Seed001 { key, .. } => (
+        Operator::ReinhardAutoKey { key, .. } => (
             match key {
                 Key::Fixed(k) => k.get(),
                 Key::Auto => 0.18,
@@ -67,11 +68,12 @@ pub fn tone_config(op: &Operator) -> [f32; 36] {
     c
 }
 
-/// `gpu::OperatorCode`: the shader's OPERATOR constant.
+/// The shader's `OPERATOR` override constant: 0 `reinhard-global`, 1
+/// `reinhard-auto-key`, 2 `reinhard02`.
 pub fn operator_code(op: &Operator) -> u32 {
     match op {
-        Operator::Seed000 { .. } => 0,
-        Operator::Seed001 { .. } => 1,
+        Operator::ReinhardGlobal { .. } => 0,
+        Operator::ReinhardAutoKey { .. } => 1,
         Operator::Reinhard02 { .. } => 2,
     }
 }
@@ -96,7 +98,7 @@ impl ToneParams {
             ),
             operator: operator_code(op) as f64,
             colour: (op.colour() == ColourPath::Xyy) as u32 as f64,
-            auto_key: matches!(op, Operator::Seed001 { key: Key::Auto, .. }) as u32 as f64,
+            auto_key: matches!(op, Operator::ReinhardAutoKey { key: Key::Auto, .. }) as u32 as f64,
             fault_gain: fault_gain.unwrap_or(1.0) as f64,
         }
     }

@@ -3,12 +3,14 @@
 //! back. Fused execution (`super::fused`) takes over the stages it merges and
 //! leaves the rest to [`Wiring::staged`].
 
-use super::sphere::Environment;
-use super::stages::{hdr_texture, shared_buffer, Dispatch};
+use super::luminance_stats::GpuStats;
+use super::sphere::{Environment, FrameUniforms};
+use super::stages::{hdr_texture, shared_buffer, storage_buffer, upload, Dispatch};
 use super::tonemap::ToneParams;
-use super::{GpuContext, GpuError, HdrFormat};
+use super::{GpuConfig, GpuContext, GpuError, GpuInput, HdrFormat};
 use crate::plan::{BloomSource, PlanError, Stage};
 use crate::reference::bloom_downsample::downsampled_size;
+use crate::reference::tonemap::operator_constants;
 use crate::reference::Pipeline;
 use crate::scene::Bloom;
 
@@ -86,6 +88,85 @@ pub struct Wiring<'a, 'p> {
     pub bright_source: Option<BloomSource>,
     /// The bloom (blurred texture, strength) the fused tail adds.
     pub composite: Option<(wgpu::Texture, f64)>,
+}
+
+impl<'a, 'p> Wiring<'a, 'p> {
+    /// The frame's fixed resources (textures of `width`×`height`, the
+    /// capacity) and its input uploaded: what the plan's stages are then
+    /// wired between.
+    pub(super) fn new(
+        ctx: &'a GpuContext,
+        input: &GpuInput,
+        pipeline: &'p Pipeline<'p>,
+        config: GpuConfig,
+        (width, height): (u32, u32),
+        taa: bool,
+        extent: wgpu::Buffer,
+    ) -> Result<Wiring<'a, 'p>, GpuError> {
+        let format = config.hdr_format;
+        let (weights, delta) = operator_constants(pipeline.operator);
+        let (hdr, environment) = match input {
+            GpuInput::Sphere { env, .. } => {
+                let environment = Environment::upload(ctx, env, config.env_filter)?;
+                let uniforms = super::stages::uniform_buffer(
+                    ctx,
+                    "tonegate.sphere.frame",
+                    &[0u8; std::mem::size_of::<FrameUniforms>()],
+                );
+                let hdr = hdr_texture(ctx, "tonegate.sphere", width, height, format);
+                (hdr, Some((environment, uniforms)))
+            }
+            GpuInput::Flat(img) => {
+                let hdr = hdr_texture(ctx, "tonegate.input", width, height, format);
+                upload(ctx, &hdr, img, format);
+                (hdr, None)
+            }
+        };
+        // A TAA plan's sphere writes the jittered frame, and `taa` the frame the
+        // operator reads.
+        let (hdr, current) = match taa {
+            true => (
+                hdr_texture(ctx, "tonegate.taa", width, height, format),
+                Some(hdr),
+            ),
+            false => (hdr, None),
+        };
+        Ok(Wiring {
+            ctx,
+            format,
+            width,
+            height,
+            pipeline,
+            reduction: config.reduction,
+            fault_gain: config.fault_gain,
+            taa_fault: config.taa_fault,
+            current,
+            amount: None,
+            taa: None,
+            weights,
+            delta,
+            hdr,
+            stats: shared_buffer(
+                ctx,
+                "tonegate.luminance_stats",
+                std::mem::size_of::<GpuStats>() as u64,
+            ),
+            frame: storage_buffer(ctx, "tonegate.encode", width as u64 * height as u64 * 4),
+            extent,
+            environment,
+            outputs: Vec::new(),
+            display: None,
+            toned: None,
+            bright: None,
+            low: None,
+            blurred: None,
+            grade_mean: None,
+            tone: None,
+            pending_resolve: false,
+            bright_source: None,
+            composite: None,
+        })
+    }
 }
 
 impl<'p> Wiring<'_, 'p> {

@@ -1,5 +1,6 @@
-//! The deterministic generator of SPEC §8's stiff and extreme inputs. Each
-//! case says what it is and what the pipeline must do with it.
+//! The deterministic generator of the stiff and extreme inputs of
+//! docs/stress.md. Each case says what it is and what the pipeline must do
+//! with it.
 
 use crate::image::HdrImage;
 
@@ -32,26 +33,6 @@ pub struct Case {
     pub refused_by: &'static [&'static str],
 }
 
-/// A smooth, deterministic HDR ramp with detail: luminance from `lo` to `hi`
-/// geometrically along x, a ripple along y, colour varying with position.
-pub(crate) fn ramp(width: u32, height: u32, lo: f64, hi: f64) -> HdrImage {
-    let span = (hi / lo).ln();
-    HdrImage::from_fn(width, height, |x, y| {
-        let t = if width > 1 {
-            x as f64 / (width - 1) as f64
-        } else {
-            0.5
-        };
-        let r = if height > 1 {
-            y as f64 / (height - 1) as f64
-        } else {
-            0.5
-        };
-        let v = lo * (span * t).exp() * (1.0 + 0.25 * (12.0 * r).sin());
-        [(v * 1.1) as f32, v as f32, (v * (0.7 + 0.3 * r)) as f32]
-    })
-}
-
 /// Every case. `large` adds the ≥ 8 Mpx frame (about a second per renderer).
 pub fn all(large: bool) -> Vec<Case> {
     let mut cases = vec![
@@ -59,7 +40,7 @@ pub fn all(large: bool) -> Vec<Case> {
             name: "all_black",
             source: Source::Image(HdrImage::filled(64, 48, [0.0; 3])),
             f16: false,
-            behaviour: "log-average = delta (1e-4): ln(delta + 0); min = max = 0; the automatic key's span is 0, so it falls back to 0.18; seed 001's weights are all 0 (Σw = 0), so the weighted mean falls back to the plain log-average; the frame is black",
+            behaviour: "log-average = delta (1e-4): ln(delta + 0); min = max = 0; the automatic key's span is 0, so it falls back to 0.18; reinhard-auto-key's weights are all 0 (Σw = 0), so the weighted mean falls back to the plain log-average; the frame is black",
             exception: None,
             refused_by: &[],
         },
@@ -85,15 +66,15 @@ pub fn all(large: bool) -> Vec<Case> {
         },
         Case {
             name: "span_1e-30_to_1e30",
-            source: Source::Image(ramp(257, 33, 1.0e-30, 1.0e30)),
+            source: Source::Image(HdrImage::ramp(257, 33, 1.0e-30, 1.0e30)),
             f16: false,
-            behaviour: "60 decades in one frame: statistics in f32 stay finite (ln of 1e30 is 69); white² overflows f32 to +Inf on the GPU and its reciprocal is 0, which is what the f64 1/white² rounds to in f32 as well",
+            behaviour: "60 decades in one frame: statistics in f32 stay finite (ln of 1e30 is 69); the GPU never squares the white point (it divides L by it twice), so the burn term underflows to 0 where the f64 L/white² rounds to 0 in f32 as well",
             exception: None,
             refused_by: &[],
         },
         Case {
             name: "beyond_f16_with_f16",
-            source: Source::Image(ramp(97, 31, 1.0e-2, 2.0e5)),
+            source: Source::Image(HdrImage::ramp(97, 31, 1.0e-2, 2.0e5)),
             f16: true,
             behaviour: "values up to 2e5 with rgba16float intermediates requested: f16 would store +Inf, so the GPU renderer promotes the intermediates to rgba32float and reports it",
             exception: None,
@@ -150,11 +131,13 @@ pub fn all(large: bool) -> Vec<Case> {
         },
         Case {
             name: "weights_sum_zero",
-            // Seed 001's weight w = 1 - exp(-Y) is positive for every positive
-            // Y (even subnormal, in f64), so Σw = 0 means a frame of zeros.
+            // `reinhard-auto-key`'s weight w = 1 - exp(-Y) (the weighted
+            // log-average of the modified Reinhard for training simulators,
+            // docs/bibliography.md) is positive for every positive Y (even
+            // subnormal, in f64), so Σw = 0 means a frame of zeros.
             source: Source::Image(HdrImage::filled(37, 23, [0.0; 3])),
             f16: false,
-            behaviour: "Σw = 0 in seed 001's weighted mean (every Y = 0): the documented fallback is the plain log-average, here delta",
+            behaviour: "Σw = 0 in reinhard-auto-key's weighted mean (every Y = 0): the documented fallback is the plain log-average, here delta",
             exception: None,
             refused_by: &[],
         },
@@ -168,7 +151,7 @@ pub fn all(large: bool) -> Vec<Case> {
         },
         Case {
             name: "size_1xN",
-            source: Source::Image(ramp(1, 257, 0.01, 100.0)),
+            source: Source::Image(HdrImage::ramp(1, 257, 0.01, 100.0)),
             f16: false,
             behaviour: "one column of 257: no row or column dropped by either reduction",
             exception: None,
@@ -176,7 +159,7 @@ pub fn all(large: bool) -> Vec<Case> {
         },
         Case {
             name: "size_Nx1",
-            source: Source::Image(ramp(257, 1, 0.01, 100.0)),
+            source: Source::Image(HdrImage::ramp(257, 1, 0.01, 100.0)),
             f16: false,
             behaviour: "one row of 257: no row or column dropped by either reduction",
             exception: None,
@@ -184,7 +167,7 @@ pub fn all(large: bool) -> Vec<Case> {
         },
         Case {
             name: "size_prime_127x131",
-            source: Source::Image(ramp(127, 131, 0.001, 1000.0)),
+            source: Source::Image(HdrImage::ramp(127, 131, 0.001, 1000.0)),
             f16: false,
             behaviour: "odd, prime sides: partial blocks and odd ping-pong levels are summed, not dropped",
             exception: None,
@@ -202,7 +185,7 @@ pub fn all(large: bool) -> Vec<Case> {
     if large {
         cases.push(Case {
             name: "large_4096x2048",
-            source: Source::Image(ramp(4096, 2048, 0.001, 5000.0)),
+            source: Source::Image(HdrImage::ramp(4096, 2048, 0.001, 5000.0)),
             f16: false,
             behaviour: "8.4 Mpx: f32 accumulation of 8.4 M log terms, kept within 1e-5 by compensated partial sums",
             exception: None,
@@ -213,7 +196,7 @@ pub fn all(large: bool) -> Vec<Case> {
 }
 
 fn nan_inf() -> HdrImage {
-    let mut img = ramp(48, 32, 0.01, 50.0);
+    let mut img = HdrImage::ramp(48, 32, 0.01, 50.0);
     img.pixels[5 * 48 + 7] = [f32::NAN, 1.0, 1.0];
     img.pixels[9 * 48 + 20] = [f32::INFINITY, 0.0, 0.0];
     img.pixels[30 * 48 + 47] = [0.5, f32::NEG_INFINITY, 0.5];
