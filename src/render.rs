@@ -11,6 +11,21 @@ use crate::reference::{render_frame, render_taa_frame, scene_camera, FrameSummar
 use crate::scene::{Scene, Size};
 use std::time::Instant;
 
+/// The name a CPU-reference render goes by wherever an adapter's name would
+/// stand (reports, the history, JUnit).
+pub const CPU_REFERENCE: &str = "cpu-reference";
+
+/// What renders: the CPU reference in f64, or the GPU pipeline on an
+/// adapter with its configuration.
+#[derive(Clone, Debug)]
+pub enum Renderer {
+    Cpu,
+    Gpu {
+        adapter: crate::gpu::AdapterChoice,
+        config: GpuConfig,
+    },
+}
+
 #[derive(Debug, thiserror::Error)]
 pub enum RenderError {
     /// The scene's environment file could not be read.
@@ -209,7 +224,7 @@ impl<'a> SceneRenderer<'a> {
     /// The adapter's name, or `cpu-reference`.
     pub fn adapter(&self) -> String {
         match &self.engine {
-            Engine::Cpu => "cpu-reference".into(),
+            Engine::Cpu => CPU_REFERENCE.into(),
             Engine::Gpu(r) => r.adapter_name().into(),
         }
     }
@@ -342,7 +357,7 @@ impl<'a> SceneRenderer<'a> {
 
     /// Renders every frame of the sequence in order and hands each to
     /// `sink` as it reaches the host. On the GPU the frames are rendered
-    /// with [`FRAMES_IN_FLIGHT`](crate::gpu::renderer::FRAMES_IN_FLIGHT) in
+    /// with [`FRAMES_IN_FLIGHT`](crate::gpu::FRAMES_IN_FLIGHT) in
     /// flight: frame n is copied out, and `sink` works on it (writes a
     /// file, compares it), while n+1 renders.
     pub fn each_frame<E: From<RenderError>>(
@@ -412,7 +427,7 @@ impl<'a> SceneRenderer<'a> {
         })?;
         let wall_s = start.elapsed().as_secs_f64();
         let (renderer, fps) = match &self.engine {
-            Engine::Cpu => (format!("cpu-reference ({} spp)", self.spp), None),
+            Engine::Cpu => (format!("{CPU_REFERENCE} ({} spp)", self.spp), None),
             Engine::Gpu(r) => (
                 r.adapter_name().to_owned(),
                 Some(self.scene.frames as f64 / wall_s),
@@ -428,7 +443,7 @@ impl<'a> SceneRenderer<'a> {
             fps,
             options: match &self.engine {
                 Engine::Cpu => Vec::new(),
-                Engine::Gpu(r) => crate::check::AccuracyOption::of(&r.config),
+                Engine::Gpu(r) => r.config.accuracy_options(),
             },
         })
     }

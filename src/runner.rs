@@ -118,7 +118,10 @@ fn register(
 /// `say` is told each job's outcome as a line.
 pub fn run(opts: &RunnerOptions, say: &mut dyn FnMut(&str)) -> Result<RunnerSummary, crate::Error> {
     let (adapter, driver) = if opts.cpu {
-        ("cpu-reference".to_owned(), "tonegate".to_owned())
+        (
+            crate::render::CPU_REFERENCE.to_owned(),
+            "tonegate".to_owned(),
+        )
     } else {
         let ctx = crate::gpu::GpuContext::new(&opts.adapter)?;
         (ctx.adapter.name.clone(), ctx.adapter.driver.clone())
@@ -191,18 +194,18 @@ pub fn run(opts: &RunnerOptions, say: &mut dyn FnMut(&str)) -> Result<RunnerSumm
         };
         let started = Instant::now();
         let renderer = if job.cpu || opts.cpu {
-            Renderer::Cpu { spp: None }
+            Renderer::Cpu
         } else {
             Renderer::Gpu {
                 adapter: opts.adapter.clone(),
                 config: opts.gpu_config,
-                spp: None,
             }
         };
         let (tx, rx) = std::sync::mpsc::channel();
         let check = CheckOptions {
             suite: PathBuf::from(&job.suite),
             renderer,
+            spp: None,
             artifacts: opts
                 .artifacts
                 .as_ref()

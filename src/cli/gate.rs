@@ -116,7 +116,7 @@ pub fn check(a: CheckArgs) -> Result<ExitCode> {
         }
     }
     let renderer = if a.cpu {
-        Renderer::Cpu { spp: a.spp }
+        Renderer::Cpu
     } else {
         let mut config = a.gpu.config();
         config.fault_gain = a.fault_gain;
@@ -124,12 +124,12 @@ pub fn check(a: CheckArgs) -> Result<ExitCode> {
         Renderer::Gpu {
             adapter: a.gpu.adapter.clone(),
             config,
-            spp: a.spp,
         }
     };
     let opts = CheckOptions {
         suite: a.suite.clone(),
         renderer,
+        spp: a.spp,
         artifacts: a.artifacts.clone(),
         db: (!a.no_history).then(|| a.db.db.clone()),
         started: None,

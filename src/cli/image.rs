@@ -13,7 +13,7 @@ use tonegate::metrics::hdr_flip::ToneMapper;
 use tonegate::progress::Progress;
 use tonegate::render::{scene_environment, FrameDetail, SceneRenderer};
 use tonegate::scene::{Scene, Size, MAX_SPP};
-use tonegate::toning::ToneSettings;
+use tonegate::toning::{OutputKind, ToneSettings};
 
 #[derive(Args)]
 pub struct BenchArgs {
@@ -63,12 +63,23 @@ pub struct TonemapArgs {
     pub json: bool,
 }
 
+/// Two images of one kind: two 8-bit PNGs (LDR metrics) or two linear HDR
+/// files, .exr / .hdr / .pfm (HDR metrics). Name them as FLIP's tool does,
+/// `-r REFERENCE -t TEST`, or by position, test first: `compare TEST REFERENCE`.
 #[derive(Args)]
 pub struct CompareArgs {
-    /// The image under test: 8-bit PNG (LDR metrics), or linear .exr / .hdr / .pfm (HDR metrics).
-    pub a: PathBuf,
-    /// The reference image, of the same kind.
-    pub b: PathBuf,
+    /// The image under test (positional form: the first image).
+    #[arg(value_name = "TEST")]
+    pub test_at: Option<PathBuf>,
+    /// The reference (positional form: the second image).
+    #[arg(value_name = "REFERENCE")]
+    pub reference_at: Option<PathBuf>,
+    /// The reference image (FLIP's -r): HDR-FLIP's exposures come from it.
+    #[arg(short = 'r', long)]
+    pub reference: Option<PathBuf>,
+    /// The image under test (FLIP's -t).
+    #[arg(short = 't', long)]
+    pub test: Option<PathBuf>,
     /// Write the per-pixel SSIM map as a greyscale PNG (PU21-SSIM's for HDR inputs).
     #[arg(long)]
     pub ssim_map: Option<PathBuf>,
@@ -153,56 +164,30 @@ pub fn tonemap(a: TonemapArgs) -> Result<ExitCode> {
     } else {
         None
     };
-    let ext = a
-        .output
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or("")
-        .to_ascii_lowercase();
-    let pipeline = resolved.pipeline();
-    // A CPU tone map to PFM whose plan is statistics and `tonemap` alone
-    // goes straight from the input to the file, a band of rows at a time:
-    // the same bytes as the staged path, without its full-frame images.
-    let pixelwise = match (&ctx, ext.as_str()) {
-        (None, "pfm") => tonegate::reference::pixelwise_tone(&img, &pipeline).transpose()?,
-        _ => None,
-    };
-    let (plan, stats, tone) = match pixelwise {
-        Some(t) => {
-            tonegate::io::write_pfm_mapped(&a.output, &img, |c| t.map(c))?;
-            (t.plan, t.stats, t.tone)
-        }
-        None => {
-            let out = tonegate::toning::tone_map(
-                &img,
-                &pipeline,
-                ctx.as_ref().map(|c| (c, a.gpu_options.config())),
-                ext != "png",
-            )?;
-            match (&out.display, &out.frame) {
-                (Some(display), _) if ext != "png" => {
-                    tonegate::io::write_image_hdr(&a.output, display)?
-                }
-                (_, Some(frame)) => tonegate::io::write_png8(&a.output, frame)?,
-                _ => {
-                    return Err(invalid(
-                        "the tone-map made no image for the output (a tonegate bug)",
-                    ))
-                }
-            }
-            (out.plan, out.stats, out.tone)
-        }
-    };
+    let want = OutputKind::of_path(&a.output)?;
+    let toned = tonegate::toning::tone_map(
+        &img,
+        &resolved.pipeline(),
+        ctx.as_ref().map(|c| (c, a.gpu_options.config())),
+        want,
+    )?;
+    toned.image.write(&a.output)?;
+    let report = toned.report;
     if a.json {
-        let report = serde_json::json!({
-            "input": load_report,
-            "output": a.output,
-            "renderer": if a.gpu { "gpu" } else { "cpu-reference" },
-            "plan": plan.names(),
-            "stats": stats,
-            "tone": tone,
-        });
-        write_json(Path::new("-"), "the tone-map report", &report)?;
+        #[derive(serde::Serialize)]
+        struct Written<'r> {
+            output: &'r Path,
+            #[serde(flatten)]
+            report: tonegate::toning::FileReport<'r>,
+        }
+        let written = Written {
+            output: &a.output,
+            report: tonegate::toning::FileReport {
+                input: &load_report,
+                toned: &report,
+            },
+        };
+        write_json(Path::new("-"), "the tone-map report", &written)?;
     } else {
         eprintln!(
             "{}: {}x{}, Y {:.4e} .. {:.4e} ({:.1} stops), key {:.4}, log-average {:.4e} -> {}",
@@ -212,8 +197,8 @@ pub fn tonemap(a: TonemapArgs) -> Result<ExitCode> {
             load_report.min_luminance,
             load_report.max_luminance,
             load_report.dynamic_range_stops,
-            tone.key,
-            tone.log_average,
+            report.tone.key,
+            report.tone.log_average,
             a.output.display()
         );
     }
@@ -246,7 +231,10 @@ pub fn bench(a: BenchArgs) -> Result<ExitCode> {
 /// What `compare --json` prints for two 8-bit images: the metrics, and
 /// FLIP's pooled statistics at the chosen viewing distance.
 #[derive(serde::Serialize)]
-struct LdrComparison {
+struct LdrComparison<'p> {
+    /// Which file was which, as the command understood its arguments.
+    test: &'p Path,
+    reference: &'p Path,
     #[serde(flatten)]
     metrics: tonegate::metrics::Metrics,
     flip: tonegate::metrics::flip::FlipStats,
@@ -259,21 +247,46 @@ fn is_png(path: &Path) -> bool {
         .is_some_and(|e| e.eq_ignore_ascii_case("png"))
 }
 
+impl CompareArgs {
+    /// (test, reference), from the flags or the positions: a reference
+    /// given by flag with one image by position makes that image the test.
+    fn pair(&self) -> Result<(PathBuf, PathBuf)> {
+        let mut positional = [&self.test_at, &self.reference_at]
+            .into_iter()
+            .flatten()
+            .cloned();
+        let test = self.test.clone().or_else(|| positional.next());
+        let reference = self.reference.clone().or_else(|| positional.next());
+        let extra = positional.next();
+        match (test, reference, extra) {
+            (Some(t), Some(r), None) => Ok((t, r)),
+            (_, _, Some(extra)) => Err(invalid(format!(
+                "{} is one image too many: give the test and the reference once each",
+                extra.display()
+            ))),
+            _ => Err(invalid(
+                "compare needs two images: -t TEST -r REFERENCE, or TEST REFERENCE by position",
+            )),
+        }
+    }
+}
+
 pub fn compare(a: CompareArgs) -> Result<ExitCode> {
-    match (is_png(&a.a), is_png(&a.b)) {
-        (true, true) => compare_ldr(&a),
-        (false, false) => compare_hdr(&a),
+    let (test, reference) = a.pair()?;
+    match (is_png(&test), is_png(&reference)) {
+        (true, true) => compare_ldr(&a, &test, &reference),
+        (false, false) => compare_hdr(&a, &test, &reference),
         _ => Err(invalid(format!(
             "{} and {} are not of one kind: compare two 8-bit PNGs (LDR metrics) or two linear HDR files (.exr, .hdr, .pfm)",
-            a.a.display(),
-            a.b.display()
+            test.display(),
+            reference.display()
         ))),
     }
 }
 
-fn compare_ldr(a: &CompareArgs) -> Result<ExitCode> {
-    let img_a = tonegate::io::read_png8(&a.a)?;
-    let img_b = tonegate::io::read_png8(&a.b)?;
+fn compare_ldr(a: &CompareArgs, test: &Path, reference: &Path) -> Result<ExitCode> {
+    let img_a = tonegate::io::read_png8(test)?;
+    let img_b = tonegate::io::read_png8(reference)?;
     let (m, default_flip) = tonegate::metrics::compare_with_flip(img_a.raster(), img_b.raster())?;
     let flip = match a.ppd {
         Some(ppd) => tonegate::metrics::flip::flip(img_a.raster(), img_b.raster(), ppd)?,
@@ -295,6 +308,8 @@ fn compare_ldr(a: &CompareArgs) -> Result<ExitCode> {
     let stats = flip.stats();
     if a.json {
         let report = LdrComparison {
+            test,
+            reference,
             metrics: m,
             flip: stats,
             flip_definition: tonegate::metrics::FLIP_DEFINITION,
@@ -316,7 +331,7 @@ fn compare_ldr(a: &CompareArgs) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-fn compare_hdr(a: &CompareArgs) -> Result<ExitCode> {
+fn compare_hdr(a: &CompareArgs, test: &Path, reference: &Path) -> Result<ExitCode> {
     use tonegate::metrics::hdr::{compare_hdr, HdrOptions};
     use tonegate::metrics::hdr_flip::HdrFlipOptions;
     if a.diff.is_some() {
@@ -325,8 +340,8 @@ fn compare_hdr(a: &CompareArgs) -> Result<ExitCode> {
         ));
     }
     let load = tonegate::io::LoadOptions::default();
-    let (img_a, _) = tonegate::io::load_hdr(&a.a, &load)?;
-    let (img_b, _) = tonegate::io::load_hdr(&a.b, &load)?;
+    let (img_a, _) = tonegate::io::load_hdr(test, &load)?;
+    let (img_b, _) = tonegate::io::load_hdr(reference, &load)?;
     let opts = HdrOptions {
         peak: a.peak,
         flip: HdrFlipOptions {
@@ -346,7 +361,19 @@ fn compare_hdr(a: &CompareArgs) -> Result<ExitCode> {
     }
     let m = &c.metrics;
     if a.json {
-        write_json(Path::new("-"), "the HDR metrics", m)?;
+        #[derive(serde::Serialize)]
+        struct HdrComparison<'p> {
+            test: &'p Path,
+            reference: &'p Path,
+            #[serde(flatten)]
+            metrics: &'p tonegate::metrics::hdr::HdrMetrics,
+        }
+        let report = HdrComparison {
+            test,
+            reference,
+            metrics: m,
+        };
+        write_json(Path::new("-"), "the HDR metrics", &report)?;
     } else {
         println!(
             "PU21-PSNR {:.4} dB  PU21-SSIM {:.6}  delta E ITP mean {:.4} max {:.4}  (1.0 = {} cd/m2)",
@@ -421,7 +448,7 @@ pub fn render(a: RenderArgs) -> Result<ExitCode> {
     let gpu = renderer.gpu_renderer();
     let renderer_name = match &ctx {
         Some(ctx) => ctx.adapter.name.clone(),
-        None => "cpu-reference".to_owned(),
+        None => tonegate::render::CPU_REFERENCE.to_owned(),
     };
     let report = serde_json::json!({
         "scene": scene.name, "renderer": renderer_name,

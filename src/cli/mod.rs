@@ -46,7 +46,8 @@ pub enum Command {
     Bench(image::BenchArgs),
     /// Tone-map one HDR image (.hdr, .exr, .pfm); output format from the extension.
     Tonemap(image::TonemapArgs),
-    /// Compare two 8-bit images: MSE, RMSE, PSNR, SNR, SSIM, max abs diff.
+    /// Compare an image with a reference: two 8-bit PNGs (MSE, RMSE, PSNR, SNR, SSIM,
+    /// FLIP) or two linear HDR files (HDR-FLIP, PU21, delta E ITP); -t TEST -r REFERENCE.
     Compare(image::CompareArgs),
     /// Print the stage plan of a scene: the stages it needs and nothing else.
     Plan(image::PlanArgs),
@@ -83,7 +84,7 @@ pub struct GpuArgs {
     /// HDR intermediates: rgba32float (f32) or rgba16float (f16).
     #[arg(long, default_value = "rgba32float", value_parser = by_name::<HdrFormat>)]
     pub hdr_format: HdrFormat,
-    /// Luminance reduction: auto (block on a CPU adapter; on a GPU subgroup where it has subgroup operations, else tree), block (seed 001's block partials), pingpong (seed 000's 2x2), tree (workgroup shared-memory tree) or subgroup (the tree with subgroup shuffles).
+    /// Luminance reduction: auto (block on a CPU adapter; on a GPU subgroup where it has subgroup operations, else tree), block (single-pass block partials), pingpong (2x2 ping-pong levels), tree (workgroup shared-memory tree) or subgroup (the tree with subgroup shuffles).
     #[arg(long, default_value = "auto", value_parser = by_name::<ReductionMethod>)]
     pub reduction: ReductionMethod,
     /// Environment filtering in `sphere`: manual (the reference's bilinear) or hardware (the sampler).

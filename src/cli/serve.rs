@@ -124,12 +124,11 @@ pub fn serve(a: ServeArgs) -> Result<ExitCode> {
             token_file.display()
         );
         if a.run_suite {
-            let renderer = tonegate::gate::Renderer::Gpu {
+            let renderer = tonegate::render::Renderer::Gpu {
                 adapter: a.gpu.adapter.clone(),
                 config: a.gpu.config(),
-                spp: None,
             };
-            match tonegate::server::start_run(server.state(), renderer).await {
+            match tonegate::server::start_run(server.state(), renderer, None).await {
                 Ok(id) => println!(
                     "running the suite {} as run {id}: http://{addr}/#/runs/{id}",
                     a.suite.display()

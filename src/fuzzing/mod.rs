@@ -193,7 +193,7 @@ pub fn multipart(data: &[u8]) {
 /// A `POST /runs` body.
 pub fn runs_json(data: &[u8]) {
     let adapter = crate::gpu::AdapterChoice::default();
-    if let Err(e) = crate::server::api::run_request(data, &adapter, Default::default()) {
+    if let Err(e) = crate::server::runs::run_request(data, &adapter, Default::default()) {
         api_error(&e);
     }
 }

@@ -17,38 +17,26 @@ pub use regress::find_regressions;
 
 use crate::check::{judge, JudgeError, SceneResult};
 use crate::golden::Problem;
-use crate::gpu::{AdapterChoice, GpuConfig, GpuContext};
+use crate::gpu::GpuContext;
 use crate::history::{
     CheckRecord, FrameRecord, History, HistoryError, Regression, RunAdapter, RunKind, RunMeta,
     RunStatus, SceneRecord,
 };
 use crate::progress::Progress;
-use crate::render::{scene_environment, RenderError, SceneRenderer};
+pub use crate::render::Renderer;
+use crate::render::{scene_environment, RenderError, SceneRenderer, CPU_REFERENCE};
 use crate::scene::SceneError;
 use crate::suite::Performance;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
-/// What renders the suite.
-#[derive(Clone, Debug)]
-pub enum Renderer {
-    /// The GPU pipeline (the thing under test).
-    Gpu {
-        adapter: AdapterChoice,
-        config: GpuConfig,
-        /// Samples per pixel; None renders each scene at its default spp
-        /// (`reference_spp`, like for like with its goldens; 1 for a TAA scene).
-        spp: Option<u32>,
-    },
-    /// The CPU reference (to check the gate and the goldens themselves);
-    /// None renders at the goldens' spp.
-    Cpu { spp: Option<u32> },
-}
-
 #[derive(Clone, Debug)]
 pub struct CheckOptions {
     pub suite: PathBuf,
     pub renderer: Renderer,
+    /// Samples per pixel; None renders each scene at its default spp
+    /// (`reference_spp`, like for like with its goldens; 1 for a TAA scene).
+    pub spp: Option<u32>,
     /// Where the kept frames' PNGs go (failing frames, each scene's worst frame); None writes none.
     pub artifacts: Option<PathBuf>,
     /// The history database; None records nothing (and finds no regressions).
@@ -306,11 +294,7 @@ fn run_inner(
         return Err(CheckError::Goldens(problems));
     }
     let (ctx, adapter, renderer_json) = match &opts.renderer {
-        Renderer::Gpu {
-            adapter,
-            config,
-            spp,
-        } => {
+        Renderer::Gpu { adapter, config } => {
             let ctx = GpuContext::new(adapter)?;
             let a = &ctx.adapter;
             let info = AdapterInfo {
@@ -322,7 +306,7 @@ fn run_inner(
             };
             let mut json = serde_json::to_value(config).unwrap_or_default();
             if let Some(o) = json.as_object_mut() {
-                o.insert("spp".into(), spp_json(*spp));
+                o.insert("spp".into(), spp_json(opts.spp));
                 o.insert("adapter_chosen".into(), a.chosen.clone().into());
                 // What `--reduction auto` became on this adapter.
                 o.insert(
@@ -333,16 +317,16 @@ fn run_inner(
             }
             (Some((ctx, *config)), info, json)
         }
-        Renderer::Cpu { spp } => (
+        Renderer::Cpu => (
             None,
             AdapterInfo {
-                name: "cpu-reference".into(),
+                name: CPU_REFERENCE.into(),
                 backend: "cpu".into(),
                 driver: "tonegate".into(),
                 driver_info: format!("reference version {}", crate::reference::REFERENCE_VERSION),
                 chosen: "--cpu: the f64 CPU reference, no adapter".into(),
             },
-            serde_json::json!({ "spp": spp_json(*spp) }),
+            serde_json::json!({ "spp": spp_json(opts.spp) }),
         ),
     };
     if let (Some(h), Some(id)) = (history.as_ref(), run_id) {
@@ -370,9 +354,7 @@ fn run_inner(
     let mut written = Vec::new();
     for scene in &suite.scenes {
         progress.working_on(&scene.name);
-        let spp = match opts.renderer {
-            Renderer::Cpu { spp } | Renderer::Gpu { spp, .. } => spp.unwrap_or(scene.default_spp()),
-        };
+        let spp = opts.spp.unwrap_or(scene.default_spp());
         let env = scene_environment(scene)?;
         let renderer = match &ctx {
             Some((ctx, config)) => SceneRenderer::gpu(scene, &env, ctx, *config, spp)?,

@@ -107,8 +107,8 @@ async fn over_capacity() -> ApiError {
 /// What a connection past the cap gets: health checks, and 503 for the rest.
 fn overflow_router(st: Arc<AppState>) -> Router {
     Router::new()
-        .route("/healthz", get(super::api::healthz))
-        .route("/api/v1/healthz", get(super::api::healthz))
+        .route("/healthz", get(super::health::healthz))
+        .route("/api/v1/healthz", get(super::health::healthz))
         .fallback(over_capacity)
         .with_state(st)
 }

@@ -6,21 +6,27 @@
 //! (`POST /runs`) needs the bearer token. `POST /tonemap` changes nothing
 //! stored: it is open like a read, and bounded by its queues instead.
 
-pub mod api;
+mod artifacts;
 mod assets;
 mod edge;
 pub mod error;
+mod fleet;
+mod health;
 pub mod listen;
+pub mod params;
 mod prom;
 pub mod queue;
+pub mod runs;
 pub(crate) mod tonemap;
+mod trends;
 
 use crate::gpu::{AdapterChoice, GpuConfig};
+use crate::render::Renderer;
 use axum::http::{header, HeaderMap, StatusCode};
 use axum::routing::{get, post};
 use axum::Router;
 use error::ApiError;
-use queue::{Engine, Queue};
+use queue::Queue;
 use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex, RwLock};
@@ -158,7 +164,8 @@ impl AppState {
 /// with its id once the history has it, 409 when one is already going.
 pub async fn start_run(
     st: Arc<AppState>,
-    renderer: crate::gate::Renderer,
+    renderer: crate::render::Renderer,
+    spp: Option<u32>,
 ) -> Result<i64, ApiError> {
     {
         let mut slot = st.slot.lock().unwrap_or_else(|p| p.into_inner());
@@ -184,6 +191,7 @@ pub async fn start_run(
     let opts = crate::gate::CheckOptions {
         suite: st.suite.clone(),
         renderer,
+        spp,
         artifacts: None,
         db: Some(st.db.clone()),
         started: Some(tx),
@@ -221,8 +229,9 @@ pub async fn start_run(
 #[openapi(
     info(title = "tonegate", description = "HDR tone-mapper validation: runs, metrics, trends, tradeoffs, tone-mapping."),
     paths(
-        api::list_runs, api::get_run, api::post_run, api::get_artifact, api::trends,
-        api::tradeoff, api::healthz, api::sample, tonemap::tonemap, api::queue, api::runners
+        runs::list_runs, runs::get_run, runs::post_run, artifacts::get_artifact, trends::trends,
+        trends::tradeoff, health::healthz, tonemap::sample, tonemap::tonemap, fleet::queue,
+        fleet::runners
     ),
     components(schemas(error::ErrorBody)),
     modifiers(&BearerAuth)
@@ -251,15 +260,15 @@ async fn openapi() -> axum::response::Response {
 /// The whole application.
 pub fn router(st: Arc<AppState>) -> Router {
     let api = Router::new()
-        .route("/runs", get(api::list_runs).post(api::post_run))
-        .route("/runs/{id}", get(api::get_run))
-        .route("/runs/{id}/artifacts/{name}", get(api::get_artifact))
-        .route("/trends", get(api::trends))
-        .route("/queue", get(api::queue))
-        .route("/runners", get(api::runners))
-        .route("/tradeoff/{run}", get(api::tradeoff))
-        .route("/healthz", get(api::healthz))
-        .route("/samples/{name}", get(api::sample))
+        .route("/runs", get(runs::list_runs).post(runs::post_run))
+        .route("/runs/{id}", get(runs::get_run))
+        .route("/runs/{id}/artifacts/{name}", get(artifacts::get_artifact))
+        .route("/trends", get(trends::trends))
+        .route("/queue", get(fleet::queue))
+        .route("/runners", get(fleet::runners))
+        .route("/tradeoff/{run}", get(trends::tradeoff))
+        .route("/healthz", get(health::healthz))
+        .route("/samples/{name}", get(tonemap::sample))
         .route("/openapi.json", get(openapi))
         .route(
             "/tonemap",
@@ -272,7 +281,7 @@ pub fn router(st: Arc<AppState>) -> Router {
     Router::new()
         .nest("/api/v1", api)
         .route("/metrics", get(prom::metrics))
-        .route("/healthz", get(api::healthz))
+        .route("/healthz", get(health::healthz))
         .merge(assets::routes())
         .fallback(edge::not_found)
         .method_not_allowed_fallback(edge::method_not_allowed)
@@ -334,7 +343,7 @@ impl Server {
         let gpu = Queue::start(
             "gpu",
             opts.limits.queue,
-            Engine::Gpu {
+            Renderer::Gpu {
                 adapter: opts.adapter.clone(),
                 config: opts.gpu_config,
             },
@@ -344,7 +353,7 @@ impl Server {
         let cpu = Queue::start(
             "cpu",
             opts.limits.queue,
-            Engine::Cpu,
+            Renderer::Cpu,
             opts.hold_workers.clone(),
         )
         .map_err(file)?;

@@ -215,7 +215,7 @@ pub async fn metrics(
         );
         let _ = writeln!(out, "tonegate_process_resident_memory_bytes {rss}");
     }
-    match super::api::read(&st, history_metrics).await {
+    match super::params::read(&st, history_metrics).await {
         Ok(text) => out.push_str(&text),
         Err(e) => {
             let _ = writeln!(out, "# history unreadable: {}", esc(&e.detail));

@@ -5,9 +5,10 @@
 //! unbounded pile-up.
 
 use super::error::ApiError;
-use crate::gpu::{AdapterChoice, GpuConfig, GpuContext};
+use crate::gpu::GpuContext;
 use crate::io::LoadOptions;
-use crate::toning::Resolved;
+use crate::render::Renderer;
+use crate::toning::{OutputKind, Resolved, TonedImage};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, RwLock};
 use std::time::Instant;
@@ -25,10 +26,11 @@ pub struct ToneOutput {
     pub png: Vec<u8>,
     pub width: u32,
     pub height: u32,
-    pub plan: Vec<&'static str>,
-    pub adapter: String,
-    /// Load report, statistics and tone parameters, as JSON.
-    pub report: serde_json::Value,
+    /// What the decoder found in the body.
+    pub input: crate::io::LoadReport,
+    /// The renderer, the path, the plan, the statistics and the tone
+    /// parameters.
+    pub report: crate::toning::ToneReport,
     /// The whole job: decode, tone-map and PNG.
     pub render_ms: f64,
     pub queue_ms: f64,
@@ -90,23 +92,13 @@ impl Drop for Queue {
     }
 }
 
-/// What a worker renders with.
-#[derive(Clone)]
-pub enum Engine {
-    Cpu,
-    Gpu {
-        adapter: AdapterChoice,
-        config: GpuConfig,
-    },
-}
-
 impl Queue {
     /// Starts the worker thread. `hold` (tests only) is read-locked around
     /// every job, so a test can keep the worker busy while it fills the queue.
     pub fn start(
         name: &'static str,
         waiting: usize,
-        engine: Engine,
+        engine: Renderer,
         hold: Option<Arc<RwLock<()>>>,
     ) -> std::io::Result<Queue> {
         let capacity = waiting + 1;
@@ -195,7 +187,7 @@ impl Queue {
 
 fn worker(
     rx: std::sync::mpsc::Receiver<Job>,
-    engine: Engine,
+    engine: Renderer,
     stats: Arc<QueueStats>,
     hold: Option<Arc<RwLock<()>>>,
 ) {
@@ -206,8 +198,8 @@ fn worker(
     // a panic); the next job then opens a fresh one.
     while let Some(first) = next.take() {
         let ctx = match &engine {
-            Engine::Cpu => None,
-            Engine::Gpu { adapter, .. } => {
+            Renderer::Cpu => None,
+            Renderer::Gpu { adapter, .. } => {
                 // A driver that panics while the device opens fails this
                 // job, not the worker: the next job tries again.
                 let opened = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
@@ -230,7 +222,7 @@ fn worker(
                 }
             }
         };
-        let mut renderers = ctx.as_ref().map(crate::toning::GpuRenderers::new);
+        let mut renderers = ctx.as_ref().map(crate::gpu::RendererPool::new);
         let mut job = first;
         // Whether jobs may still come: false once the queue is shut down.
         let open = loop {
@@ -274,8 +266,8 @@ fn finish(job: Job, stats: &QueueStats, result: Result<ToneOutput, ApiError>) {
 /// for the next (a device error or a panic may have left it in any state).
 fn serve_job(
     job: Job,
-    engine: &Engine,
-    renderers: Option<&mut crate::toning::GpuRenderers>,
+    engine: &Renderer,
+    renderers: Option<&mut crate::gpu::RendererPool>,
     stats: &QueueStats,
     hold: &Option<Arc<RwLock<()>>>,
 ) -> bool {
@@ -325,8 +317,8 @@ fn serve_job(
 fn run_job(
     bytes: &[u8],
     p: &JobParams,
-    engine: &Engine,
-    renderers: Option<&mut crate::toning::GpuRenderers>,
+    engine: &Renderer,
+    renderers: Option<&mut crate::gpu::RendererPool>,
     fresh_device: &mut bool,
     gone: &dyn Fn() -> bool,
 ) -> Result<Option<ToneOutput>, ApiError> {
@@ -339,16 +331,13 @@ fn run_job(
         return Ok(None);
     }
     let start = Instant::now();
-    let (gpu, adapter) = match (engine, renderers) {
-        (Engine::Gpu { config, .. }, Some(r)) => {
-            let name = r.ctx().adapter.name.clone();
-            (Some((r, *config)), name)
-        }
-        _ => (None, "cpu-reference".to_string()),
+    let gpu = match (engine, renderers) {
+        (Renderer::Gpu { config, .. }, Some(r)) => Some((r, *config)),
+        _ => None,
     };
-    let result = crate::toning::tone_map_until(&img, &p.resolved.pipeline(), gpu, false, gone);
+    let result =
+        crate::toning::tone_map_until(&img, &p.resolved.pipeline(), gpu, OutputKind::Encoded, gone);
     let tonemap_ms = ms(start);
-    drop(img);
     if let Err(crate::Error::Gpu(e)) = &result {
         if !matches!(
             e,
@@ -361,27 +350,24 @@ fn run_job(
     let Some(out) = result.map_err(|e| ApiError::of_crate(&e))? else {
         return Ok(None);
     };
+    let crate::toning::Toned { report, image } = out;
+    let TonedImage::Encoded(frame) = image else {
+        return Err(ApiError::internal("the tone-map made no 8-bit frame"));
+    };
+    // The input is not needed past here: a server holds little per job.
+    drop(img);
     if gone() {
         return Ok(None);
     }
-    let frame = out
-        .frame
-        .as_ref()
-        .ok_or_else(|| ApiError::internal("the tone-map made no 8-bit frame"))?;
     let start = Instant::now();
-    let png = crate::io::encode_png8(frame).map_err(|e| ApiError::internal(e.to_string()))?;
+    let png = crate::io::encode_png8(&frame).map_err(|e| ApiError::internal(e.to_string()))?;
     let png_ms = ms(start);
     Ok(Some(ToneOutput {
         png,
         width: frame.width,
         height: frame.height,
-        plan: out.plan.names(),
-        adapter,
-        report: serde_json::json!({
-            "input": load_report,
-            "stats": out.stats,
-            "tone": out.tone,
-        }),
+        input: load_report,
+        report,
         render_ms: 0.0,
         queue_ms: 0.0,
         decode_ms,

@@ -1,7 +1,8 @@
 //! `POST /api/v1/tonemap`: an HDR file in (raw body or multipart), a PNG out
 //! with the statistics in `X-Tonegate-*` headers, or JSON with the PNG inline.
 
-use super::error::ApiError;
+use super::edge::ApiPath as Path;
+use super::error::{ApiError, ErrorBody};
 use super::queue::{JobParams, ToneOutput};
 use super::AppState;
 use crate::toning::ToneSettings;
@@ -25,7 +26,7 @@ pub(crate) fn parse_params(
     pairs: Vec<(String, String)>,
     headers: &HeaderMap,
 ) -> Result<(Extra, ToneSettings), ApiError> {
-    super::api::check_names(pairs.iter().map(|(k, _)| k))?;
+    super::params::check_names(pairs.iter().map(|(k, _)| k))?;
     let mut extra = Extra {
         gpu: true,
         json: headers
@@ -70,7 +71,7 @@ pub(crate) fn parse_params(
         }
     }
     let encoded = serde_urlencoded::to_string(&rest).map_err(|e| ApiError::bad(e.to_string()))?;
-    let settings: ToneSettings = super::api::from_pairs(encoded.as_bytes())?;
+    let settings: ToneSettings = super::params::from_pairs(encoded.as_bytes())?;
     Ok((extra, settings))
 }
 
@@ -86,10 +87,10 @@ pub(crate) fn query_pairs(q: Option<&str>) -> Result<Vec<(String, String)>, ApiE
     params(
         ("gpu" = Option<bool>, Query, description = "Render on the GPU (default true) or with the CPU reference"),
         ("format" = Option<String>, Query, description = "png (default) or json (the PNG inline, base64)"),
-        ("operator" = Option<String>, Query, description = "seed000 (default), seed001, reinhard02"),
+        ("operator" = Option<String>, Query, description = "reinhard-global (default), reinhard-auto-key, reinhard02 (seed000 and seed001: the same two by their first names)"),
         ("preset" = Option<String>, Query, description = "reinhard02: pfstmo_reinhard02's global operator"),
-        ("key" = Option<String>, Query, description = "Key a, or auto (seed001)"),
-        ("white_fraction" = Option<f64>, Query, description = "seed000: fraction of the maximum mapped to white, (0, 1]"),
+        ("key" = Option<String>, Query, description = "Key a, or auto (reinhard-auto-key, its default)"),
+        ("white_fraction" = Option<f64>, Query, description = "reinhard-global: fraction of the maximum mapped to white, (0, 1]"),
         ("white" = Option<f64>, Query, description = "reinhard02: absolute Lwhite"),
         ("log_average" = Option<f64>, Query, description = "Fixed adaptation luminance"),
         ("colour" = Option<String>, Query, description = "ratio (default) or xyy"),
@@ -98,7 +99,7 @@ pub(crate) fn query_pairs(q: Option<&str>) -> Result<Vec<(String, String)>, ApiE
         ("gamma" = Option<f64>, Query, description = "Encode with 1/gamma instead of the sRGB OETF"),
         ("sanitize" = Option<bool>, Query, description = "Set NaN/Inf to 0 instead of refusing the file"),
     ),
-    request_body(content = Vec<u8>, description = "The .hdr or .exr file (raw, or multipart/form-data with a file field; form fields are parameters too)",
+    request_body(content = Vec<u8>, description = "The .hdr, .exr or .pfm file (raw, or multipart/form-data with a file field; form fields are parameters too)",
         content_type = "application/octet-stream"),
     responses(
         (status = 200, description = "The tone-mapped image; statistics in X-Tonegate-* headers", content_type = "image/png"),
@@ -130,7 +131,7 @@ pub async fn tonemap(
         st.authorize_read(&headers)?;
         let (extra, settings) = parse_params(pairs.clone(), &headers)?;
         // A multipart form may add the parameters that make these valid
-        // (`key=auto` in the query, `operator=seed001` in the form).
+        // (`key=auto` in the query, `operator=reinhard-auto-key` in the form).
         let resolved = if is_multipart {
             None
         } else {
@@ -167,7 +168,7 @@ pub async fn tonemap(
     .map_err(ApiError::closing)?;
     if body.is_empty() {
         return Err(ApiError::bad(
-            "the body is empty: POST the .hdr or .exr file, raw or as a multipart file field",
+            "the body is empty: POST the .hdr, .exr or .pfm file, raw or as a multipart file field",
         ));
     }
     // With a form, the whole set of parameters is parsed again.
@@ -267,62 +268,118 @@ fn multipart_error(e: &axum::extract::multipart::MultipartError) -> ApiError {
 }
 
 fn respond(out: ToneOutput, json: bool, settings: &ToneSettings) -> Response {
+    let report = &out.report;
     if json {
-        let body = serde_json::json!({
-            "width": out.width,
-            "height": out.height,
-            "adapter": out.adapter,
-            "plan": out.plan,
-            "settings": settings,
-            "render_ms": out.render_ms,
-            "queue_ms": out.queue_ms,
-            "decode_ms": out.decode_ms,
-            "tonemap_ms": out.tonemap_ms,
-            "png_ms": out.png_ms,
-            "input": out.report["input"],
-            "stats": out.report["stats"],
-            "tone": out.report["tone"],
-            "image": {
+        /// `?json=1`'s answer: the tone-map's report as the command line
+        /// writes it, the job's timings and the PNG in base64.
+        #[derive(serde::Serialize)]
+        struct Answer<'a> {
+            width: u32,
+            height: u32,
+            #[serde(flatten)]
+            report: crate::toning::FileReport<'a>,
+            settings: &'a ToneSettings,
+            render_ms: f64,
+            queue_ms: f64,
+            decode_ms: f64,
+            tonemap_ms: f64,
+            png_ms: f64,
+            image: serde_json::Value,
+        }
+        let body = Answer {
+            width: out.width,
+            height: out.height,
+            report: crate::toning::FileReport {
+                input: &out.input,
+                toned: report,
+            },
+            settings,
+            render_ms: out.render_ms,
+            queue_ms: out.queue_ms,
+            decode_ms: out.decode_ms,
+            tonemap_ms: out.tonemap_ms,
+            png_ms: out.png_ms,
+            image: serde_json::json!({
                 "content_type": "image/png",
                 "base64": base64::engine::general_purpose::STANDARD.encode(&out.png),
-            },
-        });
+            }),
+        };
         return axum::Json(body).into_response();
     }
-    let mut r = (
-        [(header::CONTENT_TYPE, HeaderValue::from_static("image/png"))],
-        out.png,
-    )
-        .into_response();
-    let h = r.headers_mut();
-    let mut put = |name: &'static str, v: String| {
-        if let Ok(v) = HeaderValue::from_str(&v) {
-            h.insert(name, v);
-        }
-    };
-    let num = |v: &serde_json::Value| match v {
+    let mut headers = Vec::new();
+    let mut put = |name: &'static str, v: String| headers.push((name, v));
+    // JSON's rendering of a number, "none" where JSON has none (an infinite
+    // white point: nothing burns).
+    let num = |v: f64| match serde_json::Value::from(v) {
         serde_json::Value::Null => "none".to_string(),
         v => v.to_string(),
     };
-    let tone = &out.report["tone"];
-    let input = &out.report["input"];
-    put("x-tonegate-adapter", out.adapter.clone());
+    let (tone, input) = (&report.tone, &out.input);
+    put("x-tonegate-adapter", report.adapter.clone());
     put("x-tonegate-size", format!("{}x{}", out.width, out.height));
-    put("x-tonegate-plan", out.plan.join(","));
-    put("x-tonegate-key", num(&tone["key"]));
-    put("x-tonegate-log-average", num(&tone["log_average"]));
-    put("x-tonegate-scale", num(&tone["scale"]));
-    put("x-tonegate-white-sq", num(&tone["white_sq"]));
-    put("x-tonegate-min-luminance", num(&input["min_luminance"]));
-    put("x-tonegate-max-luminance", num(&input["max_luminance"]));
+    put("x-tonegate-plan", report.plan.join(","));
+    put("x-tonegate-key", num(tone.key));
+    put("x-tonegate-log-average", num(tone.log_average));
+    put("x-tonegate-scale", num(tone.scale));
+    put("x-tonegate-white-sq", num(tone.white_sq));
+    put("x-tonegate-min-luminance", num(input.min_luminance));
+    put("x-tonegate-max-luminance", num(input.max_luminance));
     put(
         "x-tonegate-dynamic-range-stops",
-        num(&input["dynamic_range_stops"]),
+        num(input.dynamic_range_stops),
     );
     put("x-tonegate-render-ms", format!("{:.3}", out.render_ms));
     put("x-tonegate-queue-ms", format!("{:.3}", out.queue_ms));
     put("x-tonegate-decode-ms", format!("{:.3}", out.decode_ms));
     put("x-tonegate-tonemap-ms", format!("{:.3}", out.tonemap_ms));
     put("x-tonegate-png-ms", format!("{:.3}", out.png_ms));
+    let mut r = (
+        [(header::CONTENT_TYPE, HeaderValue::from_static("image/png"))],
+        out.png,
+    )
+        .into_response();
+    for (name, v) in headers {
+        if let Ok(v) = HeaderValue::from_str(&v) {
+            r.headers_mut().insert(name, v);
+        }
+    }
     r
+}
+
+/// A built-in environment as a Radiance .hdr (512×256), so the tone-map page
+/// can be tried without a file of one's own.
+#[utoipa::path(get, path = "/api/v1/samples/{name}", tag = "tonemap",
+    params(("name" = String, Path, description = "sky.hdr, interior.hdr, night.hdr or grid.hdr")),
+    responses((status = 200, description = "OK", content_type = "image/vnd.radiance"), (status = 404, description = "Not found", body = ErrorBody)))]
+pub async fn sample(
+    State(st): State<Arc<AppState>>,
+    headers: HeaderMap,
+    Path(name): Path<String>,
+) -> Result<Response, ApiError> {
+    st.authorize_read(&headers)?;
+    let env = name
+        .strip_suffix(".hdr")
+        .and_then(crate::env::BuiltinEnv::from_name)
+        .ok_or_else(|| {
+            ApiError::not_found(format!(
+                "no sample {}: sky.hdr, interior.hdr, night.hdr or grid.hdr",
+                super::error::clip(&name)
+            ))
+        })?;
+    let bytes = tokio::task::spawn_blocking(move || {
+        let img = env.generate(512, 256);
+        let mut out = Vec::new();
+        crate::io::radiance::encode(&mut out, &img).map(|_| out)
+    })
+    .await
+    .map_err(|e| ApiError::internal(e.to_string()))?
+    .map_err(|e| ApiError::internal(e.to_string()))?;
+    Ok((
+        [
+            (header::CONTENT_TYPE, "image/vnd.radiance"),
+            (header::CACHE_CONTROL, "public, max-age=86400"),
+        ],
+        bytes,
+    )
+        .into_response())
 }

@@ -24,7 +24,8 @@ function h(tag, attrs, ...children) {
 const view = () => document.getElementById("view");
 function show(...nodes) {
   const v = view();
-  v.replaceChildren(...nodes);
+  // replaceChildren would print a skipped part (null, false) as its text.
+  v.replaceChildren(...nodes.flat().filter((n) => n !== undefined && n !== null && n !== false));
   v.setAttribute("data-ready", "1");
 }
 function num(v, digits) {
@@ -254,7 +255,7 @@ async function runPage(id, params) {
   }
   show(...parts);
 }
-// Seed 002's tables: the TAA scenes of one sequence side by side, best /
+// The TAA thesis's tables (docs/taa.md): the TAA scenes of one sequence side by side, best /
 // worst / mean of each metric over the judged frames with frame indices, and
 // the last frame of each variant (actual and SSIM map) beside the golden.
 const VARIANTS = ["off", "clip", "edge_aware"];
@@ -442,15 +443,15 @@ function tonemapPage(params) {
   const samples = h("span", { class: "samples" }, "or try a built-in image: ",
     ["sky", "interior", "night", "grid"].map((n) => h("button", { type: "button", "data-sample": n, onclick: () => useSample(n) }, n)));
   const field = (label, input) => h("label", {}, h("span", {}, label), input);
-  const operator = h("select", { name: "operator" }, ["seed000", "seed001", "reinhard02"].map((o) => h("option", { value: o }, o)));
-  const key = h("input", { name: "key", value: "0.18", size: 6, title: "a number, or auto (seed001)" });
+  const operator = h("select", { name: "operator" }, ["reinhard-global", "reinhard-auto-key", "reinhard02"].map((o) => h("option", { value: o }, o)));
+  const key = h("input", { name: "key", value: "0.18", size: 6, title: "a number, or auto (reinhard-auto-key)" });
   const white = h("input", { name: "white", type: "range", min: 0.05, max: 1, step: 0.05, value: 0.8 });
   const whiteOut = h("output", {}, "0.80");
   const bloom = h("input", { name: "bloom", type: "range", min: 0, max: 1, step: 0.05, value: 0 });
   const bloomOut = h("output", {}, "0.00");
   const gamma = h("input", { name: "gamma", placeholder: "sRGB", size: 6 });
   const gpu = h("select", { name: "gpu" }, h("option", { value: "true" }, "GPU"), h("option", { value: "false" }, "CPU reference"));
-  const result = h("div", { class: "tonemap-result" }, h("p", { class: "muted" }, "Choose an .hdr or .exr file (or a built-in sample); the result updates as you change the settings."));
+  const result = h("div", { class: "tonemap-result" }, h("p", { class: "muted" }, "Choose an .hdr, .exr or .pfm file (or a built-in sample); the result updates as you change the settings."));
   let pending = 0;
   async function run() {
     if (!source) return;
@@ -458,9 +459,9 @@ function tonemapPage(params) {
     bloomOut.value = (+bloom.value).toFixed(2);
     const q = new URLSearchParams({ format: "json", gpu: gpu.value, operator: operator.value });
     if (key.value.trim()) q.set("key", key.value.trim());
-    // The white control is seed000's fraction of the maximum, or reinhard02's
+    // The white control is reinhard-global's fraction of the maximum, or reinhard02's
     // Lwhite relative to the key-scaled maximum (as a fraction, scaled here).
-    if (operator.value === "seed000") q.set("white_fraction", white.value);
+    if (operator.value === "reinhard-global") q.set("white_fraction", white.value);
     if (+bloom.value > 0) q.set("bloom", bloom.value);
     if (gamma.value.trim()) q.set("gamma", gamma.value.trim());
     const mine = ++pending;
@@ -485,7 +486,7 @@ function tonemapPage(params) {
   for (const i of [file, operator, key, white, bloom, gamma, gpu]) i.addEventListener(i.type === "range" ? "input" : "change", later);
   show(h("h1", {}, "Tone-map an HDR image"),
     h("form", { class: "tonemap-form", onsubmit: (e) => { e.preventDefault(); run(); } },
-      field("HDR file", file), field("Operator", operator), field("Key", key), field("White (seed000 fraction)", h("span", {}, white, whiteOut)),
+      field("HDR file", file), field("Operator", operator), field("Key", key), field("White (reinhard-global: fraction)", h("span", {}, white, whiteOut)),
       field("Bloom", h("span", {}, bloom, bloomOut)), field("Gamma", gamma), field("Renderer", gpu), h("button", { class: "primary", type: "submit" }, "Tone-map")),
     samples,
     result);
