@@ -13,7 +13,7 @@
 //#include shared/downsample.wgsl
 //#include shared/extent.wgsl
 
-// The bright pass reads the tone-mapped frame (seed 004), not the HDR one.
+// The bright pass reads the tone-mapped frame (`threshold`), not the HDR one.
 override BRIGHT_FROM_TONED: bool = false;
 // The tail adds the bloom (bloom_composite); without it, binding 3 is a
 // placeholder nobody reads.

@@ -1,5 +1,6 @@
-// grade: seed 004's brightness, contrast (mix with the mean-luminance grey)
-// and saturation (mix with the pixel's luminance), as reference/grade.rs.
+// grade: the image-processing lecture's (docs/bibliography.md) brightness,
+// contrast (mix with the mean-luminance grey) and saturation (mix with the
+// pixel's luminance), as reference/grade.rs.
 //#include shared/colour.wgsl
 //#include shared/extent.wgsl
 

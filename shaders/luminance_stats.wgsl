@@ -1,8 +1,10 @@
 // luminance_stats: min, max, Σ ln(δ+Y), Σ w·ln(δ+Y), Σ w of the HDR frame.
-// Three methods: seed 001's single-pass block partials (`block_partials`, then
-// `finish` over the partials), seed 000's 2×2 ping-pong downsampling
-// (`downsample_first`, `downsample_step` repeatedly, then `finish`), and a
-// workgroup tree (`tree_partials`, then `tree_finish`) for GPUs, where one
+// Three methods: single-pass block partials (`block_partials`, then `finish`
+// over the partials; from the modified Reinhard for training simulators), 2×2
+// ping-pong downsampling (`downsample_first`, `downsample_step` repeatedly,
+// then `finish`; from Reinhard's global operator in real time; both in
+// docs/bibliography.md), and a workgroup tree (`tree_partials`, then
+// `tree_finish`) for GPUs, where one
 // invocation walking thousands of partials serially is the slowest part,
 // also with subgroup operations (`subgroup_partials`, `subgroup_finish`)
 // where the device has them.

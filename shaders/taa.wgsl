@@ -1,5 +1,6 @@
 // taa: the jittered frame resolved against its reprojected, clipped history
-// and sharpened (seed 002 §3.6), mirroring src/reference/taa.rs step by step.
+// and sharpened (the TAA thesis §3.6, docs/bibliography.md), mirroring
+// src/reference/taa.rs step by step.
 //#include shared/frame.wgsl
 //#include shared/conventions.wgsl
 //#include shared/colour.wgsl
@@ -7,7 +8,7 @@
 // The history's weight range (scene `[taa]` feedback_min / feedback_max).
 override FEEDBACK_MIN: f32 = 0.88;
 override FEEDBACK_MAX: f32 = 0.97;
-// Sharpen strength s of seed 002's kernel [0 −1 0; −1 5 −1; 0 −1 0].
+// Sharpen strength s of the TAA thesis's kernel [0 −1 0; −1 5 −1; 0 −1 0].
 override SHARPEN: f32 = 0.25;
 // Fault injection (`check --taa-fault no-clip`): blend the unclipped history.
 override NO_CLIP: bool = false;
@@ -208,7 +209,7 @@ fn resolve_clip(@builtin(global_invocation_id) id: vec3<u32>) {
 }
 
 // `taa = "edge_aware"`: blended by the aliasing amount, shrunk toward the
-// current colour where there is no edge (seed 002 eqs. 4.12–4.16).
+// current colour where there is no edge (the TAA thesis, eqs. 4.12–4.16).
 @compute @workgroup_size(64, 1)
 fn resolve_edge_aware(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x >= frame.size.x || id.y >= frame.size.y) {

@@ -1,5 +1,6 @@
 // taa_sobel: how aliased each pixel of the current jittered frame is
-// (seed 002 §4.3.3), mirroring src/reference/taa_sobel.rs.
+// (the TAA thesis §4.3.3, docs/bibliography.md), mirroring
+// src/reference/taa_sobel.rs.
 //#include shared/colour.wgsl
 
 @group(0) @binding(0) var current: texture_2d<f32>;

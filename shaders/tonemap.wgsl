@@ -5,9 +5,10 @@
 //#include shared/tone.wgsl
 //#include shared/extent.wgsl
 
-// 0 = seed 000, 1 = seed 001, 2 = Reinhard 2002 (see `gpu::OperatorCode`).
+// 0 = reinhard-global, 1 = reinhard-auto-key, 2 = reinhard02 (Reinhard 2002);
+// see `operator_code` in src/gpu/tonemap.rs.
 override OPERATOR: u32 = 0u;
-// Seed 001's automatic key from min, average and max.
+// `reinhard-auto-key`'s automatic key from min, average and max.
 override AUTO_KEY: bool = false;
 
 @group(0) @binding(0) var<uniform> config: ToneConfig;
@@ -52,7 +53,7 @@ fn resolve() {
         if (lmax <= 0.0) {
             lmax = stats.max_y;
         }
-        // Seed 000: white² = w²·Lmax.
+        // `reinhard-global`: white² = w²·Lmax.
         white = config.white_fraction * sqrt(lmax);
     } else {
         white = config.white;

@@ -1,11 +1,12 @@
-//! Colour constants and conversions, kept in one place (SPEC §2–§4).
+//! Colour constants and conversions, kept in one place (docs/statistics.md,
+//! docs/operators.md, docs/display.md).
 
-/// BT.709 / sRGB luminance weights (SPEC §2).
+/// BT.709 / sRGB luminance weights (docs/statistics.md).
 pub const BT709: [f64; 3] = [0.2126, 0.7152, 0.0722];
 /// pfstools' weights, from its sRGB→XYZ matrix (the `reinhard02` preset).
 pub const PFS: [f64; 3] = [0.212656, 0.715158, 0.072186];
-/// Seed 004's saturation weights.
-pub const SEED004_SATURATION: [f64; 3] = [0.2125, 0.7154, 0.0721];
+/// The saturation weights of the image-processing lecture (docs/bibliography.md).
+pub const GRADE_SATURATION_WEIGHTS: [f64; 3] = [0.2125, 0.7154, 0.0721];
 
 /// The smallest positive value both renderers divide by: f32's smallest
 /// normal. Below it an adapter may flush a value to 0 in arithmetic

@@ -1,4 +1,4 @@
-//! The geometric conventions of SPEC §1, in one place.
+//! The geometric conventions of docs/conventions.md, in one place.
 //!
 //! `shaders/shared/conventions.wgsl` mirrors every function here under the same
 //! name; a test renders both and compares. Change one, change the other.
@@ -111,7 +111,7 @@ pub fn halton(mut index: u32, base: u32) -> f64 {
     r
 }
 
-/// Largest supersampling a render may ask for (SPEC §5: the accumulation
+/// Largest supersampling a render may ask for (docs/taa.md: the accumulation
 /// reference uses up to 128 jittered samples).
 pub const MAX_SPP: u32 = 128;
 
@@ -128,9 +128,9 @@ pub fn jitter(k: u32, spp: u32) -> (f64, f64) {
 
 /// TAA's jitter cycle: frame n of a TAA sequence renders one sample at the
 /// (n mod 16)-th offset of the accumulation reference's own Halton(2,3)
-/// sequence (seed 002 §3.6.1 uses its first 16 points), so 16 consecutive
-/// TAA frames visit exactly the 16 sub-pixel positions a 16-spp golden
-/// averages.
+/// sequence (the TAA thesis, docs/bibliography.md, uses its first 16 points
+/// in §3.6.1), so 16 consecutive TAA frames visit exactly the 16 sub-pixel
+/// positions a 16-spp golden averages.
 pub const TAA_JITTER_CYCLE: u32 = 16;
 
 /// The sub-pixel offset frame `n` of a TAA sequence renders at: the same
@@ -159,8 +159,8 @@ impl Camera {
 /// The matrix taking a view direction of frame n to the view direction that
 /// saw the same point of the sphere in frame n − 1: R(n−1)·R(n)ᵀ. The camera
 /// is fixed at the centre and the sphere turns by a known rotation, so TAA's
-/// reprojection is exact (seed 002 needs a velocity buffer; this scene does
-/// not).
+/// reprojection is exact (the TAA thesis needs a velocity buffer; this scene
+/// does not).
 pub fn reprojection(previous: &Mat3, current: &Mat3) -> Mat3 {
     let mut m = [[0.0; 3]; 3];
     for (i, row) in m.iter_mut().enumerate() {

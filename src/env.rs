@@ -20,7 +20,7 @@ pub enum BuiltinEnv {
     /// mullions: about 10⁴:1 between window and walls.
     Interior,
     /// Mostly near-black (10⁻⁴–10⁻³) with five small lamps of 20–600: the case
-    /// seed 001's weighted log-average exists for.
+    /// `reinhard-auto-key`'s weighted log-average exists for.
     Night,
     /// High-frequency checkerboard (0.02 and 1.0, tinted) crossed by thin bright
     /// lines (8.0): exercises aliasing and filtering.

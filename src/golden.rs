@@ -264,6 +264,9 @@ pub fn bless(root: &Path, scenes: &[Scene], progress: &dyn Progress) -> Result<(
         );
     }
     progress.finish();
+    // An entry whose folder is gone (the scene was renamed or removed, its
+    // folder with it) describes no golden: it goes, not to be found again.
+    manifest.scenes.retain(|name, _| root.join(name).is_dir());
     write_manifest(root, &manifest)
 }
 

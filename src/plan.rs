@@ -9,12 +9,13 @@ use crate::scene::{
 use serde::Serialize;
 use std::fmt;
 
-/// Which luminance statistics a frame needs (seed 000 / 001 reductions).
+/// Which luminance statistics a frame needs (the `reinhard-global` and
+/// `reinhard-auto-key` reductions).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 pub struct StatsNeeds {
     /// exp(mean ln(δ + Y)) over all pixels.
     pub log_average: bool,
-    /// Seed 001's exp(Σ w·ln(δ + Y) / Σ w), w = 1 − e^(−Y).
+    /// `reinhard-auto-key`'s exp(Σ w·ln(δ + Y) / Σ w), w = 1 − e^(−Y).
     pub weighted_log_average: bool,
     pub min: bool,
     pub max: bool,
@@ -30,9 +31,9 @@ impl StatsNeeds {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum BloomSource {
-    /// The HDR frame (seed 001).
+    /// The HDR frame (the `scaled` bright pass).
     Hdr,
-    /// The tone-mapped frame (seed 004).
+    /// The tone-mapped frame (the `threshold` bright pass).
     Toned,
 }
 
@@ -46,10 +47,12 @@ pub enum Stage {
         spp: u32,
     },
     /// The edge-aware TAA's Sobel pass: how aliased each pixel of the
-    /// current (jittered) frame is (seed 002 §4.3.3).
+    /// current (jittered) frame is (the TAA thesis §4.3.3,
+    /// docs/bibliography.md).
     TaaSobel,
-    /// Temporal anti-aliasing (seed 002): the jittered frame resolved against
-    /// its reprojected, clipped history, then sharpened. It sits on the HDR
+    /// Temporal anti-aliasing (the TAA thesis, docs/bibliography.md): the
+    /// jittered frame resolved against its reprojected, clipped history, then
+    /// sharpened. It sits on the HDR
     /// frame, before `luminance_stats`, so the operator measures the
     /// anti-aliased frame, as the accumulation reference's operator measures
     /// its supersampled one: after tone mapping, every frame's statistics
@@ -161,7 +164,7 @@ impl PlanError {
 pub fn stats_needs(op: &Operator, bloom: Option<&crate::scene::Bloom>) -> StatsNeeds {
     let mut needs = StatsNeeds::default();
     match op {
-        Operator::Seed000 {
+        Operator::ReinhardGlobal {
             log_average,
             max_luminance,
             ..
@@ -169,7 +172,7 @@ pub fn stats_needs(op: &Operator, bloom: Option<&crate::scene::Bloom>) -> StatsN
             needs.log_average = log_average.is_none();
             needs.max = max_luminance.is_none();
         }
-        Operator::Seed001 { key, .. } => {
+        Operator::ReinhardAutoKey { key, .. } => {
             needs.weighted_log_average = true;
             needs.max = true;
             needs.min = matches!(key, Key::Auto);
@@ -182,7 +185,7 @@ pub fn stats_needs(op: &Operator, bloom: Option<&crate::scene::Bloom>) -> StatsN
         }
     }
     if let Some(b) = bloom {
-        if b.bright_pass == BrightPass::Seed001 {
+        if b.bright_pass == BrightPass::Scaled {
             needs.max = true;
         }
     }
@@ -211,7 +214,7 @@ impl StagePlan {
         });
         if let Some(b) = bloom.filter(|b| b.strength.get() > 0.0) {
             let source = match b.bright_pass {
-                BrightPass::Seed001 => BloomSource::Hdr,
+                BrightPass::Scaled => BloomSource::Hdr,
                 BrightPass::Threshold => BloomSource::Toned,
             };
             stages.push(Stage::BloomBright { source });
@@ -409,16 +412,16 @@ mod tests {
     }
 
     #[test]
-    fn weighted_sums_and_min_only_when_seed001_needs_them() {
+    fn weighted_sums_and_min_only_when_the_auto_key_needs_them() {
         let needs = stats_needs(&Operator::default(), None);
         assert!(needs.log_average && needs.max && !needs.weighted_log_average && !needs.min);
-        let auto = Operator::Seed001 {
+        let auto = Operator::ReinhardAutoKey {
             key: Key::Auto,
             colour: ColourPath::Ratio,
         };
         let needs = stats_needs(&auto, None);
         assert!(needs.weighted_log_average && needs.min && needs.max && !needs.log_average);
-        let fixed = Operator::Seed001 {
+        let fixed = Operator::ReinhardAutoKey {
             key: Key::Fixed(Positive::try_from(0.2).unwrap()),
             colour: ColourPath::Ratio,
         };
@@ -426,11 +429,11 @@ mod tests {
         // Lwhite unset needs the max; an absolute one does not.
         assert!(stats_needs(&reinhard02(None, None), None).max);
         assert!(!stats_needs(&reinhard02(Some(3.0), None), None).max);
-        // Seed 001's bright pass normalises by Lmax.
+        // The `scaled` bright pass normalises by Lmax.
         assert!(
             stats_needs(
                 &reinhard02(Some(3.0), None),
-                Some(&bloom(BrightPass::Seed001, 0.2))
+                Some(&bloom(BrightPass::Scaled, 0.2))
             )
             .max
         );
@@ -442,7 +445,7 @@ mod tests {
         let off = StagePlan::build(
             Input::Flat,
             &op,
-            Some(&bloom(BrightPass::Seed001, 0.0)),
+            Some(&bloom(BrightPass::Scaled, 0.0)),
             None,
         );
         assert!(!off.names().iter().any(|n| n.starts_with("bloom")));

@@ -2,7 +2,7 @@
 // by the `bloom_bright` stage and the fused kernels (fused.wgsl). Needs
 // shared/colour.wgsl.
 
-// 0 = seed 001 (C·Y/Lmax where Y > T, on HDR), 1 = seed 004 (C where Y > T).
+// 0 = `scaled` (C·Y/Lmax where Y > T, on HDR), 1 = `threshold` (C where Y > T).
 override PASS: u32 = 0u;
 override THRESHOLD: f32 = 1.0;
 override LUM_R: f32 = 0.2126;

@@ -1,4 +1,5 @@
-// SPEC §1's conventions, mirroring src/conventions.rs function by function.
+// The geometric conventions of docs/conventions.md, mirroring src/conventions.rs
+// function by function.
 
 const PI: f32 = 3.14159265358979323846;
 

@@ -7,7 +7,8 @@ override COLOUR: u32 = 0u;
 // Fault injection only (`check --fault-gain`): 1 in every real run.
 override FAULT_GAIN: f32 = 1.0;
 
-// Operator constants written once by the host (mirrors `gpu::ToneConfig`).
+// Operator constants written once by the host (mirrors `tone_config` in
+// src/gpu/tonemap.rs).
 struct ToneConfig {
     weights: vec4<f32>,
     // RGB→XYZ rows and their inverse (xyY path).
@@ -23,7 +24,7 @@ struct ToneConfig {
     white: f32,
     // Fixed adaptation luminance; 0 = measured.
     fixed_log_average: f32,
-    // Fixed Lmax (seed 000); 0 = measured.
+    // Fixed Lmax (`reinhard-global`); 0 = measured.
     fixed_max: f32,
     _pad0: f32,
     _pad1: f32,

@@ -1,6 +1,6 @@
 //! Judging one rendered scene against its goldens: every frame compared with
 //! every metric, the scene's checks evaluated with adapter overrides applied,
-//! seed 002's static and moving summaries.
+//! the static and moving summaries of the TAA thesis (docs/bibliography.md).
 
 use super::figures::FRAME_METRICS;
 use super::result::{CheckResult, FrameResult, SceneResult, Summary, TestKind};

@@ -1,6 +1,7 @@
 //! What judging a scene produces: per-frame metrics, per-check outcomes and
-//! seed 002's best / worst / mean summaries. The report, the JUnit, the
-//! console and the history are views of these.
+//! the best / worst / mean summaries of the TAA thesis
+//! (docs/bibliography.md). The report, the JUnit, the console and the history
+//! are views of these.
 
 use super::spec::{CheckSpec, Subject};
 use crate::metrics::Metrics;
@@ -8,7 +9,7 @@ use crate::perf::TimingSummary;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
-/// Seed 002's two kinds of test.
+/// The two kinds of test of the TAA thesis (docs/bibliography.md).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum TestKind {
@@ -75,7 +76,7 @@ impl FrameResult {
 }
 
 /// Best, worst and mean of one metric over a sequence, with frame indices
-/// (seed 002's ghosting tables).
+/// (as in the TAA thesis's ghosting tables).
 #[derive(Clone, Debug, Serialize)]
 pub struct Summary {
     #[serde(with = "crate::metrics::json::extended_f64")]

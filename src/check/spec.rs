@@ -225,19 +225,6 @@ pub enum AccuracyOption {
 }
 
 impl AccuracyOption {
-    /// The options a GPU configuration has in effect (after an f16 promotion
-    /// to f32 there is no f16 left to excuse).
-    pub fn of(config: &crate::gpu::GpuConfig) -> Vec<AccuracyOption> {
-        let mut v = Vec::new();
-        if config.hdr_format == crate::gpu::HdrFormat::Rgba16Float {
-            v.push(AccuracyOption::Rgba16float);
-        }
-        if config.env_filter == crate::gpu::EnvFilter::Hardware {
-            v.push(AccuracyOption::HardwareFilter);
-        }
-        v
-    }
-
     pub fn name(self) -> &'static str {
         match self {
             AccuracyOption::Rgba16float => "rgba16float",

@@ -104,9 +104,10 @@ pub(super) const MIGRATIONS: &[&str] = &[
     r#"
     ALTER TABLE frame_metrics ADD COLUMN flip_mean REAL;
     "#,
-    // 4: a fleet (issue 15). Runners register themselves and heartbeat;
-    //    jobs are queued check runs a runner claims when its adapter and
-    //    labels match the job's selector; a run says which job it ran.
+    // 4: a fleet (docs/operations.md). Runners register themselves and
+    //    heartbeat; jobs are queued check runs a runner claims when its
+    //    adapter and labels match the job's selector; a run says which job
+    //    it ran.
     //    Times are RFC 3339 UTC text with milliseconds, which sorts as time.
     r#"
     CREATE TABLE runners (
@@ -143,10 +144,10 @@ pub(super) const MIGRATIONS: &[&str] = &[
     ALTER TABLE runs ADD COLUMN job_id INTEGER REFERENCES jobs (id);
     CREATE INDEX runs_by_job ON runs (job_id);
     "#,
-    // 5: artifacts in the history, content-addressed (issue 15): each image
-    //    once by its SHA-256, whichever runs and runners made it, and each
-    //    run's names for them; `history prune` drops old runs' names and the
-    //    images no kept run names.
+    // 5: artifacts in the history, content-addressed (docs/operations.md):
+    //    each image once by its SHA-256, whichever runs and runners made it,
+    //    and each run's names for them; `history prune` drops old runs' names
+    //    and the images no kept run names.
     r#"
     CREATE TABLE blobs (
         sha256    TEXT PRIMARY KEY,

@@ -16,8 +16,9 @@ use rayon::prelude::*;
 /// 64 Mi pixels: an 8K×8K frame, 768 MiB as `[f32; 3]`.
 pub const DEFAULT_MAX_PIXELS: u64 = 64 * 1024 * 1024;
 
-/// The δ in the log-average luminance exp(mean(ln(δ + Y))), as in seed 004
-/// (Reinhard et al. 2002): it keeps black pixels from sending the mean to −∞.
+/// The δ in the log-average luminance exp(mean(ln(δ + Y))), as in the
+/// image-processing lecture (docs/bibliography.md; after Reinhard et al.
+/// 2002): it keeps black pixels from sending the mean to −∞.
 pub const LOG_AVERAGE_DELTA: f64 = 1e-4;
 
 /// How strict an HDR load is. Every load applies this policy, in order:

@@ -129,7 +129,8 @@ pub fn rmse(test: Raster, reference: Raster) -> Result<f64, MetricsError> {
 }
 
 /// 10·log10(255²/MSE) in dB; `f64::INFINITY` for identical images, never NaN
-/// and never capped (SPEC §6: a cap would hide how close two frames are).
+/// and never capped (docs/metrics.md: a cap would hide how close two frames
+/// are).
 pub fn psnr(test: Raster, reference: Raster) -> Result<f64, MetricsError> {
     Ok(ErrorSums::of(&test, &reference)?.psnr())
 }

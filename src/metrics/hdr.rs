@@ -11,11 +11,7 @@ use super::itp::{delta_e_itp, Itp};
 use super::pu21::{pu21, Pu21};
 use super::MetricsError;
 use crate::image::HdrImage;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-
-/// The images HDR metrics take.
-pub type HdrView<'a> = &'a HdrImage;
 
 /// The HDR metrics' definitions, as every report states them.
 pub const HDR_DEFINITION: &str = "HDR-FLIP: NVIDIA's procedure (exposures from the \
@@ -24,66 +20,6 @@ nv-flip's LDR FLIP of each exposure's 8-bit sRGB rendering; PU21: Mantiuk & Azim
 banding_glare, PSNR over the encoded RGB with peak 256, SSIM (the 8-bit SSIM's definition) \
 on the encoded luminance with range 256; delta E ITP: ITU-R BT.2124 on BT.2100 ICtCp (PQ) \
 of the BT.709 input converted to BT.2020; absolute units: 1.0 = peak cd/m2";
-
-/// Refuses a pair that cannot be compared: sizes differ, no pixels, or a
-/// value that is not finite (HDR metrics of NaN or ±Inf mean nothing).
-pub fn check_hdr_pair(test: &HdrImage, reference: &HdrImage) -> Result<(), MetricsError> {
-    check_hdr_sizes(test, reference)?;
-    for (role, img) in [("image under test", test), ("reference", reference)] {
-        if let Some(e) = non_finite(role, img) {
-            return Err(e);
-        }
-    }
-    Ok(())
-}
-
-/// The first non-finite value of `img`, as the error that names it.
-pub(crate) fn non_finite(role: &'static str, img: &HdrImage) -> Option<MetricsError> {
-    img.pixels
-        .par_iter()
-        .position_first(|p| !p.iter().all(|c| c.is_finite()))
-        .map(|i| MetricsError::NonFinite {
-            role,
-            x: i as u32 % img.width,
-            y: i as u32 / img.width,
-        })
-}
-
-/// The size half of [`check_hdr_pair`], for metrics that check the values
-/// in a pass they make anyway.
-pub(crate) fn check_hdr_sizes(test: &HdrImage, reference: &HdrImage) -> Result<(), MetricsError> {
-    if (test.width, test.height) != (reference.width, reference.height) {
-        return Err(MetricsError::SizeMismatch {
-            test_width: test.width,
-            test_height: test.height,
-            reference_width: reference.width,
-            reference_height: reference.height,
-        });
-    }
-    for (role, img) in [("image under test", test), ("reference", reference)] {
-        if img.pixels.is_empty() || img.pixels.len() != img.width as usize * img.height as usize {
-            return Err(MetricsError::EmptyImage {
-                role,
-                width: img.width,
-                height: img.height,
-            });
-        }
-        if let Some(i) = img
-            .pixels
-            .iter()
-            .position(|p| !p.iter().all(|c| c.is_finite()))
-        {
-            let (x, y) = (i as u32 % img.width, i as u32 / img.width);
-            return Err(MetricsError::NonFinite { role, x, y });
-        }
-    }
-    Ok(())
-}
-
-/// Luminance with pfstools' weights, which PU21's authors use.
-pub fn luminance_pfs(p: &[f32; 3]) -> f64 {
-    0.212656 * f64::from(p[0]) + 0.715158 * f64::from(p[1]) + 0.072186 * f64::from(p[2])
-}
 
 /// How the HDR metrics are taken.
 #[derive(Clone, Debug)]
@@ -153,6 +89,7 @@ pub fn compare_hdr(
 
 #[cfg(test)]
 mod tests {
+    use super::super::hdr_input::check_hdr_pair;
     use super::*;
 
     #[test]

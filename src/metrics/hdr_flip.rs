@@ -185,7 +185,7 @@ pub fn hdr_flip(
     reference: &HdrImage,
     opts: &HdrFlipOptions,
 ) -> Result<(Flip, ExposureRange), MetricsError> {
-    super::hdr::check_hdr_pair(test, reference)?;
+    super::hdr_input::check_hdr_pair(test, reference)?;
     let range = exposure_range(test, reference, opts)?;
     let (width, height) = (test.width, test.height);
     let mut map = Image::filled(width, height, 0.0f32);

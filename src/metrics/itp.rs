@@ -6,7 +6,7 @@
 //! cd/m²; it is converted to BT.2020 with the matrix derived from the two
 //! spaces' primaries and D65 white, as colour-science derives it.
 
-use super::hdr::check_hdr_pair;
+use super::hdr_input::check_hdr_pair;
 use super::MetricsError;
 use crate::image::{HdrImage, Image};
 use rayon::prelude::*;

@@ -1,5 +1,5 @@
-//! Full-reference image metrics (SPEC §6): how far a rendered 8-bit frame is
-//! from its golden.
+//! Full-reference image metrics (docs/metrics.md): how far a rendered 8-bit
+//! frame is from its golden.
 //!
 //! - [`raster`]: the borrowed sample view every metric takes;
 //! - [`basic`]: MSE, RMSE, PSNR, SNR, maximum difference, fraction over k LSB,
@@ -15,6 +15,7 @@ pub mod basic;
 pub mod flip;
 pub mod hdr;
 pub mod hdr_flip;
+pub mod hdr_input;
 pub mod itp;
 pub mod json;
 pub mod pu21;
@@ -34,7 +35,7 @@ pub use visual::{diff_heatmap, heatmap_colour, ssim_map_image, HEATMAP_RAMP};
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
-/// The SSIM definition every report states (SPEC §6).
+/// The SSIM definition every report states (docs/metrics.md).
 pub const SSIM_DEFINITION: &str = "Wang et al. 2004 as scikit-image 0.26 \
 structural_similarity(gaussian_weights=True, sigma=1.5, use_sample_covariance=False, \
 data_range=255, channel_axis=-1): per channel on 0..255 samples in float64, 11-tap \

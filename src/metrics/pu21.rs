@@ -8,7 +8,7 @@
 //! tonegate's images are relative (1.0 is whatever the scene makes it): a
 //! scene or command states the display peak in cd/m² that 1.0 maps to.
 
-use super::hdr::{check_hdr_pair, check_hdr_sizes, luminance_pfs, non_finite, HdrView};
+use super::hdr_input::{check_hdr_pair, check_hdr_sizes, luminance_pfs, non_finite, HdrView};
 use super::ssim::{mean_ssim_mapped, ssim_mapped, Ssim};
 use super::MetricsError;
 use rayon::prelude::*;

@@ -5,10 +5,11 @@ use crate::image::LinearImage;
 use crate::scene::BrightPass;
 use rayon::prelude::*;
 
-/// Seed 001: C·(Y/Lmax) where Y > threshold, else 0 (on the HDR frame; the
-/// factor brings the brightest pixel's contribution to its own colour scale
-/// over Lmax). Seed 004 (`Threshold`): C where Y > threshold, else 0 (on the
-/// tone-mapped frame).
+/// `Scaled` (the modified Reinhard for training simulators): C·(Y/Lmax) where
+/// Y > threshold, else 0 (on the HDR frame; the factor brings the brightest
+/// pixel's contribution to its own colour scale over Lmax). `Threshold` (the
+/// image-processing lecture): C where Y > threshold, else 0 (on the
+/// tone-mapped frame). Both sources are in docs/bibliography.md.
 pub fn bloom_bright(
     src: &LinearImage,
     pass: BrightPass,
@@ -26,7 +27,7 @@ pub fn bloom_bright(
         let y = luminance_with(*c, weights);
         *c = if y > threshold {
             match pass {
-                BrightPass::Seed001 => {
+                BrightPass::Scaled => {
                     let k = y * inv_max;
                     [c[0] * k, c[1] * k, c[2] * k]
                 }

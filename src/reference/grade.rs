@@ -1,13 +1,15 @@
-//! `grade`: seed 004's brightness, contrast and saturation.
+//! `grade`: the brightness, contrast and saturation of the image-processing
+//! lecture (docs/bibliography.md).
 
-use crate::color::{luminance_with, SEED004_SATURATION};
+use crate::color::{luminance_with, GRADE_SATURATION_WEIGHTS};
 use crate::image::LinearImage;
 use crate::scene::Grade;
 use rayon::prelude::*;
 
 /// Brightness scales; contrast mixes with the grey of the (brightened) mean
-/// luminance; saturation mixes with the pixel's own luminance (seed 004's
-/// 0.2125/0.7154/0.0721). mix(a, b, t) = a + (b − a)·t, as in GLSL.
+/// luminance; saturation mixes with the pixel's own luminance (weights
+/// 0.2125/0.7154/0.0721, the lecture's). mix(a, b, t) = a + (b − a)·t, as in
+/// GLSL.
 pub fn grade(img: &LinearImage, g: &Grade, mean_luminance: f64) -> LinearImage {
     let (b, c, s) = (g.brightness.get(), g.contrast.get(), g.saturation.get());
     let grey = b * mean_luminance;
@@ -15,7 +17,7 @@ pub fn grade(img: &LinearImage, g: &Grade, mean_luminance: f64) -> LinearImage {
     out.pixels.par_iter_mut().for_each(|px| {
         let mut v = px.map(|x| x * b);
         v = v.map(|x| grey + (x - grey) * c);
-        let y = luminance_with(v, SEED004_SATURATION);
+        let y = luminance_with(v, GRADE_SATURATION_WEIGHTS);
         *px = v.map(|x| y + (x - y) * s);
     });
     out
@@ -35,7 +37,7 @@ mod tests {
     }
 
     #[test]
-    fn each_control_does_what_seed_004_says() {
+    fn each_control_does_what_the_lecture_says() {
         let img = LinearImage::from_fn(2, 1, |x, _| {
             if x == 0 {
                 [0.2, 0.4, 0.6]

@@ -5,9 +5,10 @@ use crate::image::{HdrImage, LinearImage};
 use rayon::prelude::*;
 
 /// Renders `camera`'s view of `env` rotated by `rotation`, averaging `spp`
-/// Halton(2,3)-jittered samples per pixel in f64 (seed 002's accumulation
-/// buffer; 1 spp is the unjittered plain path). Each pixel is computed on its
-/// own in a fixed sample order, so the result does not depend on threads.
+/// Halton(2,3)-jittered samples per pixel in f64 (the accumulation buffer of
+/// the TAA thesis, docs/bibliography.md; 1 spp is the unjittered plain path).
+/// Each pixel is computed on its own in a fixed sample order, so the result
+/// does not depend on threads.
 pub fn sphere(env: &HdrImage, camera: &Camera, rotation: &Mat3, spp: u32) -> LinearImage {
     let spp = spp.max(1);
     let offsets: Vec<(f64, f64)> = (0..spp).map(|k| jitter(k, spp)).collect();

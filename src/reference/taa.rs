@@ -1,4 +1,5 @@
-//! `taa`: temporal anti-aliasing (seed 002 §3.6, SPEC §5), in f64.
+//! `taa`: temporal anti-aliasing (§3.6 of the TAA thesis in
+//! docs/bibliography.md; docs/taa.md), in f64.
 //!
 //! Each frame renders one jittered sample per pixel (`sphere`), and this
 //! stage blends it with the history, the previous frame's resolved image:
@@ -12,7 +13,7 @@
 //!    neighbourhoods: `clip` averages their min and max (§3.6.3);
 //!    `edge_aware` blends them by the pixel's aliasing amount a (Sobel, eq.
 //!    4.15) and shrinks the box toward the current colour by a (eq. 4.16).
-//!    Seed 002's other two signals, depth edges and the model index, do not
+//!    The thesis's other two signals, depth edges and the model index, do not
 //!    exist in a one-object sphere scene and are not faked: the terms are 0.
 //! 3. **Clipping**, not clamping (§3.6.4): the history colour is moved along
 //!    the line to the box centre until it is inside the box, so it keeps its
@@ -23,7 +24,7 @@
 //!    feedback_min + (feedback_max − feedback_min)·(1 − d)². The difference is
 //!    relative, so the weight does not depend on the exposure of an HDR frame.
 //! 5. The blend is the new history. The stage's output is the blend
-//!    **sharpened** by seed 002's kernel at strength s (eq. 3.1, see
+//!    **sharpened** by the thesis's kernel at strength s (eq. 3.1, see
 //!    `scene::Taa::sharpen`), limited to the cross neighbourhood's range (see
 //!    [`sharpen`]); the history is kept unsharpened, or the sharpening would
 //!    compound frame after frame.
@@ -204,8 +205,9 @@ pub(crate) fn clip_box(
     }
 }
 
-/// Seed 002's aliasedValue (eqs. 4.12–4.14) with the model and depth terms
-/// 0: the cross and 3×3 means of the Sobel amount, blended by the pixel's own.
+/// The TAA thesis's aliasedValue (eqs. 4.12–4.14) with the model and depth
+/// terms 0: the cross and 3×3 means of the Sobel amount, blended by the
+/// pixel's own.
 pub(crate) fn aliased_value(s: &Image<f64>, x: i64, y: i64) -> f64 {
     let at = |dx, dy| clamped(s, x + dx, y + dy);
     let centre = at(0, 0);
@@ -254,10 +256,11 @@ pub fn taa(
     TaaOutput { history, output }
 }
 
-/// Seed 002's sharpen kernel at strength s: b + s·(4b − N − S − E − W),
-/// limited to the range of the blend's cross neighbourhood (per channel).
+/// The TAA thesis's sharpen kernel at strength s:
+/// b + s·(4b − N − S − E − W), limited to the range of the blend's cross
+/// neighbourhood (per channel).
 ///
-/// The limit is ours, not seed 002's: its frames are display-referred, where
+/// The limit is ours, not the thesis's: its frames are display-referred, where
 /// the kernel's undershoot beside a bright edge is a dark fringe. On an HDR
 /// frame a 100:1 edge at s = ¼ undershoots to −24 times the dark side; the
 /// fringe is clamped to 0, and a frame of such zeros drags the log-average

@@ -1,11 +1,12 @@
 //! `taa_sobel`: how aliased each pixel of the current jittered frame is, for
-//! the edge-aware TAA (seed 002 §3.8 and §4.3.3).
+//! the edge-aware TAA (the TAA thesis, docs/bibliography.md, §3.8 and
+//! §4.3.3).
 //!
-//! Seed 002 runs Sobel on the luminance of the lit scene, of the unlit
+//! The thesis runs Sobel on the luminance of the lit scene, of the unlit
 //! G-buffer and on linear depth, and mixes the three (eq. 4.9). A camera
 //! inside one sphere has neither an unlit albedo distinct from what it sees
 //! nor a depth edge (every pixel is at the same distance), so only the lit
-//! luminance term exists here: g = l. Seed 002 also stabilises the Sobel
+//! luminance term exists here: g = l. The thesis also stabilises the Sobel
 //! value with a small clamped TAA of its own; that is not done here, the
 //! value is the current frame's.
 
@@ -20,12 +21,12 @@ pub(crate) fn clamped<P: Copy>(img: &Image<P>, x: i64, y: i64) -> P {
     img.pixels[y * img.width as usize + x]
 }
 
-/// Seed 002's aliasing amount of every pixel, in [0, 1].
+/// The aliasing amount of every pixel (after the TAA thesis), in [0, 1].
 ///
 /// The Sobel magnitude |G| of BT.709 luminance over the 3×3 neighbourhood
 /// (kernels 3.5 and 3.6) is made scale-free for HDR by dividing by 4·Ymax of
 /// that neighbourhood: a step from 0 to any Y scores 1, a step from a to b
-/// scores (b − a)/b. Seed 002's frames are display-referred in [0, 1], so it
+/// scores (b − a)/b. The thesis's frames are display-referred in [0, 1], so it
 /// needs no such division; an HDR frame spans five decades and would mark
 /// every edge of the sun and none of the night. The result is clamped to
 /// [0, 1] and shaped by eq. 4.10, √(g²(3 − 2g)).

@@ -1,4 +1,5 @@
-//! `tonemap`: the global Reinhard 2002 family (SPEC §3) and both colour paths.
+//! `tonemap`: the global Reinhard 2002 family (docs/operators.md) and both
+//! colour paths.
 
 use crate::color::{luminance_with, BT709, PFS, SMALLEST_NORMAL};
 use crate::image::LinearImage;
@@ -8,7 +9,8 @@ use crate::scene::{ColourPath, Key, Operator, Positive};
 use rayon::prelude::*;
 use serde::Serialize;
 
-/// Log offset δ of the plain and weighted log-averages (seed 004).
+/// Log offset δ of the plain and weighted log-averages (the image-processing
+/// lecture, docs/bibliography.md).
 pub const DELTA: f64 = 1e-4;
 /// pfstools' δ (the `reinhard02` preset).
 pub const DELTA_PFS: f64 = 1e-5;
@@ -25,8 +27,9 @@ pub struct ToneParams {
     pub log_average: f64,
     /// a / log_average.
     pub scale: f64,
-    /// The denominator of L/… in the curve: Lwhite² (seeds 001, 004) or
-    /// w²·Lmax (seed 000). +∞ disables burning (Ld = L/(1 + L)).
+    /// The denominator of L/… in the curve: Lwhite² (`reinhard-auto-key`,
+    /// `reinhard02`) or w²·Lmax (`reinhard-global`). +∞ disables burning
+    /// (Ld = L/(1 + L)).
     pub white_sq: f64,
     /// Luminance weights (also the Y row of the XYZ matrix used by `xyy`).
     pub weights: [f64; 3],
@@ -52,10 +55,12 @@ fn finite_positive_or_inf(v: f64) -> f64 {
     }
 }
 
-/// Seed 001's automatic key a = 0.18·2^(2(B − A)/(A + B)), A = Lmax − Lavg,
-/// B = Lavg − Lmin. A + B = Lmax − Lmin; for a uniform frame it is 0 and the
-/// key falls back to 0.18. δ can put Lavg a hair outside [Lmin, Lmax], so the
-/// ratio is clamped to [−1, 1], its range for any Lavg inside.
+/// `reinhard-auto-key`'s automatic key (from the modified Reinhard for
+/// training simulators, docs/bibliography.md):
+/// a = 0.18·2^(2(B − A)/(A + B)), A = Lmax − Lavg, B = Lavg − Lmin.
+/// A + B = Lmax − Lmin; for a uniform frame it is 0 and the key falls back to
+/// 0.18. δ can put Lavg a hair outside [Lmin, Lmax], so the ratio is clamped
+/// to [−1, 1], its range for any Lavg inside.
 pub fn automatic_key(min: f64, log_average: f64, max: f64) -> f64 {
     let a = max - log_average;
     let b = log_average - min;
@@ -77,7 +82,7 @@ pub fn resolve(op: &Operator, stats: &LuminanceStats) -> Result<ToneParams, Plan
     let fixed_or =
         |fixed: &Option<Positive>, v: Option<f64>| measured(fixed.map(|f| f.get()).or(v));
     let (key, log_average, white_sq) = match op {
-        Operator::Seed000 {
+        Operator::ReinhardGlobal {
             key,
             white_fraction,
             log_average,
@@ -89,7 +94,7 @@ pub fn resolve(op: &Operator, stats: &LuminanceStats) -> Result<ToneParams, Plan
             let w = white_fraction.get();
             (key.get(), lavg, finite_positive_or_inf(w * w * lmax))
         }
-        Operator::Seed001 { key, .. } => {
+        Operator::ReinhardAutoKey { key, .. } => {
             let lavg = measured(stats.weighted_log_average)?;
             let lmax = measured(stats.max)?;
             let a = match key {
@@ -269,7 +274,7 @@ mod tests {
     }
 
     #[test]
-    fn automatic_key_matches_seed_001_and_handles_uniform_frames() {
+    fn automatic_key_matches_its_paper_and_handles_uniform_frames() {
         // Lavg at the midpoint of [min, max] gives A = B and a = 0.18.
         assert!((automatic_key(1.0, 2.0, 3.0) - 0.18).abs() < 1e-15);
         // Dark frame (Lavg near Lmin): B − A < 0 lowers the key.
@@ -287,14 +292,14 @@ mod tests {
             max: Some(100.0),
             weight_sum: Some(1.0),
         };
-        let seed000 = Operator::default();
-        let p = resolve(&seed000, &stats).unwrap();
+        let global = Operator::default();
+        let p = resolve(&global, &stats).unwrap();
         assert!((p.white_sq - 0.64 * 100.0).abs() < 1e-12 && (p.scale - 0.36).abs() < 1e-15);
-        let seed001 = Operator::Seed001 {
+        let auto_key = Operator::ReinhardAutoKey {
             key: Key::Auto,
             colour: ColourPath::Ratio,
         };
-        let p = resolve(&seed001, &stats).unwrap();
+        let p = resolve(&auto_key, &stats).unwrap();
         let a = automatic_key(0.01, 0.8, 100.0);
         assert!((p.key - a).abs() < 1e-15 && (p.white_sq - (a * 100.0 / 0.8).powi(2)).abs() < 1e-9);
         let r02 = Operator::Reinhard02 {

@@ -1,5 +1,5 @@
 //! What follows the operator: bloom, the colour grade and the display
-//! encoding (SPEC §4).
+//! encoding (docs/display.md).
 
 use super::units::{Factor, NonNegative, Positive, Radius};
 use serde::{Deserialize, Serialize};
@@ -9,23 +9,28 @@ use serde::{Deserialize, Serialize};
 #[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "snake_case")]
 pub enum BrightPass {
-    /// Seed 001: HDR colour scaled by Y/Lmax where Y > threshold (Y in scene
-    /// units): a sun spreads, a lamp-lit wall does not.
+    /// The bright pass of the modified Reinhard for training simulators
+    /// (docs/bibliography.md): HDR colour scaled by Y/Lmax where Y > threshold
+    /// (Y in scene units): a sun spreads, a lamp-lit wall does not.
     #[default]
-    Seed001,
-    /// Seed 004: the tone-mapped colour where its Y > threshold (display units,
-    /// e.g. 0.8), else 0.
+    #[serde(alias = "seed001")]
+    #[cfg_attr(feature = "cli", value(alias = "seed001"))]
+    Scaled,
+    /// The image-processing lecture's bright pass: the tone-mapped colour
+    /// where its Y > threshold (display units, e.g. 0.8), else 0.
     Threshold,
 }
 
-/// Bloom (SPEC §4): bright pass, downsample, separable Gaussian, composite.
+/// Bloom (docs/display.md): bright pass, downsample, separable Gaussian,
+/// composite.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Bloom {
     #[serde(default)]
     pub bright_pass: BrightPass,
     pub threshold: NonNegative,
-    /// Downsample factor 2..=8 (seed 001 uses 2, seed 004 suggests 8).
+    /// Downsample factor 2..=8 (the training-simulator Reinhard uses 2, the
+    /// image-processing lecture suggests 8).
     #[serde(default = "default_downsample")]
     pub downsample: Factor,
     /// Gaussian radius in low-resolution pixels (taps = 2·radius + 1).
@@ -43,7 +48,7 @@ fn default_radius() -> Radius {
     Radius(6)
 }
 
-/// Seed 004's colour grade on the display-referred image.
+/// The image-processing lecture's colour grade on the display-referred image.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Grade {
@@ -76,6 +81,6 @@ pub enum Encoding {
     /// The sRGB OETF (piecewise: linear below 0.0031308).
     #[default]
     Srgb,
-    /// A plain 1/γ power, γ default 2.2 (seed 004).
+    /// A plain 1/γ power, γ default 2.2 (the image-processing lecture).
     Gamma(Positive),
 }

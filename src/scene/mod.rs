@@ -16,7 +16,9 @@ mod units;
 
 pub use crate::conventions::MAX_SPP;
 pub use display::{Bloom, BrightPass, Encoding, Grade};
-pub use operator::{ColourPath, Key, Operator, OperatorKind};
+pub use operator::{
+    ColourPath, Key, Operator, OperatorKind, OperatorParams, DEFAULT_KEY, DEFAULT_WHITE_FRACTION,
+};
 pub use sequence::{Environment, Rotation, MAX_FRAMES};
 pub use taa::{HistoryFilter, Taa, TaaParams, TaaVariant};
 pub use units::{Factor, Feedback, NonNegative, Positive, Radius, Size, Unit, MAX_OUTPUT_PIXELS};
@@ -238,15 +240,6 @@ impl Scene {
                 ));
             }
         }
-        if let Operator::Seed000 { white_fraction, .. } = &self.operator {
-            if white_fraction.get() > 1.0 {
-                return Err(format!(
-                    "{}: must be in (0, 1], got {}",
-                    at("white_fraction"),
-                    white_fraction.get()
-                ));
-            }
-        }
         for c in &self.checks {
             c.validate()
                 .map_err(|message| format!("{}: {message}", at("checks")))?;
@@ -292,8 +285,8 @@ impl Scene {
         self.rotation.degrees_per_frame == 0.0
     }
 
-    /// Seed 002's kind of test: static scenes are judged on their converged
-    /// frame, moving ones on every frame.
+    /// The kind of test the TAA thesis uses (docs/bibliography.md): static
+    /// scenes are judged on their converged frame, moving ones on every frame.
     pub fn test_kind(&self) -> TestKind {
         if self.is_static() {
             TestKind::Static
@@ -409,7 +402,8 @@ degrees_per_frame = 5.0
         let text = format!("{MINIMAL}\n[operator]\nkind = \"seed001\"\nwhite = 2.0\n");
         let e = parse(&text).unwrap_err().to_string();
         assert!(
-            e.contains("`white` does not apply") && e.contains("line 11"),
+            e.contains("white: applies to operator reinhard02 only, not reinhard-auto-key")
+                && e.contains("line 11"),
             "{e}"
         );
         let text = format!("{MINIMAL}\n[operator]\nkind = \"seed000\"\nkey = \"auto\"\n");
@@ -436,7 +430,7 @@ degrees_per_frame = 5.0
         let s = parse(&text).unwrap();
         assert_eq!(
             s.operator,
-            Operator::Seed001 {
+            Operator::ReinhardAutoKey {
                 key: Key::Auto,
                 colour: ColourPath::Xyy
             }
@@ -444,8 +438,38 @@ degrees_per_frame = 5.0
         let text = format!("{MINIMAL}\n[operator]\nkind = \"seed001\"\nkey = 0.3\n");
         let s = parse(&text).unwrap();
         assert!(
-            matches!(s.operator, Operator::Seed001 { key: Key::Fixed(k), .. } if k.get() == 0.3)
+            matches!(s.operator, Operator::ReinhardAutoKey { key: Key::Fixed(k), .. } if k.get() == 0.3)
         );
+    }
+
+    /// Scene files written with the operators' and the bright pass's first
+    /// names (after the papers they came from) still parse, to the same
+    /// operator; a scene is written back with the names that say what it is.
+    #[test]
+    fn the_first_names_of_operators_and_bright_passes_still_parse() {
+        let bloom = "[bloom]\nbright_pass = \"BP\"\nthreshold = 1.0\nsigma = 1.5\nstrength = 0.5\n";
+        for (old, new) in [
+            ("seed000", "reinhard-global"),
+            ("seed001", "reinhard-auto-key"),
+        ] {
+            let scene = |kind: &str, pass: &str| {
+                let text = format!(
+                    "{MINIMAL}\n[operator]\nkind = \"{kind}\"\n{}",
+                    bloom.replace("BP", pass)
+                );
+                parse(&text).unwrap_or_else(|e| panic!("{kind}: {e}"))
+            };
+            let (a, b) = (scene(old, "seed001"), scene(new, "scaled"));
+            assert_eq!(a.operator, b.operator, "{old} and {new}");
+            assert_eq!(a.bloom, b.bloom, "{old}'s bloom");
+            assert_eq!(a.hash(), b.hash(), "{old}: the same scene");
+            let written = toml::to_string(&a).unwrap();
+            assert!(
+                written.contains(&format!("kind = \"{new}\""))
+                    && written.contains("bright_pass = \"scaled\""),
+                "{written}"
+            );
+        }
     }
 
     #[test]

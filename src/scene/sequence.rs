@@ -24,7 +24,8 @@ pub struct Environment {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Rotation {
-    /// Axis of rotation; default the horizontal x axis, as in seed 000.
+    /// Axis of rotation; default the horizontal x axis, as in Reinhard's global
+    /// operator in real time (docs/bibliography.md).
     #[serde(default = "default_axis")]
     pub axis: [f64; 3],
     /// ω, degrees per frame; 0 makes a static sequence.

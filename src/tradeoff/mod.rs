@@ -209,7 +209,7 @@ pub struct Point {
 pub struct TradeoffOptions {
     /// Frames of each scene measured (clamped to the scene's length).
     pub frames: Vec<u32>,
-    /// Samples per pixel of the reference (SPEC §5: up to 128).
+    /// Samples per pixel of the reference (docs/taa.md: up to 128).
     pub reference_spp: u32,
     pub spps: Vec<u32>,
     pub downsamples: Vec<u32>,
@@ -488,7 +488,7 @@ mod tests {
 
     #[test]
     fn the_sweep_covers_every_knob_and_bloom_only_where_there_is_bloom() {
-        let text = std::fs::read_to_string("golden/scenes/night-seed001-bloom.toml").unwrap();
+        let text = std::fs::read_to_string("golden/scenes/night-auto-key-bloom.toml").unwrap();
         let bloom = Scene::parse(&text, std::path::Path::new("x.toml")).unwrap();
         let text = std::fs::read_to_string("golden/scenes/grid-static.toml").unwrap();
         let plain = Scene::parse(&text, std::path::Path::new("x.toml")).unwrap();
