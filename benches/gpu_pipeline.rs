@@ -51,7 +51,8 @@ fn full_plan(c: &mut Criterion) {
 }
 
 fn kept_renderers(c: &mut Criterion) {
-    use tonegate::toning::{tone_map_until, GpuRenderers, ToneSettings};
+    use tonegate::gpu::RendererPool;
+    use tonegate::toning::{tone_map_until, OutputKind, ToneSettings};
     let ctx = GpuContext::new(&AdapterChoice::Default).unwrap_or_else(|e| panic!("{e}"));
     let settings = ToneSettings {
         bloom: 0.04,
@@ -73,7 +74,7 @@ fn kept_renderers(c: &mut Criterion) {
     let mut group = c.benchmark_group("kept_renderers");
     group.sample_size(10);
     for classes in [false, true] {
-        let mut kept = GpuRenderers::new(&ctx);
+        let mut kept = RendererPool::new(&ctx);
         if !classes {
             kept = kept.exact_sizes();
         }
@@ -84,7 +85,7 @@ fn kept_renderers(c: &mut Criterion) {
                 n += 1;
                 let img = &images[n % images.len()];
                 let gpu = Some((&mut kept, GpuConfig::default()));
-                tone_map_until(img, &pipeline, gpu, false, &|| false)
+                tone_map_until(img, &pipeline, gpu, OutputKind::Encoded, &|| false)
                     .unwrap_or_else(|e| panic!("{e}"))
             })
         });

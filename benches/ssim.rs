@@ -1,9 +1,9 @@
 //! SSIM and the full comparison on a Full HD RGB pair.
 //!
-//! Target (brief): mean SSIM of 1920×1080 RGB in ≤ 50 ms on the 2-core CI VM;
-//! scikit-image needs ≈ 0.5 s for the same pair (SPEC §7). The pair is a
-//! smooth pattern and a noised copy, generated here so the bench needs no
-//! files and every run measures the same work.
+//! Target: mean SSIM of 1920×1080 RGB in ≤ 50 ms on the 2-core CI VM;
+//! scikit-image needs ≈ 0.5 s for the same pair (docs/bibliography.md). The
+//! pair is a smooth pattern and a noised copy, generated here so the bench
+//! needs no files and every run measures the same work.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;

@@ -26,7 +26,10 @@ for lock in skimage perceptual; do
     exit 1
   fi
 done
-cargo test --locked --all-targets "$@"
+# The library's unit tests, the binary's, and the two integration-test
+# binaries (tests/it, tests/exr_allocation). Benchmarks are not tests: they
+# are built and run by `cargo bench` and `tonegate bench`, not here.
+cargo test --locked --lib --bins --tests "$@"
 cargo test --locked --doc
 # The fuzz targets keep building and finding nothing: a short, reproducible
 # run of each (ci/fuzz.sh with a fixed seed and input count; the ten-minute

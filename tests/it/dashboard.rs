@@ -4,7 +4,7 @@
 //! comparison (images decoded by the browser), and screenshotted into
 //! out/dashboard/ as CI artifacts.
 
-mod common;
+use crate::common;
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -133,10 +133,13 @@ fn the_dashboard_shows_runs_charts_and_image_comparisons_in_chromium() {
     // The failing run: scenes, checks, per-frame table, the comparer with
     // golden / actual / diff / SSIM / FLIP images the browser decoded, and a slider.
     let dom = browse(
-        &format!("{}/#/runs/{}?scene=sky-seed000", s.base, seeded.failed),
+        &format!(
+            "{}/#/runs/{}?scene=sky-reinhard-global",
+            s.base, seeded.failed
+        ),
         "run-failed",
     );
-    assert!(dom.contains("Scene sky-seed000"), "{dom}");
+    assert!(dom.contains("Scene sky-reinhard-global"), "{dom}");
     assert!(dom.contains("class=\"badge failed\""));
     assert!(count(&dom, "data-frame=") >= 8, "eight frames in the table");
     assert!(dom.contains("class=\"comparer\""), "{dom}");
@@ -157,12 +160,18 @@ fn the_dashboard_shows_runs_charts_and_image_comparisons_in_chromium() {
     );
 
     // Trends: FPS, PSNR, SSIM and stage time charts with points.
-    let dom = browse(&format!("{}/#/trends?scene=sky-seed000", s.base), "trends");
+    let dom = browse(
+        &format!("{}/#/trends?scene=sky-reinhard-global", s.base),
+        "trends",
+    );
     assert!(count(&dom, "<svg class=\"chart\"") >= 5, "{dom}");
     assert!(dom.contains("Worst-frame FLIP mean"), "the FLIP trend");
     assert!(count(&dom, "class=\"series\"") >= 4, "{dom}");
     assert!(count(&dom, "<circle") >= 8, "{dom}");
     assert!(dom.contains("data-series=\"sphere\""), "a stage series");
+    // A part of the page that is left out leaves nothing behind (it once
+    // printed "null" under the explanation).
+    assert!(!dom.contains(">null<"), "{dom}");
 
     // The error-against-time scatter with its front.
     let dom = browse(&format!("{}/#/tradeoff", s.base), "tradeoff");
@@ -180,7 +189,7 @@ fn the_dashboard_shows_runs_charts_and_image_comparisons_in_chromium() {
     }
 }
 
-/// Issue 14: a run of the TAA scenes shows the no-AA / clip / edge-aware
+/// A run of the TAA scenes shows the no-AA / clip / edge-aware
 /// comparison: one table per test with every variant's best / worst / mean,
 /// and each variant's last frame and SSIM map beside the golden, decoded by
 /// the browser.
@@ -229,7 +238,7 @@ fn the_dashboard_compares_the_taa_variants_in_chromium() {
     assert!(dom.contains("PSNR dB best @f"), "{dom}");
 }
 
-/// Issue 15 (change points): twelve check runs whose last six have a tone
+/// Change points: twelve check runs whose last six have a tone
 /// mapper 2 % too bright shift the SSIM series' level; the trends page draws
 /// a dashed rule at the first of them and lists the shift. (Eight runs, four
 /// and four, cannot reach p <= 0.01: only 70 orderings exist.)
@@ -237,18 +246,30 @@ fn the_dashboard_compares_the_taa_variants_in_chromium() {
 fn the_trend_charts_mark_a_level_shift_in_chromium() {
     let dir = tempfile::tempdir().unwrap();
     let seeded = common::seed_empty(dir.path());
-    std::fs::write(&seeded.suite, "scenes = [\"scenes/sky-seed000.toml\"]\n").unwrap();
+    std::fs::write(
+        &seeded.suite,
+        "scenes = [\"scenes/sky-reinhard-global.toml\"]\n",
+    )
+    .unwrap();
     let (suite, db) = (seeded.suite.to_str().unwrap(), seeded.db.to_str().unwrap());
     for run in 1..=12 {
         let mut args = vec!["check", "--suite", suite, "--db", db];
         if run > 6 {
             args.extend(["--fault-gain", "1.02"]);
         }
-        common::tonegate(&args);
+        let o = common::tonegate(&args);
+        // The fault fails the gate (exit 1); anything else (2: the check
+        // could not run) would leave the series without its runs.
+        assert_eq!(
+            o.status.code(),
+            Some(if run > 6 { 1 } else { 0 }),
+            "run {run}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
     }
     let s = serve(&seeded, dir.path());
     let dom = browse(
-        &format!("{}/#/trends?scene=sky-seed000", s.base),
+        &format!("{}/#/trends?scene=sky-reinhard-global", s.base),
         "trends-shift",
     );
     assert!(
@@ -256,9 +277,10 @@ fn the_trend_charts_mark_a_level_shift_in_chromium() {
         "no level-shift rule:\n{dom}"
     );
     assert!(dom.contains("SSIM ×") && dom.contains("at run 7"), "{dom}");
+    assert!(!dom.contains(">null<"), "{dom}");
 }
 
-/// Issue 15: the fleet page lists the runners (a stopped one and a live,
+/// The fleet page lists the runners (a stopped one and a live,
 /// idle one) and the queue (two jobs done, one waiting for a label no
 /// runner has), from a history the real `runner` wrote.
 #[test]

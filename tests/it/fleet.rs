@@ -1,15 +1,13 @@
-//! Issue 15's fleet: eight `tonegate runner` processes and the server on one
+//! A fleet: eight `tonegate runner` processes and the server on one
 //! real PostgreSQL (started by `common/postgres.rs`), 200 queued runs of a
 //! one-frame suite plus one long run that a runner is killed (-9) in the
 //! middle of. Every job is done exactly once, none is lost, none is run by
 //! two runners, the killed runner's run is aborted and its job finished by
 //! another; the throughput and the queue latency are printed.
 
-mod common;
-#[path = "common/postgres.rs"]
-mod pg;
-#[path = "common/server.rs"]
-mod server;
+use crate::common;
+use crate::common::postgres as pg;
+use crate::common::server;
 
 use common::{copy_dir, repo, tonegate};
 use std::collections::BTreeMap;
@@ -56,7 +54,7 @@ set_by = "the CPU reference against its own golden: identical"
     let long = golden.join("long.toml");
     std::fs::write(
         &long,
-        "scenes = [\"scenes/grid-static.toml\", \"scenes/sky-seed000.toml\", \"scenes/night-seed000.toml\"]\n",
+        "scenes = [\"scenes/grid-static.toml\", \"scenes/sky-reinhard-global.toml\", \"scenes/night-reinhard-global.toml\"]\n",
     )
     .unwrap();
     (tiny, long)

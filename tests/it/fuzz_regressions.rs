@@ -6,7 +6,11 @@
 use std::path::Path;
 use tonegate::fuzzing::TARGETS;
 
+/// Runs `f` on every file of `dir/target`; a target with no folder there
+/// has nothing to replay, but `dir` itself must exist: a missing folder
+/// would otherwise replay nothing and pass.
 fn replay(dir: &Path, target: &str, f: fn(&[u8])) -> usize {
+    assert!(dir.is_dir(), "{} is missing", dir.display());
     let Ok(entries) = std::fs::read_dir(dir.join(target)) else {
         return 0;
     };
@@ -24,7 +28,7 @@ fn replay(dir: &Path, target: &str, f: fn(&[u8])) -> usize {
 #[test]
 fn every_regression_input_and_seed_passes_its_target() {
     let fuzz = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz");
-    let mut seeds = 0;
+    let (mut seeds, mut regressions) = (0, 0);
     for &(target, f) in TARGETS {
         assert!(
             fuzz.join("fuzz_targets")
@@ -32,12 +36,15 @@ fn every_regression_input_and_seed_passes_its_target() {
                 .exists(),
             "no fuzz target file for {target}"
         );
-        replay(&fuzz.join("regressions"), target, f);
+        regressions += replay(&fuzz.join("regressions"), target, f);
         let n = replay(&fuzz.join("corpus"), target, f);
         assert!(n > 0, "{target} has no seeds");
         seeds += n;
     }
     assert!(seeds >= 100, "{seeds} seeds");
+    // The committed crash inputs (fuzz/regressions/exr/ has them since the
+    // first fuzzing runs); none found would mean the replay lost its way.
+    assert!(regressions > 0, "no regression input replayed");
 }
 
 /// Hostile inputs found by hand before the fuzzers ran: each passes its

@@ -3,7 +3,7 @@
 //! two different renders: the GPU's output and the f64 reference fed the same
 //! input.
 
-mod common;
+use crate::common;
 
 use tonegate::conventions::{equirect_uv, rotation_matrix, sphere_direction};
 use tonegate::golden::read_frame;
@@ -261,7 +261,7 @@ fn each_stage_matches_its_reference_on_the_same_input() {
             let mut display = toned.clone();
             if let (Some(b), Some(blurred)) = (pipeline.bloom, r.read_output("bloom_blur").unwrap())
             {
-                let src = if b.bright_pass == tonegate::scene::BrightPass::Seed001 {
+                let src = if b.bright_pass == tonegate::scene::BrightPass::Scaled {
                     &hdr
                 } else {
                     &toned
@@ -332,7 +332,7 @@ fn each_stage_matches_its_reference_on_the_same_input() {
 #[test]
 fn every_reduction_agrees_with_f64_on_odd_and_prime_sizes() {
     let ctx = context();
-    let op = tonegate::scene::Operator::Seed001 {
+    let op = tonegate::scene::Operator::ReinhardAutoKey {
         key: tonegate::scene::Key::Auto,
         colour: tonegate::scene::ColourPath::Ratio,
     };
@@ -431,11 +431,11 @@ fn a_wrong_gpu_render_fails_the_comparison() {
     let ctx = context();
     let mut scene = suite()
         .into_iter()
-        .find(|s| s.name == "sky-seed000")
+        .find(|s| s.name == "sky-reinhard-global")
         .unwrap();
     let env = scene_environment(&scene).unwrap();
     let cpu = reference::render_frame(&scene, &env, 3, 1).unwrap();
-    if let tonegate::scene::Operator::Seed000 { key, .. } = &mut scene.operator {
+    if let tonegate::scene::Operator::ReinhardGlobal { key, .. } = &mut scene.operator {
         *key = tonegate::scene::Positive::try_from(key.get() * 1.02).unwrap();
     }
     let r = common::scene_renderer(&ctx, &scene, &env, GpuConfig::default());
@@ -453,7 +453,7 @@ fn half_float_intermediates_render_within_a_few_lsb_where_in_range() {
     let ctx = context();
     let scene = suite()
         .into_iter()
-        .find(|s| s.name == "night-seed000")
+        .find(|s| s.name == "night-reinhard-global")
         .unwrap();
     let env = scene_environment(&scene).unwrap();
     let config = GpuConfig {
@@ -664,7 +664,7 @@ fn bloom_blur_matches_at_odd_sizes_and_every_radius() {
 /// adapters within 1 LSB. Against the CPU the fused frames keep the staged
 /// bounds (PSNR ≥ 50 dB, ≥ 99.9 % within 1 LSB). Plans with a grade must
 /// fall back to staged and say so; their gradeless variants are fused, which
-/// covers seed 004's bright pass on the tone-mapped frame.
+/// covers the threshold bright pass on the tone-mapped frame.
 #[test]
 fn fused_execution_renders_the_staged_frames() {
     let ctx = context();
@@ -786,8 +786,8 @@ fn subnormal_luminance_is_toned_to_zero_on_both_renderers() {
         }
     });
     for (operator, colour) in [
-        (OperatorKind::Seed001, ColourPath::Ratio),
-        (OperatorKind::Seed000, ColourPath::Xyy),
+        (OperatorKind::ReinhardAutoKey, ColourPath::Ratio),
+        (OperatorKind::ReinhardGlobal, ColourPath::Xyy),
     ] {
         let settings = ToneSettings {
             operator,
@@ -835,7 +835,7 @@ fn subnormal_luminance_is_toned_to_zero_on_both_renderers() {
 /// plain scene and a TAA scene (whose history runs through the frames).
 #[test]
 fn frames_in_flight_match_one_at_a_time_in_order() {
-    use tonegate::gpu::renderer::FRAMES_IN_FLIGHT;
+    use tonegate::gpu::FRAMES_IN_FLIGHT;
     use tonegate::render::SceneRenderer;
     let ctx = context();
     let all =
@@ -929,7 +929,7 @@ fn frames_in_flight_match_one_at_a_time_in_order() {
 /// copy into them an error, and the slot is refused as still taken.
 #[test]
 fn a_failed_collect_frees_its_slot_for_the_frames_after_it() {
-    use tonegate::gpu::renderer::FRAMES_IN_FLIGHT;
+    use tonegate::gpu::FRAMES_IN_FLIGHT;
     let ctx = context();
     let all =
         load_suite(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("golden/suite.toml"))
@@ -969,12 +969,13 @@ fn a_failed_collect_frees_its_slot_for_the_frames_after_it() {
 /// gets its own.
 #[test]
 fn kept_renderers_render_what_fresh_ones_do() {
-    use tonegate::toning::{size_class, tone_map, tone_map_until, GpuRenderers, ToneSettings};
+    use tonegate::gpu::{size_class, RendererPool};
+    use tonegate::toning::{tone_map, tone_map_until, OutputKind, ToneSettings};
     let ctx = context();
-    // Seed 001's automatic key reads the minimum, the maximum and the
+    // reinhard-auto-key's automatic key reads the minimum, the maximum and the
     // weighted log-average; the bloom and the grade's mean read the frame.
     let settings = ToneSettings {
-        operator: tonegate::scene::OperatorKind::Seed001,
+        operator: tonegate::scene::OperatorKind::ReinhardAutoKey,
         key: Some("auto".into()),
         bloom: 0.04,
         contrast: 1.2,
@@ -1031,33 +1032,47 @@ fn kept_renderers_render_what_fresh_ones_do() {
         ..Default::default()
     });
     for config in configs {
-        let mut kept = GpuRenderers::new(&ctx);
+        let mut kept = RendererPool::new(&ctx);
         let order = [&night, &big, &sky, &night, &odd, &hot, &sky, &small, &sky];
-        // The display image read back (a float output) covers the image.
-        let display = config == GpuConfig::default();
-        for (i, img) in order.iter().enumerate() {
-            let fresh = tone_map(img, &pipeline, Some((&ctx, config)), display).unwrap();
-            let reused =
-                tone_map_until(img, &pipeline, Some((&mut kept, config)), display, &|| {
-                    false
-                })
+        // The display image read back (a float output) covers the image: the
+        // default configuration asks for it too, on the same kept renderers.
+        let wants = match config == GpuConfig::default() {
+            true => vec![OutputKind::Linear, OutputKind::Encoded],
+            false => vec![OutputKind::Encoded],
+        };
+        for ((i, img), &want) in order
+            .iter()
+            .enumerate()
+            .flat_map(|io| wants.iter().map(move |w| (io, w)))
+        {
+            let fresh = tone_map(img, &pipeline, Some((&ctx, config)), want).unwrap();
+            let reused = tone_map_until(img, &pipeline, Some((&mut kept, config)), want, &|| false)
                 .unwrap()
                 .unwrap();
-            let what = format!("image {i} ({config:?})");
-            if display {
-                let (a, b) = (reused.display.unwrap(), fresh.display.unwrap());
+            let what = format!("image {i} ({config:?}, {want:?})");
+            if want == OutputKind::Linear {
+                let (a, b) = (
+                    reused.image.linear().unwrap(),
+                    fresh.image.linear().unwrap(),
+                );
                 assert_eq!((a.width, a.height), (img.width, img.height), "{what}");
                 assert!(a.pixels == b.pixels, "{what}: display differs");
             }
+            let (reused_frame, fresh_frame) = (reused.image.encoded(), fresh.image.encoded());
+            assert_eq!(
+                reused_frame.is_some(),
+                want == OutputKind::Encoded,
+                "{what}"
+            );
             match config.reduction {
                 // Blocks and 2×2 levels start at the corner whatever the
                 // textures' size: the same partials, merged in the same
                 // order with empty ones between, which change nothing.
                 ReductionMethod::BlockPartials | ReductionMethod::PingPong => {
-                    assert!(reused.frame == fresh.frame, "{what}: frame differs");
+                    assert!(reused_frame == fresh_frame, "{what}: frame differs");
                     assert_eq!(
-                        format!("{:?}", reused.stats),
-                        format!("{:?}", fresh.stats),
+                        format!("{:?}", reused.report.stats),
+                        format!("{:?}", fresh.report.stats),
                         "{what}"
                     );
                 }
@@ -1068,7 +1083,7 @@ fn kept_renderers_render_what_fresh_ones_do() {
                 // and a frame by at most one code where a value sits on a
                 // rounding boundary.
                 _ => {
-                    let (a, b) = (reused.stats, fresh.stats);
+                    let (a, b) = (&reused.report.stats, &fresh.report.stats);
                     for (name, x, y) in [
                         ("log_average", a.log_average, b.log_average),
                         ("weighted", a.weighted_log_average, b.weighted_log_average),
@@ -1079,7 +1094,7 @@ fn kept_renderers_render_what_fresh_ones_do() {
                         let (x, y) = (x.unwrap(), y.unwrap());
                         assert!((x - y).abs() <= 1e-6 * y.abs(), "{what}: {name} {x} {y}");
                     }
-                    let (fa, fb) = (reused.frame.unwrap(), fresh.frame.unwrap());
+                    let (fa, fb) = (reused_frame.unwrap(), fresh_frame.unwrap());
                     assert_eq!((fa.width, fa.height), (fb.width, fb.height), "{what}");
                     let worst = fa
                         .pixels
@@ -1101,7 +1116,7 @@ fn kept_renderers_render_what_fresh_ones_do() {
     // over the budget alone renders its image and is not kept, and an image
     // within the budget whose class is not gets a renderer of its own size.
     let budget = 192 * 128 + 64 * 64;
-    let mut kept = GpuRenderers::with_limits(&ctx, 3, budget);
+    let mut kept = RendererPool::with_limits(&ctx, 3, budget);
     let medium = tonegate::env::BuiltinEnv::Night.generate(100, 50);
     let large = tonegate::env::BuiltinEnv::Sky.generate(200, 150);
     let snug = tonegate::env::BuiltinEnv::Sky.generate(170, 168);
@@ -1116,18 +1131,19 @@ fn kept_renderers_render_what_fresh_ones_do() {
         (&snug, vec![(170, 168)]),
     ];
     for (i, (img, classes)) in expect.iter().enumerate() {
-        let fresh = tone_map(img, &pipeline, Some((&ctx, GpuConfig::default())), false).unwrap();
+        let encoded = OutputKind::Encoded;
+        let fresh = tone_map(img, &pipeline, Some((&ctx, GpuConfig::default())), encoded).unwrap();
         let reused = tone_map_until(
             img,
             &pipeline,
             Some((&mut kept, GpuConfig::default())),
-            false,
+            encoded,
             &|| false,
         )
         .unwrap()
         .unwrap();
         assert!(
-            reused.frame == fresh.frame,
+            reused.image.encoded().is_some() && reused.image.encoded() == fresh.image.encoded(),
             "budget image {i}: frame differs"
         );
         assert_eq!(kept.len(), classes.len(), "budget image {i}");
@@ -1149,7 +1165,7 @@ fn kept_renderers_render_what_fresh_ones_do() {
         &wide,
         &pipeline,
         Some((&mut kept, GpuConfig::default())),
-        false,
+        OutputKind::Encoded,
         &|| false,
     )
     .map(|_| ())
@@ -1187,7 +1203,7 @@ fn the_render_command_writes_every_frame_in_order() {
     use tonegate::render::SceneRenderer;
     let dir = tempfile::tempdir().unwrap();
     let scene_path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("golden/scenes/night-seed001-bloom.toml");
+        .join("golden/scenes/night-auto-key-bloom.toml");
     let o = common::tonegate(&[
         "render",
         scene_path.to_str().unwrap(),

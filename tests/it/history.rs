@@ -234,7 +234,7 @@ fn a_version_1_file_is_migrated_without_losing_its_runs() {
     assert_eq!((flip[0].run_id, flip[0].value), (new_id, 0.002));
 }
 
-/// Issue 15 (change points): a 6 % level shift in a stage's time, under the
+/// Change points: a 6 % level shift in a stage's time, under the
 /// regression window's 10 % floor run by run, is marked at the run where it
 /// began, per adapter: another adapter's faster runs interleaved with it are
 /// another series, with no shift of its own, and are marked nowhere.
@@ -278,7 +278,7 @@ fn a_level_shift_is_marked_at_its_run_and_per_adapter() {
     assert!(ratio > 1.04 && ratio < 1.08, "{ratio}");
 }
 
-/// Issue 15: series are split by renderer configuration too. An f16 config
+/// Series are split by renderer configuration too. An f16 config
 /// joining halfway at a steadily higher time is its own flat series, not a
 /// level shift of the f32 one; a real shift within one config is still found.
 #[test]

@@ -1,11 +1,10 @@
 //! The server against a hostile but fair client: each test here is one of
-//! the defects such a client found on a4e9bd9 (issue 17), and fails without
+//! the defects such a client found on a4e9bd9 (2026-11-21), and fails without
 //! its fix. Servers run in-process on loopback, or as the real binary where
 //! the process's own limits (open files, user) are the point.
 
-mod common;
-#[path = "common/server.rs"]
-mod harness;
+use crate::common;
+use crate::common::server as harness;
 
 use harness::{expect_error, hold_workers, start, TOKEN};
 use reqwest::StatusCode;
@@ -701,7 +700,7 @@ fn post_tonemap(addr: SocketAddr, query: &str, body: &[u8]) -> std::io::Result<S
     Ok(text.lines().next().unwrap_or("").to_string())
 }
 
-/// Issue 13: `serve` on NVIDIA died of SIGSEGV when stopped after GPU
+/// On an NVIDIA H100 (Vulkan), `serve` died of SIGSEGV when stopped after GPU
 /// requests: its worker threads were never joined, so the process exited
 /// with a live Vulkan device. Now SIGTERM and SIGINT drain the queues (the
 /// request in flight is answered), join the workers, release the GPU

@@ -641,7 +641,7 @@ fn a_dwa_block_declaring_a_huge_section_is_refused_not_allocated() {
     });
 }
 
-/// Found by a hostile client (issue 17): `exr` swaps an inverted window's
+/// Found by a hostile client (a4e9bd9, 2026-11-21): `exr` swaps an inverted window's
 /// corners, so an empty window said "compressed ZIP16 data" and an inverted
 /// one "decompressed data"; a Radiance file cut in its header said "format
 /// `32` is not supported".

@@ -109,7 +109,8 @@ fn reinhard02_preset_matches_pfstmo() {
 #[test]
 fn a_wrong_preset_would_be_caught() {
     // The comparison is only meaningful if a near miss fails it: the plain
-    // seed-004 constants (BT.709 weights, δ = 1e-4) must differ by more than
+    // constants of the image-processing lecture (BT.709 weights, δ = 1e-4;
+    // docs/bibliography.md) must differ by more than
     // the tolerance on at least one environment.
     assert!(have_pfstmo(), "pfstmo is not installed: run ci/test.sh");
     let dir = tempfile::tempdir().unwrap();

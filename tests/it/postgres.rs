@@ -1,14 +1,12 @@
-//! Issue 15: the history on a real PostgreSQL server (started by these tests,
+//! The history on a real PostgreSQL server (started by these tests,
 //! `common/postgres.rs`) gives the same answers as on SQLite, keeps the same
 //! guarantees (versioned migrations, a newer schema refused, a killed run
 //! marked aborted, finished runs untouched, read-only readers), and `check`,
 //! `history` and `serve` work on it.
 
-mod common;
-#[path = "common/postgres.rs"]
-mod pg;
-#[path = "common/server.rs"]
-mod server;
+use crate::common;
+use crate::common::postgres as pg;
+use crate::common::server;
 
 use common::{repo, seed_empty, tonegate};
 use std::collections::BTreeMap;

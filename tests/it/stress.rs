@@ -1,4 +1,4 @@
-//! SPEC §8's extreme inputs, every case on both renderers: finite, within
+//! The extreme inputs of docs/stress.md, every case on both renderers: finite, within
 //! 1e-5 of f64 (or a documented exception's bound), refused where it must be,
 //! and each defined fallback actually taken.
 
@@ -108,8 +108,8 @@ fn f16_overflow_is_detected_and_promoted_and_oversize_is_refused_by_the_gpu_only
 
 #[test]
 fn the_gpu_frames_match_the_cpu_frames_on_extreme_inputs() {
-    // The frame, not just the statistics: at most 2 LSB (issue 3's GPU-vs-CPU
-    // tolerance) wherever both rendered.
+    // The frame, not just the statistics: at most 2 LSB (the GPU-vs-CPU
+    // tolerance of docs/tolerances.md) wherever both rendered.
     for row in report().cases.iter().filter(|r| r.renderer == "gpu") {
         if row.max_rel_error.is_some() {
             // Every GPU row that rendered has a frame to compare (a 1x1

@@ -1,8 +1,8 @@
-//! TAA (issue 14) on the GPU against the f64 reference: each TAA stage fed
+//! TAA (docs/taa.md) on the GPU against the f64 reference: each TAA stage fed
 //! the same inputs, the whole recurrence frame after frame, and the
 //! sequencing (`SceneRenderer` replays from the last reset).
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use tonegate::conventions::{reprojection, rotation_matrix, taa_jitter};

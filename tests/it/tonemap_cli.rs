@@ -3,7 +3,7 @@
 //! `pow`-based encode of that display image (the encoder's steps replace a
 //! `pow` per sample and must not change one byte).
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use tonegate::env::BuiltinEnv;
@@ -52,6 +52,8 @@ fn an_hdr_output_skips_the_encode_and_a_png_is_the_exact_encode() {
         let extra: Vec<&str> = gamma.map(|g| vec!["--gamma", g]).unwrap_or_default();
         let hdr_path = dir.path().join("out.pfm");
         let hdr_report = tonemap(&input, &hdr_path, &extra);
+        // Bloom and grade read whole frames: the staged reference.
+        assert_eq!(hdr_report["path"], "staged");
         let hdr_plan = plan(&hdr_report);
         assert!(
             !hdr_plan.iter().any(|s| s == "encode"),
@@ -122,9 +124,26 @@ fn a_pixelwise_plan_writes_exactly_what_the_staged_path_computes() {
             },
         ),
         (
+            vec![
+                "--operator",
+                "reinhard-auto-key",
+                "--key",
+                "auto",
+                "--colour",
+                "xyy",
+            ],
+            ToneSettings {
+                operator: OperatorKind::ReinhardAutoKey,
+                key: Some("auto".into()),
+                colour: ColourPath::Xyy,
+                ..Default::default()
+            },
+        ),
+        // The operator's first name is still taken.
+        (
             vec!["--operator", "seed001", "--key", "auto", "--colour", "xyy"],
             ToneSettings {
-                operator: OperatorKind::Seed001,
+                operator: OperatorKind::ReinhardAutoKey,
                 key: Some("auto".into()),
                 colour: ColourPath::Xyy,
                 ..Default::default()
@@ -161,6 +180,8 @@ fn a_pixelwise_plan_writes_exactly_what_the_staged_path_computes() {
                 String::from_utf8_lossy(&run.stderr)
             );
             let report: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+            assert_eq!(report["path"], "pixelwise", "{args:?} .{ext}");
+            assert_eq!(report["adapter"], "cpu-reference", "{args:?} .{ext}");
             if ext == "png" {
                 // The 8-bit frame: encode's bytes, and its plan.
                 assert_eq!(plan(&report), staged_plan.names(), "{args:?}");

@@ -39,7 +39,7 @@ fn the_sweep_measures_every_configuration_and_marks_a_consistent_front() {
     let points = report["points"].as_array().unwrap();
     // f32/f16 x block/pingpong/tree/subgroup tree x manual/hardware x
     // 1/4/16 spp; no
-    // bloom here; then at 1 spp no AA and the TAA variants (issue 14): clip
+    // bloom here; then at 1 spp no AA and the TAA variants (docs/taa.md): clip
     // and edge-aware x two feedback ranges x two sharpen strengths, and each
     // with the Catmull-Rom history.
     assert_eq!(points.len(), 48 + 11);
@@ -69,7 +69,7 @@ fn the_sweep_measures_every_configuration_and_marks_a_consistent_front() {
     for p in points {
         assert!(p["ms"].as_f64().unwrap() > 0.0, "{p}");
         // At the reference's own spp in f32, the adaptation luminance is the
-        // reference's to issue 3's statistics bound (1e-5 relative); at other
+        // reference's to the statistics bound (1e-5 relative, docs/tolerances.md); at other
         // spp it is the log-average of other samples and really differs.
         if p["knobs"]["spp"] == 4 && p["knobs"]["hdr_format"] == "rgba32_float" {
             assert!(p["log_average_rel_error"].as_f64().unwrap() < 1e-5, "{p}");

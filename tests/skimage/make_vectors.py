@@ -10,7 +10,7 @@ Every image pair is generated from a seeded numpy RNG or a formula, so the
 file is reproducible. Images are stored inline as flat row-major, interleaved
 u8 lists (the layout of tonegate's Raster).
 
-Definitions (SPEC §6), all in float64:
+Definitions (docs/metrics.md), all in float64:
   mse   = mean((test - ref)^2)               over all pixels and channels
   rmse  = sqrt(mse)
   mean_abs_diff = mean(|test - ref|)         over all pixels and channels

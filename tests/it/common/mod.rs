@@ -4,6 +4,9 @@
 //! copy of the built-in suite.
 #![allow(dead_code)]
 
+pub mod postgres;
+pub mod server;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -49,7 +52,7 @@ pub fn seed_empty(dir: &Path) -> Seeded {
     let suite = dir.join("golden/mini.toml");
     std::fs::write(
         &suite,
-        "scenes = [\"scenes/grid-static.toml\", \"scenes/sky-seed000.toml\"]\n",
+        "scenes = [\"scenes/grid-static.toml\", \"scenes/sky-reinhard-global.toml\"]\n",
     )
     .unwrap();
     Seeded {

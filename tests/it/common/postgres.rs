@@ -7,7 +7,7 @@
 //! `runuser`. A watchdog shell stops the server and removes the folder when
 //! the test process ends, however it ends (a test binary's statics are never
 //! dropped, and a killed one runs no destructor).
-
+// benches/history.rs includes this file and uses only part of it.
 #![allow(dead_code)]
 
 use std::path::{Path, PathBuf};

@@ -1,8 +1,7 @@
 //! A real server on loopback for the API tests: started in-process on a
 //! seeded history, with a client, a worker hold and the error-answer check.
-#![allow(dead_code)]
 
-use super::common;
+use crate::common;
 use reqwest::StatusCode;
 use std::sync::{Arc, RwLock};
 use tonegate::server::{Limits, ServeOptions, Server};

@@ -1,0 +1,33 @@
+//! tonegate's integration tests, linked once: each file here was its own
+//! test binary, and every one of them linked wgpu, naga, tokio, axum,
+//! SQLite, PostgreSQL's client, FLIP's C++ and exr again. Shared fixtures
+//! (a seeded history, a PostgreSQL server, a served HTTP port) are in
+//! `common/`. `io_validation` installs this binary's global allocator (a
+//! per-thread record of the largest allocation); the test that counts every
+//! byte a decode holds at its peak needs an allocator no other test shares
+//! and is its own binary, `tests/exr_allocation.rs`.
+
+mod common;
+
+mod api;
+mod architecture;
+mod check;
+mod compare_cli;
+mod dashboard;
+mod fleet;
+mod fuzz_regressions;
+mod golden;
+mod gpu;
+mod history;
+mod hostile;
+mod io_exr;
+mod io_roundtrip;
+mod io_validation;
+mod metrics_perceptual;
+mod metrics_skimage;
+mod pfstmo;
+mod postgres;
+mod stress;
+mod taa;
+mod tonemap_cli;
+mod tradeoff;
