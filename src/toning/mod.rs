@@ -231,13 +231,7 @@ pub fn tone_map_until<'i>(
                         }
                     }
                     OutputKind::Linear => Toned {
-                        report: report(
-                            cpu,
-                            TonePath::Pixelwise,
-                            &t.plan,
-                            t.stats,
-                            t.tone,
-                        ),
+                        report: report(cpu, TonePath::Pixelwise, &t.plan, t.stats, t.tone),
                         image: TonedImage::Mapped {
                             tone: Box::new(t),
                             input: img,
