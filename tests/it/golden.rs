@@ -129,6 +129,33 @@ fn a_changed_scene_makes_its_golden_stale() {
     assert_eq!(golden::check_manifest(dir.path(), &scenes).unwrap(), vec![]);
 }
 
+/// Renaming an operator stales no golden: the render hash of a scene is
+/// the one blessed before the operators had their present names. The
+/// expected value is grid-static's hash in the manifest of 3182eae
+/// (2026-11-24), blessed while its operator was still called `seed000`.
+#[test]
+fn an_operator_name_is_not_part_of_the_render_hash() {
+    let scene = Scene::load(&root().join("scenes/grid-static.toml")).unwrap();
+    assert_eq!(
+        golden::render_hash(&scene).unwrap(),
+        "f8c8bb495c0f4bd3c285903b6ca6d874f3d2c690d08f56053c4ca870d105def2"
+    );
+    let text = std::fs::read_to_string(root().join("scenes/night-auto-key-bloom.toml")).unwrap();
+    let old = text
+        .replace("kind = \"reinhard-auto-key\"", "kind = \"seed001\"")
+        .replace("bright_pass = \"scaled\"", "bright_pass = \"seed001\"");
+    assert_ne!(old, text, "the scene names its operator and bright pass");
+    let path = std::path::Path::new("night.toml");
+    let (new, old) = (
+        Scene::parse(&text, path).unwrap(),
+        Scene::parse(&old, path).unwrap(),
+    );
+    assert_eq!(
+        golden::render_hash(&new).unwrap(),
+        golden::render_hash(&old).unwrap()
+    );
+}
+
 /// A renamed scene is blessed under its new name, and the old name's entry,
 /// whose folder went with the rename, leaves the manifest; the frames are
 /// the same bytes.
