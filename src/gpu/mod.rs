@@ -20,7 +20,8 @@ pub use context::{choose, AdapterChoice, AdapterReport, Candidate, GpuContext};
 pub use luminance_stats::GpuStats;
 pub use pool::{size_class, RendererPool};
 pub use readback::{GpuFrame, Ticket, FRAMES_IN_FLIGHT};
-pub use renderer::{GpuInput, GpuRenderer};
+pub use renderer::GpuRenderer;
+pub use wiring::GpuInput;
 
 #[derive(Debug, thiserror::Error)]
 pub enum GpuError {

@@ -7,7 +7,7 @@ use super::readback::{GpuFrame, Ring, Sources, Ticket, FRAMES_IN_FLIGHT};
 use super::sphere::FrameUniforms;
 use super::stages::{extent_buffer, upload, Extent};
 use super::timing::Queries;
-use super::wiring::Wiring;
+use super::wiring::{GpuInput, Wiring};
 use super::{GpuContext, GpuError};
 use crate::conventions::{Camera, Mat3};
 use crate::image::HdrImage;
@@ -15,38 +15,6 @@ use crate::perf::StageTiming;
 use crate::plan::StagePlan;
 use crate::reference::bloom_downsample::downsampled_size;
 use crate::reference::Pipeline;
-
-/// Where the frame comes from.
-pub enum GpuInput<'i> {
-    /// A sphere view of this environment with this camera at `spp`.
-    Sphere {
-        env: &'i HdrImage,
-        camera: Camera,
-        spp: u32,
-    },
-    /// A flat HDR image.
-    Flat(&'i HdrImage),
-}
-
-impl GpuInput<'_> {
-    /// The output frame's size.
-    fn size(&self) -> (u32, u32) {
-        match self {
-            GpuInput::Sphere { camera, .. } => (camera.width, camera.height),
-            GpuInput::Flat(img) => (img.width, img.height),
-        }
-    }
-
-    /// The largest component of the input (NaN ignored): no intermediate
-    /// before `tonemap` exceeds it.
-    fn max_component(&self) -> f32 {
-        let img = match self {
-            GpuInput::Sphere { env, .. } => env,
-            GpuInput::Flat(img) => img,
-        };
-        img.max_component()
-    }
-}
 
 /// A stage plan built on one context: its passes, textures and buffers,
 /// rendered frame after frame (`readback`: submit, collect, frames in

@@ -7,12 +7,46 @@ use super::luminance_stats::GpuStats;
 use super::sphere::{Environment, FrameUniforms};
 use super::stages::{hdr_texture, shared_buffer, storage_buffer, upload, Dispatch};
 use super::tonemap::ToneParams;
-use super::{GpuConfig, GpuContext, GpuError, GpuInput, HdrFormat};
+use super::{GpuConfig, GpuContext, GpuError, HdrFormat};
+use crate::conventions::Camera;
+use crate::image::HdrImage;
 use crate::plan::{BloomSource, PlanError, Stage};
 use crate::reference::bloom_downsample::downsampled_size;
 use crate::reference::tonemap::operator_constants;
 use crate::reference::Pipeline;
 use crate::scene::Bloom;
+
+/// Where the frame comes from.
+pub enum GpuInput<'i> {
+    /// A sphere view of this environment with this camera at `spp`.
+    Sphere {
+        env: &'i HdrImage,
+        camera: Camera,
+        spp: u32,
+    },
+    /// A flat HDR image.
+    Flat(&'i HdrImage),
+}
+
+impl GpuInput<'_> {
+    /// The output frame's size.
+    pub(super) fn size(&self) -> (u32, u32) {
+        match self {
+            GpuInput::Sphere { camera, .. } => (camera.width, camera.height),
+            GpuInput::Flat(img) => (img.width, img.height),
+        }
+    }
+
+    /// The largest component of the input (NaN ignored): no intermediate
+    /// before `tonemap` exceeds it.
+    pub(super) fn max_component(&self) -> f32 {
+        let img = match self {
+            GpuInput::Sphere { env, .. } => env,
+            GpuInput::Flat(img) => img,
+        };
+        img.max_component()
+    }
+}
 
 /// One compute pass: a stage (or merged stages) and its dispatches.
 pub struct Pass {

@@ -150,12 +150,12 @@ fn cycle(graph: &BTreeMap<String, BTreeSet<String>>) -> Option<Vec<String>> {
     None
 }
 
-/// Names the crate root re-exports (`pub use error::{Error, Result};`),
-/// each with the module it comes from.
-fn root_exports() -> BTreeMap<String, String> {
-    let lib = code_of(&repo().join("src/lib.rs"));
+/// The names a module file re-exports (`pub use error::{Error, Result};`,
+/// `pub use wiring::GpuInput;`), each with the child module it comes from.
+fn exports(file: &Path) -> BTreeMap<String, String> {
+    let code = code_of(file);
     let mut names = BTreeMap::new();
-    for stmt in lib.split(';') {
+    for stmt in code.split(';') {
         let Some(path) = stmt.trim().strip_prefix("pub use ") else {
             continue;
         };
@@ -163,7 +163,9 @@ fn root_exports() -> BTreeMap<String, String> {
             continue;
         };
         for item in items.trim_matches(|c| c == '{' || c == '}').split(',') {
-            let name = item.trim();
+            // `a::b::Name` and `Name as Other` export their last name.
+            let item = item.split(" as ").last().unwrap_or("").trim();
+            let name = item.rsplit("::").next().unwrap_or("").trim();
             if !name.is_empty() {
                 names.insert(name.to_owned(), module.trim().to_owned());
             }
@@ -188,7 +190,7 @@ fn modules_import_only_from_their_layer_or_below_and_form_no_cycle() {
         "ARCHITECTURE.md's layer table was not found ({} rows)",
         layers.len()
     );
-    let exports = root_exports();
+    let exports = exports(&repo().join("src/lib.rs"));
     assert_eq!(
         exports.get("Error").map(String::as_str),
         Some("error"),
@@ -247,6 +249,11 @@ fn the_files_of_a_folder_form_no_cycle() {
                 (p.extension().is_some_and(|e| e == "rs") && stem != "mod").then_some(stem)
             })
             .collect();
+        // A name the folder's mod.rs re-exports stands for its module.
+        let reexported = match dir.join("mod.rs").exists() {
+            true => exports(&dir.join("mod.rs")),
+            false => BTreeMap::new(),
+        };
         let mut graph: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
         for file in &siblings {
             let code = code_of(&dir.join(format!("{file}.rs")));
@@ -254,6 +261,7 @@ fn the_files_of_a_folder_form_no_cycle() {
                 .into_iter()
                 .chain(references(&code, &format!("crate::{folder}")));
             for used in used {
+                let used = reexported.get(&used).cloned().unwrap_or(used);
                 if siblings.contains(&used) && used != *file {
                     graph.entry(file.clone()).or_default().insert(used);
                 }
@@ -266,8 +274,8 @@ fn the_files_of_a_folder_form_no_cycle() {
     assert!(problems.is_empty(), "{}", problems.join("\n"));
 }
 
-/// The checks above can fail: a cycle is found, and a grouped import is
-/// read as the modules it names.
+/// The checks above can fail: a cycle is found, a grouped import is read as
+/// the modules it names, and a re-export as the module it comes from.
 #[test]
 fn the_import_reader_finds_cycles_and_grouped_imports() {
     let graph: BTreeMap<String, BTreeSet<String>> =
@@ -284,4 +292,7 @@ fn the_import_reader_finds_cycles_and_grouped_imports() {
         found.into_iter().collect::<Vec<_>>(),
         ["gpu", "io", "metrics"]
     );
+    let gpu = exports(&repo().join("src/gpu/mod.rs"));
+    assert_eq!(gpu.get("GpuRenderer").map(String::as_str), Some("renderer"));
+    assert_eq!(gpu.get("GpuInput").map(String::as_str), Some("wiring"));
 }
