@@ -15,6 +15,7 @@
 
 mod atomic;
 mod error;
+mod exr_guards;
 mod openexr;
 mod pfm;
 mod png;

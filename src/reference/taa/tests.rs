@@ -1,0 +1,222 @@
+use super::*;
+use crate::conventions::{reprojection, rotation_matrix};
+
+fn params(variant: TaaVariant) -> TaaParams {
+    TaaParams {
+        variant,
+        feedback_min: 0.88,
+        feedback_max: 0.97,
+        sharpen: 0.0,
+        history_filter: HistoryFilter::Bilinear,
+    }
+}
+
+#[test]
+fn clipping_moves_toward_the_centre_where_clamping_would_snap_to_a_corner() {
+    let (lo, hi) = ([0.0, 0.0, 0.0], [1.0, 1.0, 1.0]);
+    assert_eq!(clip_to_box([0.2, 0.5, 0.9], lo, hi), [0.2, 0.5, 0.9]);
+    // (3, 0.5, 0.5) lies on the line through the centre along x: the
+    // clip lands on the face at x = 1; so does a clamp.
+    assert_eq!(clip_to_box([3.0, 0.5, 0.5], lo, hi), [1.0, 0.5, 0.5]);
+    // Off-axis, the clip keeps the direction from the centre; a clamp
+    // would give (1, 1, 0.5), a colour that was never there.
+    let c = clip_to_box([2.5, 1.5, 0.5], lo, hi);
+    assert!(
+        (c[0] - 1.0).abs() < 1e-15 && (c[1] - 0.75).abs() < 1e-15 && c[2] == 0.5,
+        "{c:?}"
+    );
+    // A flat box takes its only colour.
+    assert_eq!(clip_to_box([2.0, 2.0, 2.0], [1.0; 3], [1.0; 3]), [1.0; 3]);
+}
+
+#[test]
+fn feedback_is_highest_when_history_agrees_and_ignores_exposure() {
+    let p = params(TaaVariant::Clip);
+    assert_eq!(feedback([1.0; 3], [1.0; 3], &p), 0.97);
+    assert!((feedback([1.0; 3], [0.0; 3], &p) - 0.88).abs() < 1e-15);
+    let a = feedback([1.0; 3], [1.5; 3], &p);
+    let b = feedback([1e3; 3], [1.5e3; 3], &p);
+    assert!((a - b).abs() < 1e-12 && a > 0.88 && a < 0.97);
+    assert_eq!(feedback([0.0; 3], [0.0; 3], &p), 0.97);
+}
+
+fn camera() -> Camera {
+    Camera {
+        width: 16,
+        height: 12,
+        fov_y_deg: 60.0,
+    }
+}
+
+fn still() -> Mat3 {
+    let r = rotation_matrix([1.0, 0.0, 0.0], 0.2);
+    reprojection(&r, &r)
+}
+
+#[test]
+fn a_reset_passes_the_current_frame_through() {
+    let cur = LinearImage::from_fn(16, 12, |x, y| [x as f64, y as f64, 1.0]);
+    let out = taa(
+        &cur,
+        None,
+        &TaaFrame {
+            history: None,
+            reprojection: still(),
+        },
+        &camera(),
+        &params(TaaVariant::Clip),
+    );
+    assert_eq!(out.history.pixels, cur.pixels);
+}
+
+#[test]
+fn a_history_inside_the_box_converges_and_one_outside_is_clipped() {
+    // Current frame flat 1.0: the box is the point 1.0 in `clip`, so any
+    // history is clipped onto it.
+    let cur = LinearImage::filled(16, 12, [1.0; 3]);
+    let hist = LinearImage::filled(16, 12, [5.0; 3]);
+    let frame = TaaFrame {
+        history: Some(&hist),
+        reprojection: still(),
+    };
+    let out = taa(&cur, None, &frame, &camera(), &params(TaaVariant::Clip));
+    assert!(out
+        .history
+        .pixels
+        .iter()
+        .all(|p| (p[0] - 1.0).abs() < 1e-12));
+    // A checkerboard current frame: the box spans [0, 1], a grey history
+    // is inside it and keeps 97 % of its weight (equal luminance).
+    let cur = LinearImage::from_fn(16, 12, |x, y| [((x + y) % 2) as f64; 3]);
+    let hist = LinearImage::filled(16, 12, [0.5; 3]);
+    let frame = TaaFrame {
+        history: Some(&hist),
+        reprojection: still(),
+    };
+    let out = taa(&cur, None, &frame, &camera(), &params(TaaVariant::Clip));
+    let p = out.history.get(5, 5);
+    let c = cur.get(5, 5)[0];
+    let k = feedback([c; 3], [0.5; 3], &params(TaaVariant::Clip));
+    assert!((p[0] - (c + (0.5 - c) * k)).abs() < 1e-12, "{p:?}");
+}
+
+#[test]
+fn edge_aware_rejects_history_where_there_is_no_edge() {
+    // A smooth ramp: no edge anywhere, so the box shrinks to the current
+    // colour and a stale history is dropped; `clip` keeps some of it.
+    let cur = LinearImage::from_fn(16, 12, |x, _| [1.0 + 0.001 * x as f64; 3]);
+    let hist = LinearImage::from_fn(16, 12, |x, _| [1.0 + 0.001 * x as f64 + 0.0015; 3]);
+    let frame = TaaFrame {
+        history: Some(&hist),
+        reprojection: still(),
+    };
+    let s = super::super::taa_sobel::taa_sobel(&cur);
+    let edge = taa(
+        &cur,
+        Some(&s),
+        &frame,
+        &camera(),
+        &params(TaaVariant::EdgeAware),
+    );
+    let clip = taa(&cur, None, &frame, &camera(), &params(TaaVariant::Clip));
+    let (e, c, now) = (
+        edge.history.get(8, 6)[0],
+        clip.history.get(8, 6)[0],
+        cur.get(8, 6)[0],
+    );
+    assert!(
+        (e - now).abs() < (c - now).abs(),
+        "edge-aware {e}, clip {c}, current {now}"
+    );
+}
+
+#[test]
+fn history_off_the_film_is_rejected() {
+    let cam = camera();
+    let cur = LinearImage::filled(16, 12, [1.0; 3]);
+    // A coloured history: clipped toward the grey box centre, it cannot
+    // land on the current grey value.
+    let hist = LinearImage::filled(16, 12, [3.0, 0.0, 3.0]);
+    // A large turn about x: the top rows saw the sphere above the film.
+    let m = reprojection(
+        &rotation_matrix([1.0, 0.0, 0.0], 0.0),
+        &rotation_matrix([1.0, 0.0, 0.0], 0.5),
+    );
+    let mut p = params(TaaVariant::Clip);
+    p.feedback_min = 0.5;
+    // With the box a point at 1.0 the clipped history is 1.0 anyway;
+    // widen it with a checkerboard to see the rejection itself.
+    let cur2 = LinearImage::from_fn(16, 12, |x, y| [((x + y) % 2) as f64 + 0.5; 3]);
+    let out = taa(
+        &cur2,
+        None,
+        &TaaFrame {
+            history: Some(&hist),
+            reprojection: m,
+        },
+        &cam,
+        &p,
+    );
+    let rejected: Vec<bool> = (0..12u32)
+        .map(|j| reproject(&cam, &m, 8, j).is_none())
+        .collect();
+    assert!(rejected.iter().any(|&r| r) && rejected.iter().any(|&r| !r));
+    for (j, r) in rejected.iter().enumerate() {
+        let got = out.history.get(8, j as u32);
+        let now = cur2.get(8, j as u32);
+        assert_eq!(got == now, *r, "row {j}: {got:?} vs {now:?}");
+    }
+    let _ = cur;
+}
+
+#[test]
+fn catmull_rom_reproduces_the_texels_and_a_ramp_and_keeps_an_edge_sharper() {
+    let ramp = LinearImage::from_fn(8, 8, |x, _| [x as f64; 3]);
+    for &(px, py) in &[(3.5, 3.5), (3.25, 4.5), (4.8, 2.2)] {
+        let b = history_at(&ramp, px, py, HistoryFilter::Bilinear)[0];
+        let c = history_at(&ramp, px, py, HistoryFilter::CatmullRom)[0];
+        assert!(
+            (b - (px - 0.5)).abs() < 1e-12 && (c - (px - 0.5)).abs() < 1e-12,
+            "{b} {c}"
+        );
+    }
+    for t in [0.0, 0.3, 0.75] {
+        let w = catmull_rom_weights(t);
+        assert!((w.iter().sum::<f64>() - 1.0).abs() < 1e-15);
+    }
+    // A step between columns 3 and 4, read a quarter texel to either
+    // side of the middle: Catmull-Rom stays nearer the side it is on
+    // (bilinear's 0.25 / 0.75 are a blur), and never below 0.
+    let step = LinearImage::from_fn(8, 8, |x, _| [if x < 4 { 0.0 } else { 1.0 }; 3]);
+    for px in [3.75, 4.25] {
+        let b = history_at(&step, px, 4.5, HistoryFilter::Bilinear)[0];
+        let c = history_at(&step, px, 4.5, HistoryFilter::CatmullRom)[0];
+        assert!(
+            (c - 0.5).abs() > (b - 0.5).abs() && c >= 0.0,
+            "bilinear {b}, catmull-rom {c}"
+        );
+    }
+}
+
+#[test]
+fn sharpen_at_strength_one_is_the_seed_kernel_and_a_quarter_the_normalised_one() {
+    let b = LinearImage::from_fn(5, 5, |x, y| [(x * 3 + y * 7 % 5) as f64 + 1.0; 3]);
+    let s1 = sharpen(&b, 1.0);
+    let q = sharpen(&b, 0.25);
+    let (c, n, s, e, w) = (
+        b.get(2, 2)[0],
+        b.get(2, 1)[0],
+        b.get(2, 3)[0],
+        b.get(3, 2)[0],
+        b.get(1, 2)[0],
+    );
+    let (lo, hi) = (c.min(n).min(s).min(e).min(w), c.max(n).max(s).max(e).max(w));
+    assert_eq!(s1.get(2, 2)[0], (5.0 * c - n - s - e - w).clamp(lo, hi));
+    assert!((q.get(2, 2)[0] - (2.0 * c - 0.25 * (n + s + e + w)).clamp(lo, hi)).abs() < 1e-12);
+    // A bright line among dark pixels: the full kernel would give the
+    // dark neighbour 0.1·5 − 10 < 0; the limit keeps it at its own range.
+    let line = LinearImage::from_fn(5, 5, |x, _| [if x == 2 { 10.0 } else { 0.1 }; 3]);
+    let out = sharpen(&line, 1.0);
+    assert_eq!(out.get(1, 2)[0], 0.1);
+    assert_eq!(out.get(2, 2)[0], 10.0);
+}

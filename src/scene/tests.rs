@@ -1,0 +1,226 @@
+use super::*;
+use crate::check::Check;
+
+const MINIMAL: &str = r#"
+name = "t"
+size = [32, 18]
+frames = 2
+[environment]
+builtin = "sky"
+size = [64, 32]
+[rotation]
+degrees_per_frame = 5.0
+"#;
+
+fn parse(text: &str) -> Result<Scene, SceneError> {
+    Scene::parse(text, Path::new("scene.toml"))
+}
+
+#[test]
+fn minimal_scene_takes_defaults() {
+    let s = parse(MINIMAL).unwrap();
+    assert_eq!(s.operator, Operator::default());
+    assert_eq!(s.reference_spp, 16);
+    assert_eq!(s.fov_y, 60.0);
+    assert_eq!(s.rotation.axis, [1.0, 0.0, 0.0]);
+    assert_eq!(s.encoding, Encoding::Srgb);
+}
+
+#[test]
+fn unknown_key_names_key_file_and_line() {
+    let text = MINIMAL.replace("frames = 2", "frames = 2\nfrobnicate = 1");
+    let e = parse(&text).unwrap_err().to_string();
+    assert!(
+        e.contains("scene.toml") && e.contains("frobnicate") && e.contains("line 5"),
+        "{e}"
+    );
+}
+
+#[test]
+fn unknown_key_in_operator_is_refused() {
+    let text = format!("{MINIMAL}\n[operator]\nkind = \"seed000\"\nkee = 0.2\n");
+    let e = parse(&text).unwrap_err().to_string();
+    assert!(e.contains("kee") && e.contains("line"), "{e}");
+}
+
+#[test]
+fn out_of_range_values_name_their_line() {
+    let text = format!("{MINIMAL}\n[operator]\nkind = \"reinhard02\"\nkey = -1.0\n");
+    let e = parse(&text).unwrap_err().to_string();
+    assert!(
+        e.contains("must be a finite number > 0") && e.contains("line 13"),
+        "{e}"
+    );
+    let text = MINIMAL.replace("size = [32, 18]", "size = [0, 18]");
+    let e = parse(&text).unwrap_err().to_string();
+    assert!(e.contains("at least 1x1") && e.contains("line 3"), "{e}");
+    let text = MINIMAL.replace("frames = 2", "frames = 0");
+    let e = parse(&text).unwrap_err().to_string();
+    assert!(e.contains("frames") && e.contains("line 4"), "{e}");
+    let text = format!("{MINIMAL}\n[operator]\nkind = \"seed000\"\nwhite_fraction = 1.5\n");
+    assert!(parse(&text)
+        .unwrap_err()
+        .to_string()
+        .contains("white_fraction"));
+    let text = format!("{MINIMAL}\n[operator]\nkind = \"seed001\"\nwhite = 2.0\n");
+    let e = parse(&text).unwrap_err().to_string();
+    assert!(
+        e.contains("white: applies to operator reinhard02 only, not reinhard-auto-key")
+            && e.contains("line 11"),
+        "{e}"
+    );
+    let text = format!("{MINIMAL}\n[operator]\nkind = \"seed000\"\nkey = \"auto\"\n");
+    assert!(parse(&text)
+        .unwrap_err()
+        .to_string()
+        .contains("needs a number"));
+}
+
+#[test]
+fn absurd_output_size_is_refused() {
+    let text = MINIMAL.replace("size = [32, 18]", "size = [100000, 100000]");
+    assert!(parse(&text)
+        .unwrap_err()
+        .to_string()
+        .contains("exceeds the limit"));
+}
+
+#[test]
+fn operator_variants_and_auto_key_parse() {
+    let text =
+        format!("{MINIMAL}\n[operator]\nkind = \"seed001\"\nkey = \"auto\"\ncolour = \"xyy\"\n");
+    let s = parse(&text).unwrap();
+    assert_eq!(
+        s.operator,
+        Operator::ReinhardAutoKey {
+            key: Key::Auto,
+            colour: ColourPath::Xyy
+        }
+    );
+    let text = format!("{MINIMAL}\n[operator]\nkind = \"seed001\"\nkey = 0.3\n");
+    let s = parse(&text).unwrap();
+    assert!(
+        matches!(s.operator, Operator::ReinhardAutoKey { key: Key::Fixed(k), .. } if k.get() == 0.3)
+    );
+}
+
+/// Scene files written with the operators' and the bright pass's first
+/// names (after the papers they came from) still parse, to the same
+/// operator; a scene is written back with the names that say what it is.
+#[test]
+fn the_first_names_of_operators_and_bright_passes_still_parse() {
+    let bloom = "[bloom]\nbright_pass = \"BP\"\nthreshold = 1.0\nsigma = 1.5\nstrength = 0.5\n";
+    for (old, new) in [
+        ("seed000", "reinhard-global"),
+        ("seed001", "reinhard-auto-key"),
+    ] {
+        let scene = |kind: &str, pass: &str| {
+            let text = format!(
+                "{MINIMAL}\n[operator]\nkind = \"{kind}\"\n{}",
+                bloom.replace("BP", pass)
+            );
+            parse(&text).unwrap_or_else(|e| panic!("{kind}: {e}"))
+        };
+        let (a, b) = (scene(old, "seed001"), scene(new, "scaled"));
+        assert_eq!(a.operator, b.operator, "{old} and {new}");
+        assert_eq!(a.bloom, b.bloom, "{old}'s bloom");
+        assert_eq!(a.hash(), b.hash(), "{old}: the same scene");
+        let written = toml::to_string(&a).unwrap();
+        assert!(
+            written.contains(&format!("kind = \"{new}\""))
+                && written.contains("bright_pass = \"scaled\""),
+            "{written}"
+        );
+    }
+}
+
+#[test]
+fn checks_parse_with_adapter_overrides() {
+    let text = format!(
+            "{MINIMAL}\n[[checks]]\nmin_psnr = 30.0\n[[checks]]\nmin_ssim = 0.9\nadapter = \"llvmpipe\"\nset_by = \"measured\"\n[[checks]]\nmax_fraction_over = {{ lsb = 1, fraction = 0.01 }}\n"
+        );
+    let s = parse(&text).unwrap();
+    assert_eq!(s.checks.len(), 3);
+    assert_eq!(s.checks[0].check, Check::MinPsnr(30.0));
+    assert_eq!(s.checks[1].adapter.as_deref(), Some("llvmpipe"));
+}
+
+#[test]
+fn the_mean_abs_diff_check_parses_and_refuses_a_negative_bound() {
+    let text = format!("{MINIMAL}\n[[checks]]\nmax_mean_abs_diff = 0.25\n");
+    let s = parse(&text).unwrap();
+    assert_eq!(s.checks[0].check, Check::MaxMeanAbsDiff(0.25));
+    let text = format!("{MINIMAL}\n[[checks]]\nmax_mean_abs_diff = -1.0\n");
+    let e = parse(&text).unwrap_err().to_string();
+    assert!(
+        e.contains("bound out of range") && e.contains("checks"),
+        "{e}"
+    );
+}
+
+#[test]
+fn taa_keys_parse_and_bad_values_name_their_key() {
+    let text =
+        format!("{MINIMAL}\n[taa]\nvariant = \"edge_aware\"\nsharpen = 0.25\nreset_frames = [1]\n");
+    let s = parse(&text).unwrap();
+    let t = s.taa_active().unwrap();
+    assert_eq!(t.variant, TaaVariant::EdgeAware);
+    assert_eq!((t.feedback_min.get(), t.feedback_max.get()), (0.88, 0.97));
+    assert!(t.resets_at(0) && t.resets_at(1));
+    assert_eq!(s.default_spp(), 1);
+    let off = parse(&format!("{MINIMAL}\n[taa]\nvariant = \"off\"\n")).unwrap();
+    assert!(off.taa_active().is_none() && off.default_spp() == 1);
+    assert_eq!(parse(MINIMAL).unwrap().default_spp(), 16);
+    for (extra, needle) in [
+        ("variant = \"fxaa\"", "fxaa"),
+        ("feedback_max = 1.0", "feedback_max"),
+        ("sharpen = 2.0", "sharpen"),
+        ("feedback_min = 0.99", "feedback_min 0.99 exceeds"),
+        ("reset_frames = [2]", "past the sequence's last frame 1"),
+        ("jitter = 8", "jitter"),
+    ] {
+        let e = parse(&format!("{MINIMAL}\n[taa]\n{extra}\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(needle) && e.contains("line"), "{extra}: {e}");
+    }
+    let one = MINIMAL.replace("frames = 2", "frames = 2\nreference_spp = 1");
+    let e = parse(&format!("{one}\n[taa]\n")).unwrap_err().to_string();
+    assert!(
+        e.contains("reference_spp") && e.contains("at least 2"),
+        "{e}"
+    );
+}
+
+#[test]
+fn hash_ignores_formatting_but_not_parameters() {
+    let a = parse(MINIMAL).unwrap();
+    let b = parse(&MINIMAL.replace("frames = 2", "frames   =   2 # two")).unwrap();
+    let c = parse(&MINIMAL.replace("frames = 2", "frames = 3")).unwrap();
+    assert_eq!(a.hash(), b.hash());
+    assert_ne!(a.hash(), c.hash());
+}
+
+#[test]
+fn environment_needs_exactly_one_source() {
+    let text = MINIMAL.replace("builtin = \"sky\"", "");
+    assert!(parse(&text)
+        .unwrap_err()
+        .to_string()
+        .contains("exactly one"));
+    let text = MINIMAL.replace("builtin = \"sky\"", "builtin = \"moon\"");
+    assert!(parse(&text).unwrap_err().to_string().contains("moon"));
+}
+
+#[test]
+fn size_parses_from_command_line_form() {
+    assert_eq!(
+        "320x180".parse::<Size>(),
+        Ok(Size {
+            width: 320,
+            height: 180
+        })
+    );
+    assert!("320".parse::<Size>().is_err());
+    assert!("0x5".parse::<Size>().is_err());
+}
