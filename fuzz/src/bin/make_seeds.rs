@@ -139,13 +139,13 @@ fn main() {
                 .unwrap()
                 .pipeline(),
             None,
-            false,
+            tonegate::toning::OutputKind::Encoded,
         )
         .unwrap();
         put(
             "png",
             &format!("{n}.png"),
-            &tonegate::io::encode_png8(ldr.frame.as_ref().unwrap()).unwrap(),
+            &tonegate::io::encode_png8(ldr.image.encoded().unwrap()).unwrap(),
         );
     }
     let (_, sky) = &envs[0];
@@ -202,12 +202,12 @@ fn main() {
         b"scenes = [\"scenes/grid-static.toml\"]\nstress = false\n[performance]\nwindow = 5\nmin_runs = 2\nmads = 3.0\nmin_relative = 0.2\nfail_on_regression = true\n",
     );
     for (i, q) in [
-        "gpu=false&operator=seed000&key=0.18&white_fraction=0.8",
+        "gpu=false&operator=reinhard-global&key=0.18&white_fraction=0.8",
         "operator=seed001&key=auto&bloom=0.5&bloom_pass=threshold&bloom_threshold=1.5",
         "operator=reinhard02&white=40&log_average=0.2&colour=xyy&gamma=2.2",
         "preset=reinhard02&key=0.3&format=json&sanitize=true",
         "brightness=1.2&contrast=0.9&saturation=1.1&bloom_downsample=4&bloom_radius=8&bloom_sigma=2",
-        "gpu=true\noperator=seed001\nbloom=0.25",
+        "gpu=true\noperator=reinhard-auto-key\nbloom=0.25",
     ]
     .iter()
     .enumerate()
