@@ -8,7 +8,8 @@
 //! as a client sees it: median and p95 of 30 after 3 warm-ups.
 //!
 //! `cargo bench --bench history` (`-- --runs N` for another size); under
-//! `cargo test` it runs at 200 runs as a smoke test.
+//! `cargo test --benches` it runs at 200 runs as a smoke test (the test
+//! command, ci/test.sh, builds no bench).
 
 #[path = "../tests/it/common/postgres.rs"]
 mod pg;
@@ -225,8 +226,8 @@ fn main() {
         .and_then(|i| args.get(i + 1))
         .and_then(|v| v.parse().ok())
         .unwrap_or(10_000);
-    // `cargo bench` passes --bench; `cargo test --all-targets` runs this
-    // binary without it: then a smoke run at 200 runs, so CI keeps it working.
+    // `cargo bench` passes --bench; `cargo test --benches` runs this
+    // binary without it: then a smoke run at 200 runs.
     let runs = if args.iter().any(|a| a == "--bench") {
         runs
     } else {
