@@ -103,28 +103,26 @@ pub enum TonedImage<'i> {
 impl TonedImage<'_> {
     /// Writes the image to `path` in the format its extension names.
     pub fn write(&self, path: &Path) -> Result<()> {
-        let pfm = OutputKind::of_path(path)? == OutputKind::Linear
-            && path
-                .extension()
-                .is_some_and(|e| e.eq_ignore_ascii_case("pfm"));
-        match self {
-            TonedImage::Encoded(frame) => match OutputKind::of_path(path)? {
-                OutputKind::Encoded => Ok(crate::io::write_png8(path, frame)?),
-                OutputKind::Linear => Err(self.wrong_kind(path)),
-            },
-            TonedImage::Linear(img) => match OutputKind::of_path(path)? {
-                OutputKind::Linear => Ok(crate::io::write_image_hdr(path, img)?),
-                OutputKind::Encoded => Err(self.wrong_kind(path)),
-            },
-            TonedImage::Mapped { tone, input } if pfm => {
+        let kind = OutputKind::of_path(path)?;
+        let pfm = path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("pfm"));
+        match (self, kind) {
+            (TonedImage::Encoded(frame), OutputKind::Encoded) => {
+                Ok(crate::io::write_png8(path, frame)?)
+            }
+            (TonedImage::Linear(img), OutputKind::Linear) => {
+                Ok(crate::io::write_image_hdr(path, img)?)
+            }
+            // A PFM streams the pixelwise display values a band at a time.
+            (TonedImage::Mapped { tone, input }, OutputKind::Linear) if pfm => {
                 Ok(crate::io::write_pfm_mapped(path, input, |c| tone.map(c))?)
             }
-            TonedImage::Mapped { .. } => match (OutputKind::of_path(path)?, self.linear()) {
-                (OutputKind::Linear, Some(display)) => {
-                    Ok(crate::io::write_image_hdr(path, &display)?)
-                }
-                _ => Err(self.wrong_kind(path)),
+            (TonedImage::Mapped { .. }, OutputKind::Linear) => match self.linear() {
+                Some(display) => Ok(crate::io::write_image_hdr(path, &display)?),
+                None => Err(self.wrong_kind(path)),
             },
+            _ => Err(self.wrong_kind(path)),
         }
     }
 
