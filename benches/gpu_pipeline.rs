@@ -18,7 +18,7 @@ use tonegate::gpu::{AdapterChoice, Execution, GpuConfig, GpuContext};
 use tonegate::scene::{HistoryFilter, TaaVariant};
 
 fn full_plan(c: &mut Criterion) {
-    let ctx = match GpuContext::new(&AdapterChoice::Default) {
+    let ctx = match GpuContext::new(&AdapterChoice::default()) {
         Ok(ctx) => ctx,
         Err(e) => panic!("{e}"),
     };
@@ -53,7 +53,7 @@ fn full_plan(c: &mut Criterion) {
 fn kept_renderers(c: &mut Criterion) {
     use tonegate::gpu::RendererPool;
     use tonegate::toning::{tone_map_until, OutputKind, ToneSettings};
-    let ctx = GpuContext::new(&AdapterChoice::Default).unwrap_or_else(|e| panic!("{e}"));
+    let ctx = GpuContext::new(&AdapterChoice::default()).unwrap_or_else(|e| panic!("{e}"));
     let settings = ToneSettings {
         bloom: 0.04,
         ..Default::default()

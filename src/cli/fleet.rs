@@ -86,7 +86,7 @@ pub fn runner(a: RunnerArgs) -> Result<ExitCode> {
     let opts = RunnerOptions {
         db: a.db.db.clone(),
         name: a.name.clone(),
-        adapter: a.gpu.adapter.clone(),
+        adapter: a.gpu.adapter(),
         gpu_config: a.gpu.config(),
         cpu: a.cpu,
         labels: a.labels.clone(),

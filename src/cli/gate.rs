@@ -122,7 +122,7 @@ pub fn check(a: CheckArgs) -> Result<ExitCode> {
         config.fault_gain = a.fault_gain;
         config.taa_fault = a.taa_fault;
         Renderer::Gpu {
-            adapter: a.gpu.adapter.clone(),
+            adapter: a.gpu.adapter(),
             config,
         }
     };
@@ -136,6 +136,12 @@ pub fn check(a: CheckArgs) -> Result<ExitCode> {
         scenes: a.scenes.clone(),
     };
     let outcome = tonegate::gate::run(&opts, &Bar::new());
+    if tonegate::gpu::validation::requested() && !a.cpu {
+        let (errors, warnings) = tonegate::gpu::validation::seen();
+        eprintln!(
+            "validation layer (WGPU_VALIDATION): {errors} error(s), {warnings} warning(s) reported"
+        );
+    }
     match &outcome {
         CheckOutcome::Finished(report) => {
             let text = tonegate::gate::console::render(report);

@@ -160,7 +160,7 @@ pub fn tonemap(a: TonemapArgs) -> Result<ExitCode> {
     };
     let (img, load_report) = tonegate::io::load_hdr(&a.input, &opts)?;
     let ctx = if a.gpu {
-        Some(GpuContext::new(&a.gpu_options.adapter)?)
+        Some(GpuContext::new(&a.gpu_options.adapter())?)
     } else {
         None
     };
@@ -206,7 +206,7 @@ pub fn tonemap(a: TonemapArgs) -> Result<ExitCode> {
 }
 
 pub fn bench(a: BenchArgs) -> Result<ExitCode> {
-    let ctx = GpuContext::new(&a.gpu.adapter)?;
+    let ctx = GpuContext::new(&a.gpu.adapter())?;
     if a.frames == 0 {
         return Err(invalid("--frames must be at least 1"));
     }
@@ -416,7 +416,7 @@ pub fn render(a: RenderArgs) -> Result<ExitCode> {
     let ctx = if a.cpu {
         None
     } else {
-        Some(GpuContext::new(&a.gpu.adapter)?)
+        Some(GpuContext::new(&a.gpu.adapter())?)
     };
     let renderer = match &ctx {
         None => SceneRenderer::cpu(&scene, &env, spp),

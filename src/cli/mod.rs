@@ -9,8 +9,11 @@ use serde::de::DeserializeOwned;
 use std::path::Path;
 use std::process::ExitCode;
 use tonegate::error::{Error, Result};
-use tonegate::gpu::{AdapterChoice, EnvFilter, Execution, GpuConfig, HdrFormat, ReductionMethod};
+use tonegate::gpu::{
+    AdapterChoice, BackendChoice, EnvFilter, Execution, GpuConfig, HdrFormat, ReductionMethod,
+};
 
+mod adapters;
 mod fleet;
 mod gate;
 mod golden;
@@ -66,6 +69,8 @@ pub enum Command {
     Enqueue(fleet::EnqueueArgs),
     /// Print the fleet: runners (adapter, labels, heartbeat, job) and the queue.
     Fleet(fleet::FleetArgs),
+    /// List every adapter on every backend: name, backend, type, driver, limits, features, and whether it flushes subnormals (measured).
+    Adapters(adapters::AdaptersArgs),
 }
 
 /// Parses a knob by its serde name (the words reports and the API use), so
@@ -78,9 +83,11 @@ fn by_name<T: DeserializeOwned>(s: &str) -> std::result::Result<T, String> {
 /// The GPU knobs shared by every GPU command.
 #[derive(Args, Clone)]
 pub struct GpuArgs {
-    /// Adapter: "default" (lavapipe/llvmpipe when present, for reproducible results, else the first), "hardware" (the best GPU: discrete, integrated, virtual), "any" (the first), or a name substring. Reports say which was chosen and why.
-    #[arg(long, default_value = "default")]
-    pub adapter: AdapterChoice,
+    /// Adapter: "default" (lavapipe/llvmpipe when present, for reproducible results, else the first), "hardware" (the best GPU: discrete, integrated, virtual), "any" (the first), or a name substring ("swiftshader" finds Chromium's SwiftShader without VK_ICD_FILENAMES); "gl:llvmpipe" names the backend too. Reports say which was chosen and why. `tonegate adapters` lists them.
+    #[arg(long = "adapter", id = "adapter", default_value = "default")]
+    pub adapter_choice: AdapterChoice,
+    #[command(flatten)]
+    pub backend: BackendArg,
     /// HDR intermediates: rgba32float (f32) or rgba16float (f16).
     #[arg(long, default_value = "rgba32float", value_parser = by_name::<HdrFormat>)]
     pub hdr_format: HdrFormat,
@@ -95,7 +102,34 @@ pub struct GpuArgs {
     pub execution: Execution,
 }
 
+/// `--backend`, for every command that opens an adapter.
+#[derive(Args, Clone)]
+pub struct BackendArg {
+    /// Graphics API: vulkan, gl (OpenGL through EGL; headless Mesa on Linux), metal, dx12, any, or default (Vulkan where it has an adapter, else any).
+    #[arg(long, value_parser = by_parse::<BackendChoice>)]
+    pub backend: Option<BackendChoice>,
+}
+
+impl BackendArg {
+    /// `choice` on the backend this flag names (when it names one).
+    pub fn apply(&self, choice: &AdapterChoice) -> AdapterChoice {
+        match self.backend {
+            Some(b) => choice.clone().on(b),
+            None => choice.clone(),
+        }
+    }
+}
+
+fn by_parse<T: std::str::FromStr<Err = String>>(s: &str) -> std::result::Result<T, String> {
+    s.parse()
+}
+
 impl GpuArgs {
+    /// The adapter asked for, on the backend asked for.
+    pub fn adapter(&self) -> AdapterChoice {
+        self.backend.apply(&self.adapter_choice)
+    }
+
     pub fn config(&self) -> GpuConfig {
         GpuConfig {
             hdr_format: self.hdr_format,
@@ -159,6 +193,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         Command::Runner(a) => fleet::runner(a),
         Command::Enqueue(a) => fleet::enqueue(a),
         Command::Fleet(a) => fleet::fleet(a),
+        Command::Adapters(a) => adapters::adapters(a),
     }
 }
 

@@ -87,7 +87,7 @@ pub fn serve(a: ServeArgs) -> Result<ExitCode> {
         token,
         private_reads: a.private_reads,
         suite: a.suite.clone(),
-        adapter: a.gpu.adapter.clone(),
+        adapter: a.gpu.adapter(),
         gpu_config: a.gpu.config(),
         limits: Limits {
             max_body: a.max_body_mib << 20,
@@ -125,7 +125,7 @@ pub fn serve(a: ServeArgs) -> Result<ExitCode> {
         );
         if a.run_suite {
             let renderer = tonegate::render::Renderer::Gpu {
-                adapter: a.gpu.adapter.clone(),
+                adapter: a.gpu.adapter(),
                 config: a.gpu.config(),
             };
             match tonegate::server::start_run(server.state(), renderer, None).await {

@@ -34,6 +34,8 @@ pub struct TradeoffArgs {
     #[arg(long, default_value = "default")]
     pub adapter: AdapterChoice,
     #[command(flatten)]
+    pub backend: crate::cli::BackendArg,
+    #[command(flatten)]
     pub db: DbArgs,
     #[arg(long)]
     pub no_history: bool,
@@ -106,7 +108,7 @@ fn tradeoff_inner(
     history: Option<&mut History>,
     run: Option<i64>,
 ) -> Result<TradeoffReport> {
-    let ctx = GpuContext::new(&a.adapter)?;
+    let ctx = GpuContext::new(&a.backend.apply(&a.adapter))?;
     if let (Some(h), Some(id)) = (history.as_deref(), run) {
         let ad = &ctx.adapter;
         h.set_adapter(
@@ -266,6 +268,8 @@ pub struct StressArgs {
     /// Adapter: "default" (lavapipe when present), "hardware" (the best GPU), "any", or a name substring.
     #[arg(long, default_value = "default")]
     pub adapter: AdapterChoice,
+    #[command(flatten)]
+    pub backend: crate::cli::BackendArg,
     /// Luminance reduction on the GPU: auto (block on a CPU adapter, subgroup or tree on a GPU), block, pingpong, tree or subgroup.
     #[arg(long, default_value = "auto", value_parser = crate::cli::by_name::<tonegate::gpu::ReductionMethod>)]
     pub reduction: tonegate::gpu::ReductionMethod,
@@ -286,7 +290,7 @@ pub fn stress(a: StressArgs) -> Result<ExitCode> {
     let ctx = if a.cpu_only {
         None
     } else {
-        Some(GpuContext::new(&a.adapter)?)
+        Some(GpuContext::new(&a.backend.apply(&a.adapter))?)
     };
     let report = tonegate::stress::run(&cases, ctx.as_ref(), a.reduction);
     if a.json {

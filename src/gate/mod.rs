@@ -85,6 +85,9 @@ pub struct AdapterInfo {
     pub driver_info: String,
     /// Why this adapter was tested (see `gpu::choose`).
     pub chosen: String,
+    /// Whether it flushes f32 subnormals, as the probe measured (`None`: the
+    /// CPU reference).
+    pub flushes_subnormals: Option<bool>,
 }
 
 /// Everything a check run found; the console, the JSON and the JUnit are
@@ -303,11 +306,16 @@ fn run_inner(
                 driver: a.driver.clone(),
                 driver_info: a.driver_info.clone(),
                 chosen: a.chosen.clone(),
+                flushes_subnormals: a.flushes_subnormals,
             };
             let mut json = serde_json::to_value(config).unwrap_or_default();
             if let Some(o) = json.as_object_mut() {
                 o.insert("spp".into(), spp_json(opts.spp));
                 o.insert("adapter_chosen".into(), a.chosen.clone().into());
+                // Measured by the probe when the device was opened; the
+                // adapter matrix shows it, and the stress exception for
+                // flushed subnormals applies only where it is true.
+                o.insert("flushes_subnormals".into(), a.flushes_subnormals.into());
                 // What `--reduction auto` became on this adapter.
                 o.insert(
                     "reduction_in_effect".into(),
@@ -325,6 +333,7 @@ fn run_inner(
                 driver: "tonegate".into(),
                 driver_info: format!("reference version {}", crate::reference::REFERENCE_VERSION),
                 chosen: "--cpu: the f64 CPU reference, no adapter".into(),
+                flushes_subnormals: None,
             },
             serde_json::json!({ "spp": spp_json(opts.spp) }),
         ),

@@ -1,157 +1,9 @@
-//! Headless wgpu context: adapter choice, device, error capture.
+//! Headless wgpu context: the device on the adapter chosen, its error
+//! capture and pipeline cache.
 
+use super::adapters::{AdapterChoice, AdapterReport};
 use super::GpuError;
-use serde::Serialize;
 use std::sync::{Arc, Mutex};
-
-/// Which adapter to open (`--adapter`).
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
-pub enum AdapterChoice {
-    /// lavapipe/llvmpipe when present, else the first. Chosen as the default
-    /// on purpose: the built-in bounds and the CI runs were measured on it,
-    /// and it gives the same results on every machine, so a gate at defaults
-    /// means the same everywhere. A GPU is tested by asking for it
-    /// (`hardware` or a name), and a run that passes hardware over says so.
-    #[default]
-    Default,
-    /// The best hardware adapter: discrete, else integrated, else virtual.
-    Hardware,
-    /// The first adapter the driver lists.
-    Any,
-    /// The first whose name contains this (case-insensitive).
-    Name(String),
-}
-
-impl std::str::FromStr for AdapterChoice {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        Ok(match s {
-            "" | "default" => AdapterChoice::Default,
-            "hardware" => AdapterChoice::Hardware,
-            "any" => AdapterChoice::Any,
-            name => AdapterChoice::Name(name.to_owned()),
-        })
-    }
-}
-
-/// What every result records about the adapter.
-#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
-pub struct AdapterReport {
-    pub name: String,
-    pub backend: String,
-    pub device_type: String,
-    pub driver: String,
-    pub driver_info: String,
-    /// Whether GPU timestamps could be taken.
-    pub timestamps: bool,
-    /// Why this adapter: what was asked for, and what else was there.
-    #[serde(default)]
-    pub chosen: String,
-}
-
-/// What [`choose`] sees of an adapter.
-#[derive(Clone, Debug)]
-pub struct Candidate {
-    pub name: String,
-    pub device_type: wgpu::DeviceType,
-}
-
-impl Candidate {
-    fn is_software(&self) -> bool {
-        let n = self.name.to_lowercase();
-        self.device_type == wgpu::DeviceType::Cpu
-            || n.contains("llvmpipe")
-            || n.contains("lavapipe")
-    }
-
-    /// Rank among hardware adapters (lower is better); `None` for software.
-    fn hardware_rank(&self) -> Option<u8> {
-        if self.is_software() {
-            return None;
-        }
-        Some(match self.device_type {
-            wgpu::DeviceType::DiscreteGpu => 0,
-            wgpu::DeviceType::IntegratedGpu => 1,
-            wgpu::DeviceType::VirtualGpu => 2,
-            _ => 3,
-        })
-    }
-}
-
-/// Picks the adapter `choice` asks for among `found` (in the driver's
-/// order) and says why, naming the hardware passed over when the default
-/// picks the software rasterizer.
-pub fn choose(choice: &AdapterChoice, found: &[Candidate]) -> Result<(usize, String), GpuError> {
-    if found.is_empty() {
-        return Err(GpuError::NoAdapter);
-    }
-    let names = || {
-        found
-            .iter()
-            .map(|c| c.name.as_str())
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
-    let hardware: Vec<usize> = (0..found.len())
-        .filter(|&i| found[i].hardware_rank().is_some())
-        .collect();
-    let best_hardware = hardware
-        .iter()
-        .copied()
-        .min_by_key(|&i| found[i].hardware_rank());
-    Ok(match choice {
-        AdapterChoice::Default => match found.iter().position(Candidate::is_software) {
-            Some(i) if hardware.is_empty() => (
-                i,
-                "default: the software rasterizer (reproducible; the built-in bounds were measured on it); no hardware adapter found".into(),
-            ),
-            Some(i) => (
-                i,
-                format!(
-                    "default: the software rasterizer (reproducible; the built-in bounds were measured on it); hardware present but not tested: {}; use --adapter hardware or a name to test it",
-                    hardware
-                        .iter()
-                        .map(|&h| found[h].name.as_str())
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                ),
-            ),
-            None => (
-                0,
-                format!("default: no software rasterizer, so the first adapter listed (of {})", names()),
-            ),
-        },
-        AdapterChoice::Hardware => {
-            let i = best_hardware.ok_or_else(|| GpuError::AdapterNotFound {
-                wanted: "hardware".into(),
-                available: names(),
-            })?;
-            (
-                i,
-                format!(
-                    "--adapter hardware: the best hardware adapter ({:?}) of {}",
-                    found[i].device_type,
-                    names()
-                ),
-            )
-        }
-        AdapterChoice::Any => (0, format!("--adapter any: the first listed of {}", names())),
-        AdapterChoice::Name(name) => {
-            let wanted = name.to_lowercase();
-            let i = found
-                .iter()
-                .position(|c| c.name.to_lowercase().contains(&wanted))
-                .ok_or_else(|| GpuError::AdapterNotFound {
-                    wanted: name.clone(),
-                    available: names(),
-                })?;
-            (
-                i,
-                format!("--adapter {name:?}: the first of {} whose name contains it", names()),
-            )
-        }
-    })
-}
 
 /// An open device plus the errors wgpu reports asynchronously.
 pub struct GpuContext {
@@ -194,22 +46,20 @@ const PIPELINE_CACHE_LIMIT: usize = 256;
 impl GpuContext {
     /// Opens the adapter `choice` selects, with timestamp queries when it has them.
     pub fn new(choice: &AdapterChoice) -> Result<GpuContext, GpuError> {
-        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
-        desc.backends = wgpu::Backends::VULKAN;
-        let instance = wgpu::Instance::new(desc);
-        let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN));
-        let found: Vec<Candidate> = adapters
-            .iter()
-            .map(|a| {
-                let info = a.get_info();
-                Candidate {
-                    name: info.name,
-                    device_type: info.device_type,
-                }
-            })
-            .collect();
-        let (pick, chosen) = choose(choice, &found)?;
-        let adapter = &adapters[pick];
+        let (adapter, chosen) = super::adapters::select(choice)?;
+        let ctx = GpuContext::open(&adapter, chosen)?;
+        if super::validation::requested() && super::validation::layer_missing() {
+            return Err(GpuError::Device {
+                adapter: ctx.adapter.name,
+                detail: "WGPU_VALIDATION is set, but the validation layer is not installed (Debian: apt-get install vulkan-validationlayers)".into(),
+            });
+        }
+        Ok(ctx)
+    }
+
+    /// Opens a device on `adapter` (`chosen` says why it was picked) and
+    /// measures whether it flushes subnormals.
+    pub fn open(adapter: &wgpu::Adapter, chosen: String) -> Result<GpuContext, GpuError> {
         let info = adapter.get_info();
         let wanted = wgpu::Features::TIMESTAMP_QUERY
             | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS
@@ -246,6 +96,12 @@ impl GpuContext {
                 v.push(GpuError::DeviceLost(format!("{reason:?}: {message}")));
             }
         });
+        let flushes = super::probe::flushes_subnormals(&device, &queue).map_err(|detail| {
+            GpuError::Device {
+                adapter: info.name.clone(),
+                detail: format!("the subnormal probe failed: {detail}"),
+            }
+        })?;
         Ok(GpuContext {
             cpu_adapter: info.device_type == wgpu::DeviceType::Cpu,
             subgroups: features.contains(wgpu::Features::SUBGROUP),
@@ -261,6 +117,7 @@ impl GpuContext {
                 driver: info.driver.clone(),
                 driver_info: info.driver_info.clone(),
                 timestamps,
+                flushes_subnormals: Some(flushes),
                 chosen,
             },
             errors,
@@ -278,6 +135,9 @@ impl GpuContext {
 
     /// The first error wgpu reported since the last call, if any.
     pub fn take_error(&self) -> Result<(), GpuError> {
+        if let Some(e) = super::validation::take_first_error() {
+            return Err(GpuError::LayerError(e));
+        }
         let mut v = self
             .errors
             .lock()
@@ -390,64 +250,5 @@ impl GpuContext {
             .to_vec();
         buffer.unmap();
         Ok(bytes)
-    }
-}
-
-#[cfg(test)]
-mod choice_tests {
-    use super::*;
-    use wgpu::DeviceType::{Cpu, DiscreteGpu, IntegratedGpu};
-
-    fn found(list: &[(&str, wgpu::DeviceType)]) -> Vec<Candidate> {
-        list.iter()
-            .map(|&(name, device_type)| Candidate {
-                name: name.into(),
-                device_type,
-            })
-            .collect()
-    }
-
-    #[test]
-    fn the_default_is_the_software_rasterizer_and_names_the_hardware_it_skips() {
-        let f = found(&[
-            ("Intel(R) UHD 770", IntegratedGpu),
-            ("NVIDIA H100 80GB HBM3", DiscreteGpu),
-            ("llvmpipe (LLVM 15.0.6, 256 bits)", Cpu),
-        ]);
-        let (i, why) = choose(&AdapterChoice::Default, &f).unwrap();
-        assert_eq!(i, 2);
-        assert!(
-            why.contains("NVIDIA H100") && why.contains("Intel"),
-            "{why}"
-        );
-        assert!(why.contains("--adapter hardware"), "{why}");
-
-        let (i, why) = choose(&AdapterChoice::Hardware, &f).unwrap();
-        assert_eq!(i, 1, "discrete before integrated: {why}");
-        let (i, _) = choose(&AdapterChoice::Name("intel".into()), &f).unwrap();
-        assert_eq!(i, 0);
-        let (i, _) = choose(&AdapterChoice::Any, &f).unwrap();
-        assert_eq!(i, 0);
-    }
-
-    #[test]
-    fn only_software_or_only_hardware() {
-        let soft = found(&[("llvmpipe (LLVM 15.0.6, 256 bits)", Cpu)]);
-        let (i, why) = choose(&AdapterChoice::Default, &soft).unwrap();
-        assert_eq!(i, 0);
-        assert!(why.contains("no hardware adapter found"), "{why}");
-        let e = choose(&AdapterChoice::Hardware, &soft).unwrap_err();
-        assert!(e.to_string().contains("llvmpipe"), "{e}");
-
-        let hard = found(&[("AMD Radeon", IntegratedGpu), ("NVIDIA", DiscreteGpu)]);
-        let (i, why) = choose(&AdapterChoice::Default, &hard).unwrap();
-        assert_eq!(i, 0);
-        assert!(why.contains("no software rasterizer"), "{why}");
-        assert!(matches!(
-            choose(&AdapterChoice::Default, &[]),
-            Err(GpuError::NoAdapter)
-        ));
-        let e = choose(&AdapterChoice::Name("quadro".into()), &hard).unwrap_err();
-        assert!(e.to_string().contains("AMD Radeon, NVIDIA"), "{e}");
     }
 }

@@ -2,21 +2,25 @@
 //! timed with GPU timestamps. Stage names match the WGSL files, the CPU
 //! reference functions and the pipeline labels (`tonegate.<stage>`).
 
+pub mod adapters;
 pub mod bench;
 pub mod config;
 pub mod context;
+pub mod listing;
 pub mod pool;
 pub mod readback;
 pub mod renderer;
 pub mod shaders;
 pub mod stages;
 pub mod timing;
+pub mod validation;
 mod wiring;
 
+pub use adapters::{choose, AdapterChoice, AdapterPick, AdapterReport, BackendChoice, Candidate};
 pub use config::{
     AdapterTraits, EnvFilter, Execution, GpuConfig, HdrFormat, ReductionMethod, TaaFault, F16_MAX,
 };
-pub use context::{choose, AdapterChoice, AdapterReport, Candidate, GpuContext};
+pub use context::GpuContext;
 pub use luminance_stats::GpuStats;
 pub use pool::{size_class, RendererPool};
 pub use readback::{GpuFrame, Ticket, FRAMES_IN_FLIGHT};
@@ -32,8 +36,8 @@ pub enum GpuError {
         feature: &'static str,
         what: &'static str,
     },
-    /// No adapter at all: the Vulkan driver is missing.
-    #[error("no GPU adapter found (Vulkan): install mesa-vulkan-drivers for lavapipe, e.g. `apt-get install mesa-vulkan-drivers`")]
+    /// No adapter at all: the driver is missing.
+    #[error("no GPU adapter found on the backend asked for: install mesa-vulkan-drivers for lavapipe (Vulkan), e.g. `apt-get install mesa-vulkan-drivers`, or libegl-mesa0 for llvmpipe on GL; `tonegate adapters` lists what there is")]
     NoAdapter,
     /// `--adapter NAME` matched nothing.
     #[error("no adapter matches {wanted:?}; available: {available}")]
@@ -72,6 +76,9 @@ pub enum GpuError {
     /// A wgpu validation error: a bug in tonegate, reported rather than panicking.
     #[error("GPU validation error (a tonegate bug, please report): {0}")]
     Validation(String),
+    /// The driver's validation layer reported an error (`WGPU_VALIDATION=1`).
+    #[error("validation layer error (a tonegate bug, please report): {0}")]
+    LayerError(String),
     /// Reading results back failed.
     #[error("GPU readback failed: {0}")]
     Readback(String),
@@ -88,6 +95,7 @@ mod grade;
 mod grade_stats;
 mod inspect;
 mod luminance_stats;
+mod probe;
 pub mod sphere;
 mod taa;
 mod taa_sobel;

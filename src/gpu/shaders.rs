@@ -87,6 +87,10 @@ const SOURCES: &[(&str, &str)] = &[
     ("taa.wgsl", include_str!("../../shaders/taa.wgsl")),
     ("floor.wgsl", include_str!("../../shaders/floor.wgsl")),
     ("fused.wgsl", include_str!("../../shaders/fused.wgsl")),
+    (
+        "subnormal_probe.wgsl",
+        include_str!("../../shaders/subnormal_probe.wgsl"),
+    ),
 ];
 
 /// The stage shaders (not the shared files).

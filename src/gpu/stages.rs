@@ -327,7 +327,7 @@ mod tests {
 
     #[test]
     fn a_context_compiles_each_pipeline_variant_once() {
-        let ctx = GpuContext::new(&crate::gpu::AdapterChoice::Default).expect("lavapipe");
+        let ctx = GpuContext::new(&crate::gpu::AdapterChoice::default()).expect("lavapipe");
         let a = pipeline(&ctx, "floor", "main", HdrFormat::Rgba32Float, &[]);
         let b = pipeline(&ctx, "floor", "main", HdrFormat::Rgba32Float, &[]);
         assert_eq!(a, b, "the second call is served from the cache");

@@ -20,7 +20,7 @@ use tonegate::scene::Scene;
 use tonegate::suite::load_suite;
 
 fn context() -> GpuContext {
-    GpuContext::new(&AdapterChoice::Default)
+    GpuContext::new(&AdapterChoice::default())
         .unwrap_or_else(|e| panic!("{e}\n(ci/test.sh installs mesa-vulkan-drivers; run it once)"))
 }
 

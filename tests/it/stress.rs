@@ -8,7 +8,7 @@ use tonegate::stress::{self, Row, StressReport};
 fn report() -> &'static StressReport {
     static REPORT: std::sync::OnceLock<StressReport> = std::sync::OnceLock::new();
     REPORT.get_or_init(|| {
-        let ctx = GpuContext::new(&AdapterChoice::Default)
+        let ctx = GpuContext::new(&AdapterChoice::default())
             .expect("lavapipe (mesa-vulkan-drivers) is installed");
         stress::run(&stress::cases::all(true), Some(&ctx), ReductionMethod::Auto)
     })
@@ -145,7 +145,7 @@ fn the_independent_statistics_catch_a_wrong_sum() {
 /// llvmpipe (which has subgroup operations, with 8-wide subgroups).
 #[test]
 fn the_workgroup_tree_holds_every_bound_on_the_reduction_cases() {
-    let ctx = GpuContext::new(&AdapterChoice::Default).expect("lavapipe is installed");
+    let ctx = GpuContext::new(&AdapterChoice::default()).expect("lavapipe is installed");
     let names = [
         "size_1x1",
         "size_1xN",

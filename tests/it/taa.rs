@@ -16,7 +16,7 @@ use tonegate::render::{scene_environment, SceneRenderer};
 use tonegate::scene::Scene;
 
 fn context() -> GpuContext {
-    GpuContext::new(&AdapterChoice::Default)
+    GpuContext::new(&AdapterChoice::default())
         .unwrap_or_else(|e| panic!("{e}\n(ci/test.sh installs mesa-vulkan-drivers; run it once)"))
 }
 

@@ -1,0 +1,24 @@
+// subnormal_probe: not a plan stage. Whether the adapter flushes f32
+// subnormals to zero (Vulkan allows it; SwiftShader and many GPUs do), as
+// `gpu::probe` reads it when a device is opened. The inputs come from the
+// buffer, so no compiler can fold the arithmetic away.
+//
+// In:  v[0] = 2^-126 (f32's smallest normal), v[1] = 2^-133 (a subnormal),
+//      v[2] = 1.0, v[3] = 0.5, as bits.
+// Out: v[0] = 2^-126 · 0.5, a subnormal result (0 where results flush);
+//      v[1] = 2^-133 · 1.0, a subnormal operand (0 where operands flush);
+//      v[2] = 1 where 2^-133 > 0 compares true, else 0.
+@group(0) @binding(0) var<storage, read_write> v: array<u32, 4>;
+
+@compute @workgroup_size(1)
+fn main() {
+    let normal = bitcast<f32>(v[0]);
+    let sub = bitcast<f32>(v[1]);
+    let one = bitcast<f32>(v[2]);
+    let half = bitcast<f32>(v[3]);
+    let result = normal * half;
+    let operand = sub * one;
+    v[0] = bitcast<u32>(result);
+    v[1] = bitcast<u32>(operand);
+    v[2] = select(0u, 1u, sub > 0.0);
+}
