@@ -4,8 +4,11 @@
 #   mesa-vulkan-drivers - lavapipe, the software Vulkan driver the GPU pipeline runs on
 #   pfstools, pfstmo   - the peer tone mapper the reinhard02 preset is locked to
 #   python3-venv       - the scikit-image venv that regenerates tests/skimage/vectors.json
-#   chromium           - the real browser the dashboard tests (tests/dashboard.rs) drive
-#   postgresql         - the real server the shared-history tests (tests/postgres.rs) start
+#   chromium           - the real browser the dashboard tests (tests/it/dashboard.rs) drive
+#   postgresql         - the real server the shared-history tests (tests/it/postgres.rs) start
+#   vulkan-validationlayers - the Khronos layer the adapter tests (tests/it/adapters.rs) run the gate under
+#   libegl1, libegl-mesa0, libgl1-mesa-dri - Mesa's EGL and llvmpipe for wgpu's GL backend
+#   (chromium also ships SwiftShader, the second Vulkan implementation the gate runs on)
 set -euo pipefail
 
 need=()
@@ -14,6 +17,9 @@ command -v pfstmo_reinhard02 >/dev/null 2>&1 || need+=(pfstools pfstmo)
 python3 -c 'import ensurepip, venv' >/dev/null 2>&1 || need+=(python3-venv)
 command -v chromium >/dev/null 2>&1 || command -v chromium-browser >/dev/null 2>&1 || need+=(chromium)
 ls /usr/lib/postgresql/*/bin/initdb >/dev/null 2>&1 || need+=(postgresql)
+ls /usr/share/vulkan/explicit_layer.d/VkLayer_khronos_validation.json >/dev/null 2>&1 || need+=(vulkan-validationlayers)
+ls /usr/lib/*/libEGL.so.1 /usr/lib/*/libEGL_mesa.so.0 >/dev/null 2>&1 || need+=(libegl1 libegl-mesa0)
+ls /usr/lib/*/dri/swrast_dri.so >/dev/null 2>&1 || need+=(libgl1-mesa-dri)
 if [ "${#need[@]}" -gt 0 ]; then
   sudo=""
   [ "$(id -u)" -eq 0 ] || sudo="sudo"

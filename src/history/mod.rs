@@ -13,6 +13,7 @@
 mod artifacts;
 pub(crate) mod backend;
 mod fleet;
+pub mod matrix;
 mod postgres;
 pub mod query;
 mod record;

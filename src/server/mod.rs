@@ -13,6 +13,7 @@ pub mod error;
 mod fleet;
 mod health;
 pub mod listen;
+mod matrix;
 pub mod params;
 mod prom;
 pub mod queue;
@@ -231,7 +232,7 @@ pub async fn start_run(
     paths(
         runs::list_runs, runs::get_run, runs::post_run, artifacts::get_artifact, trends::trends,
         trends::tradeoff, health::healthz, tonemap::sample, tonemap::tonemap, fleet::queue,
-        fleet::runners
+        fleet::runners, matrix::matrix
     ),
     components(schemas(error::ErrorBody)),
     modifiers(&BearerAuth)
@@ -264,6 +265,7 @@ pub fn router(st: Arc<AppState>) -> Router {
         .route("/runs/{id}", get(runs::get_run))
         .route("/runs/{id}/artifacts/{name}", get(artifacts::get_artifact))
         .route("/trends", get(trends::trends))
+        .route("/matrix", get(matrix::matrix))
         .route("/queue", get(fleet::queue))
         .route("/runners", get(fleet::runners))
         .route("/tradeoff/{run}", get(trends::tradeoff))

@@ -9,6 +9,7 @@
 
 mod common;
 
+mod adapters;
 mod api;
 mod architecture;
 mod check;

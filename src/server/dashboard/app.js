@@ -92,6 +92,7 @@ async function route() {
     else if (parts[0] === "tradeoff") await tradeoffPage(parts[1], params);
     else if (parts[0] === "tonemap") tonemapPage(params);
     else if (parts[0] === "fleet") await fleetPage(params);
+    else if (parts[0] === "matrix") await matrixPage();
     else await runsPage(params);
   } catch (e) {
     show(failure(e));
@@ -359,6 +360,33 @@ function comparer(id, scene, f) {
     side,
     h("h3", {}, "Slider: golden (left) | actual (right)"),
     wrap, range);
+}
+
+// ---- adapter matrix ---------------------------------------------------------
+// Scene × adapter over each adapter's newest check run: a scene that passes on
+// one adapter and fails on another is marked "split" and listed first.
+async function matrixPage() {
+  const m = await api("/matrix");
+  if (!m.adapters.length) return show(h("h1", {}, "Adapter matrix"), h("p", { class: "empty" }, "No finished check runs yet. `tonegate check --adapter NAME` (or --backend gl) records one per adapter; `tonegate adapters` lists them."));
+  const cell = (scene, column) => m.cells.find((c) => c.scene === scene && c.column === column);
+  const split = new Set(m.split);
+  const scenes = [...m.split, ...m.scenes.filter((s) => !split.has(s))];
+  const head = h("tr", {}, h("th", {}, "Scene"), m.adapters.map((a) => h("th", { "data-adapter": a.adapter },
+    h("div", {}, a.adapter), h("div", { class: "muted" }, [a.backend, `run #${a.run_id}`].filter(Boolean).join(" · ")),
+    h("div", { class: "muted" }, a.flushes_subnormals === null || a.flushes_subnormals === undefined ? "subnormals: not measured" : a.flushes_subnormals ? "flushes subnormals" : "keeps subnormals"))));
+  const rows = scenes.map((s) => h("tr", { class: split.has(s) ? "split" : "", "data-scene": s },
+    h("td", {}, s, split.has(s) ? h("span", { class: "badge failed", title: "passes on one adapter, fails on another" }, "split") : null),
+    m.adapters.map((a, i) => {
+      const c = cell(s, i);
+      if (!c) return h("td", { class: "muted" }, "–");
+      return h("td", { class: "cell " + (c.passed ? "pass" : "fail"), "data-passed": c.passed ? "1" : "0" },
+        h("a", { href: `#/runs/${c.run_id}?scene=${encodeURIComponent(s)}` }, c.passed ? "pass" : "FAIL"),
+        h("div", { class: "muted" }, `${num(c.worst_psnr)} dB · FLIP ${num(c.worst_flip, 5)} · ${c.fps ? num(c.fps, 1) + " FPS" : "–"}`));
+    })));
+  show(h("h1", {}, "Adapter matrix"),
+    h("p", { class: "muted" }, "Each adapter's newest finished check run; a cell is the scene's verdict, its worst frame's PSNR and FLIP against the golden, and its FPS with readback. A cell opens that run's comparer."),
+    m.split.length ? h("p", { class: "error", role: "alert" }, `Split: ${m.split.join(", ")} pass(es) on one adapter and fail(s) on another.`) : null,
+    h("table", { class: "matrix" }, h("thead", {}, head), h("tbody", {}, rows)));
 }
 
 // ---- trends ---------------------------------------------------------------

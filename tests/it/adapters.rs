@@ -1,0 +1,205 @@
+//! The gate on more than one implementation, here on a machine without a
+//! GPU: lavapipe (Vulkan), Google's SwiftShader (Vulkan, the driver Debian's
+//! `chromium` ships; it flushes subnormals) and llvmpipe through GL (EGL,
+//! surfaceless), the Vulkan runs under the Khronos validation layer with
+//! synchronization validation and the GL run under `KHR_debug`. Each run
+//! writes its JUnit to out/adapters/. ci/deps.sh installs all of it.
+
+use crate::common;
+use std::path::PathBuf;
+
+const SYNC: (&str, &str) = (
+    "VK_LAYER_ENABLES",
+    "VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT",
+);
+
+fn out_dir() -> PathBuf {
+    let d = common::repo().join("out/adapters");
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// `tonegate check` of the whole built-in suite (stress rows included) with
+/// `args`, under the validation layer; returns the JSON report.
+fn gate(name: &str, args: &[&str]) -> serde_json::Value {
+    let out = out_dir();
+    let (junit, json) = (
+        out.join(format!("{name}.xml")),
+        out.join(format!("{name}.json")),
+    );
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_tonegate"))
+        .args(["check", "--no-history", "--junit"])
+        .arg(&junit)
+        .arg("--json")
+        .arg(&json)
+        .args(args)
+        .current_dir(common::repo())
+        .env_remove("TONEGATE_DB")
+        .env("WGPU_VALIDATION", "1")
+        .env(SYNC.0, SYNC.1)
+        .output()
+        .expect("tonegate runs");
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "the gate on {name}:\n{}\n{stderr}",
+        String::from_utf8_lossy(&o.stdout)
+    );
+    // The layer watched the run and reported nothing (the line is printed
+    // only when validation was asked for; a missing layer is exit 2).
+    assert!(
+        stderr.contains("validation layer (WGPU_VALIDATION): 0 error(s)"),
+        "{name}: {stderr}"
+    );
+    let xml = std::fs::read_to_string(&junit).unwrap();
+    assert!(
+        xml.contains("<testcase") && !xml.contains("<failure"),
+        "{name}: {xml}"
+    );
+    // An infinite PSNR is the literal 1e999, which serde_json's Value cannot hold.
+    let text = std::fs::read_to_string(&json)
+        .unwrap()
+        .replace("1e999", "1e308");
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+fn suite_scenes() -> usize {
+    std::fs::read_to_string(common::repo().join("golden/suite.toml"))
+        .unwrap()
+        .matches(".toml\"")
+        .count()
+}
+
+/// The subnormal rows of the stress table: (bound, has the exception).
+fn subnormal_rows(report: &serde_json::Value) -> Vec<(f64, bool)> {
+    report["stress"]["cases"]
+        .as_array()
+        .expect("the gate ran the stress rows")
+        .iter()
+        .filter(|r| r["case"] == "subnormals" && r["renderer"] == "gpu")
+        .map(|r| (r["bound"].as_f64().unwrap(), r.get("exception").is_some()))
+        .collect()
+}
+
+fn assert_whole_gate(name: &str, report: &serde_json::Value) {
+    let scenes = report["scenes"].as_array().unwrap();
+    assert_eq!(scenes.len(), suite_scenes(), "{name}");
+    let stress = report["stress"]["cases"].as_array().unwrap();
+    assert!(
+        stress.len() >= 64 && stress.iter().all(|r| r["passed"] == true),
+        "{name}: stress rows"
+    );
+}
+
+#[test]
+fn adapters_lists_every_implementation_and_measures_subnormals() {
+    let o = common::tonegate(&["adapters", "--json"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let list = v["adapters"].as_array().unwrap();
+    let find = |name: &str, backend: &str| {
+        list.iter()
+            .find(|a| a["name"].as_str().unwrap().contains(name) && a["backend"] == backend)
+            .unwrap_or_else(|| panic!("no {name} on {backend} in {v}"))
+    };
+    let lavapipe = find("llvmpipe", "Vulkan");
+    let gl = find("llvmpipe", "Gl");
+    let swiftshader = find("SwiftShader", "Vulkan");
+    // Measured by the probe shader, not known by name: llvmpipe keeps
+    // subnormals on both APIs, SwiftShader flushes them.
+    assert_eq!(lavapipe["flushes_subnormals"], false, "{lavapipe}");
+    assert_eq!(gl["flushes_subnormals"], false, "{gl}");
+    assert_eq!(swiftshader["flushes_subnormals"], true, "{swiftshader}");
+    // The features that decide the configuration: GL has no subgroups and
+    // no filterable f32, so `auto` and `--env-filter` must not count on them.
+    let has =
+        |a: &serde_json::Value, f: &str| a["features"].as_array().unwrap().iter().any(|x| x == f);
+    assert!(has(lavapipe, "subgroups") && has(lavapipe, "timestamp-query"));
+    assert!(!has(gl, "subgroups") && !has(gl, "float32-filterable"));
+    assert!(
+        lavapipe["limits"]["max_texture_dimension_2d"]
+            .as_u64()
+            .unwrap()
+            >= 8192
+    );
+    assert!(v["extra_vulkan_drivers"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|p| p.as_str().unwrap().ends_with("vk_swiftshader_icd.json")));
+}
+
+#[test]
+fn the_gate_passes_on_lavapipe_under_synchronization_validation() {
+    let report = gate("lavapipe-validation", &[]);
+    assert_whole_gate("lavapipe", &report);
+    assert_eq!(report["adapter"]["flushes_subnormals"], false);
+    // llvmpipe keeps subnormals, so the flush exception does not apply:
+    // the subnormal rows are held to the generic 1e-5.
+    let rows = subnormal_rows(&report);
+    assert!(!rows.is_empty());
+    assert!(
+        rows.iter()
+            .all(|&(bound, excused)| bound == 1e-5 && !excused),
+        "{rows:?}"
+    );
+}
+
+#[test]
+fn the_gate_passes_on_swiftshader_found_without_an_environment_variable() {
+    let report = gate("swiftshader-validation", &["--adapter", "swiftshader"]);
+    assert_whole_gate("swiftshader", &report);
+    let adapter = &report["adapter"];
+    assert!(
+        adapter["name"].as_str().unwrap().contains("SwiftShader"),
+        "{adapter}"
+    );
+    assert!(
+        adapter["chosen"]
+            .as_str()
+            .unwrap()
+            .contains("vk_swiftshader_icd.json"),
+        "the report says where the driver was found: {adapter}"
+    );
+    // SwiftShader flushes, and only there the documented exception applies.
+    assert_eq!(adapter["flushes_subnormals"], true);
+    let rows = subnormal_rows(&report);
+    assert!(rows.iter().any(|&(_, excused)| excused), "{rows:?}");
+    assert!(rows
+        .iter()
+        .all(|&(bound, excused)| excused == (bound == 2e-2)));
+}
+
+#[test]
+fn the_gate_passes_on_gl_through_egl() {
+    let report = gate("gl-llvmpipe", &["--backend", "gl"]);
+    assert_whole_gate("gl", &report);
+    assert_eq!(report["adapter"]["backend"], "Gl");
+    // No subgroups on GL: `auto` took another reduction.
+    let config = &report["renderer"];
+    assert_ne!(config["reduction_in_effect"], "subgroup", "{config}");
+}
+
+#[test]
+fn an_unknown_backend_or_adapter_is_refused_with_what_there_is() {
+    let o = common::tonegate(&["check", "--no-history", "--backend", "glide"]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(e.contains("glide") && e.contains("vulkan, gl"), "{e}");
+    let out = tempfile::tempdir().unwrap();
+    let o = common::tonegate(&[
+        "render",
+        "golden/scenes/grid-static.toml",
+        "--out",
+        out.path().to_str().unwrap(),
+        "--adapter",
+        "no-such-gpu",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        e.contains("no-such-gpu") && e.contains("llvmpipe") && e.contains("SwiftShader"),
+        "the refusal lists the adapters, the extra drivers' included: {e}"
+    );
+}
