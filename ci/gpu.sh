@@ -19,6 +19,9 @@ if [ -z "${TONEGATE:-}" ]; then
 fi
 status=0
 
+# Every adapter the machine has, with the subnormal probe's answer.
+"$TONEGATE" adapters --json >"$out/adapters.json" 2>"$out/adapters.err"
+
 "$TONEGATE" check --adapter "$adapter" --no-history \
   --json "$out/check.json" --junit "$out/check.junit.xml" --artifacts "$out/artifacts" \
   >"$out/check.txt" 2>&1
@@ -74,6 +77,7 @@ report = {
     "stress_exit": stress,
     "check": load(os.path.join(out, "check.json")),
     "stress": load(os.path.join(out, "stress.json")),
+    "adapters": load(os.path.join(out, "adapters.json")),
     "bench": {os.path.basename(p)[6:-5]: load(p) for p in sorted(glob.glob(os.path.join(out, "bench-*.json")))},
 }
 with open(os.path.join(out, "report.json"), "w") as f:
@@ -85,7 +89,7 @@ for name, b in report["bench"].items():
     if "error" in b:
         print(f"bench {name}: {b['error']}")
         continue
-    print(f"bench {name}: reduction {b.get('config', {}).get('reduction')}; {json.dumps({k: b[k] for k in b if k in ('frame_gpu_ms', 'frame_wall_ms_with_readback', 'frame_wall_ms_serial', 'fps', 'fps_with_readback', 'fps_serial_readback', 'floor_ms')})}")
+    print(f"bench {name}: reduction {b.get('config', {}).get('reduction')}; {json.dumps({k: b[k] for k in b if k in ('frame_gpu_ms', 'frame_wall_ms_with_readback', 'frame_wall_ms_serial', 'fps', 'fps_with_readback', 'fps_serial_readback', 'floor_ms', 'floor_rw_ms', 'display_floor_multiple')})}")
     for s in b.get("stages", []):
         if s["name"] == "luminance_stats":
             print(f"  luminance_stats: {s['median_ms']:.3f} ms median, {s['floor_multiple']:.2f}x floor")

@@ -88,6 +88,8 @@ impl<P: Copy> Image<P> {
 /// thousands (a 2048x1024 f64 frame is 12,288 4-KiB pages). Only advice: a
 /// kernel that refuses it, or another OS, keeps small pages.
 pub fn advise_huge_pages<T>(v: &Vec<T>) {
+    #[cfg(not(target_os = "linux"))]
+    let _ = v;
     #[cfg(target_os = "linux")]
     {
         const HUGE: usize = 2 << 20;

@@ -1,6 +1,10 @@
-//! `tonegate bench`: per-stage GPU time, FPS with and without readback, and a
-//! floor pass every stage is expressed as a multiple of (a ratio survives the
-//! machine's noise and its one-core/two-core switching better than ms do).
+//! `tonegate bench`: per-stage GPU time, FPS with and without readback, and
+//! two floor passes every stage is expressed as a multiple of (a ratio
+//! survives the machine's noise and its one-core/two-core switching better
+//! than ms do). The floors run inside every measured frame's submission,
+//! after its stages, each with its own timestamp pair, and a stage's multiple
+//! is the median of its per-frame ratios: both sides of every ratio saw the
+//! same machine at the same moment.
 
 use super::timing::TIMING_SLOTS;
 use super::{AdapterReport, GpuConfig, GpuContext, GpuError, GpuInput, GpuRenderer, HdrFormat};
@@ -35,8 +39,11 @@ pub struct BenchStage {
     pub name: String,
     pub median_ms: f64,
     pub p95_ms: f64,
-    /// median / floor median.
+    /// The median over frames of this stage's time / the write-only floor's
+    /// in the same frame.
     pub floor_multiple: f64,
+    /// The same against the read-write floor.
+    pub rw_floor_multiple: f64,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -69,8 +76,18 @@ pub struct BenchReport {
     /// Frames per second with every frame read back and waited for before
     /// the next is submitted (one frame in flight).
     pub fps_serial_readback: f64,
-    /// Median GPU time of the floor pass (a trivial fullscreen write).
+    /// Median GPU time of the write-only floor (one store per pixel), timed
+    /// inside each measured frame.
     pub floor_ms: f64,
+    /// Median GPU time of the read-write floor (one load and one store per
+    /// pixel), timed inside each measured frame.
+    pub floor_rw_ms: f64,
+    /// The median over frames of (sum of the stages) / floor.
+    pub frame_floor_multiple: f64,
+    /// The same for the stages after the image exists (all but `sphere`,
+    /// `taa_sobel` and `taa`): the statistics and display stages, whose sum
+    /// the fused execution's target is stated in.
+    pub display_floor_multiple: f64,
     pub stages: Vec<BenchStage>,
     /// GPU time per frame (sum of stages), no readback.
     pub frame_gpu_ms: Percentiles,
@@ -108,36 +125,64 @@ pub fn bench_operator() -> (Operator, Bloom) {
     (op, bloom)
 }
 
-/// Times the floor pass `frames` times; returns per-frame ms.
-fn floor_times(
-    ctx: &GpuContext,
-    width: u32,
-    height: u32,
-    format: HdrFormat,
-    frames: u32,
-) -> Result<Vec<f64>, GpuError> {
-    let out = super::stages::hdr_texture(ctx, "tonegate.floor", width, height, format);
-    let d = super::floor::floor(ctx, format, &out);
-    let Some(queries) = super::timing::Queries::new(ctx, 1) else {
-        return Ok(Vec::new());
-    };
-    let mut times = Vec::with_capacity(frames as usize);
-    for _ in 0..frames {
-        let mut encoder = ctx.device.create_command_encoder(&Default::default());
-        {
+/// The two floor passes, recorded after a frame's stages in the same
+/// submission and timed in their own query slots.
+struct Floors {
+    write: super::stages::Dispatch,
+    read_write: super::stages::Dispatch,
+    queries: super::timing::Queries,
+    _textures: [wgpu::Texture; 2],
+}
+
+impl Floors {
+    const NAMES: [&'static str; 2] = ["floor", "floor_rw"];
+
+    /// None where the adapter has no timestamps (nothing to time).
+    fn new(ctx: &GpuContext, width: u32, height: u32, format: HdrFormat) -> Option<Floors> {
+        let queries = super::timing::Queries::new(ctx, 2)?;
+        let input = super::stages::hdr_texture(ctx, "tonegate.floor_in", width, height, format);
+        let out = super::stages::hdr_texture(ctx, "tonegate.floor", width, height, format);
+        Some(Floors {
+            write: super::floor::floor(ctx, format, &out),
+            read_write: super::floor::floor_rw(ctx, format, &input, &out),
+            queries,
+            _textures: [input, out],
+        })
+    }
+
+    fn encode(&self, encoder: &mut wgpu::CommandEncoder, slot: u32) {
+        for (i, d) in [&self.write, &self.read_write].into_iter().enumerate() {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("tonegate.floor"),
-                timestamp_writes: Some(queries.writes(0, 0)),
+                label: Some(&format!("tonegate.{}", Self::NAMES[i])),
+                timestamp_writes: Some(self.queries.writes(slot, i)),
             });
             d.record(&mut pass);
         }
-        queries.resolve(&mut encoder, 0);
-        queries.copy(&mut encoder);
-        ctx.queue.submit([encoder.finish()]);
-        let slot = queries.read(ctx, &["floor"], 1)?;
-        times.extend(slot.first().and_then(|t| t.first()).map(|t| t.ms));
+        self.queries.resolve(encoder, slot);
     }
-    Ok(times)
+}
+
+/// The median over frames of `stage`'s time / `floor`'s in the same frame.
+fn median_ratio(
+    frames: &[Vec<StageTiming>],
+    floors: &[Vec<StageTiming>],
+    stage: &str,
+    floor: usize,
+) -> f64 {
+    let ratios: Vec<f64> = frames
+        .iter()
+        .zip(floors)
+        .filter_map(|(f, fl)| {
+            let s = f.iter().find(|t| t.stage == stage)?.ms;
+            let d = fl.get(floor)?.ms;
+            (d > 0.0).then_some(s / d)
+        })
+        .collect();
+    if ratios.is_empty() {
+        f64::NAN
+    } else {
+        quantile(&ratios, 0.5)
+    }
 }
 
 /// A renderer of the bench's full plan at `width`×`height` over the built-in
@@ -216,8 +261,11 @@ pub fn run(ctx: &GpuContext, opts: &BenchOptions) -> Result<BenchReport, GpuErro
         set(n);
         r.render(false)?;
     }
-    // No readback: batches of frames submitted back to back, timestamps kept per slot.
+    // No readback: batches of frames submitted back to back, timestamps kept
+    // per slot; each frame's floors in the same submission, after its stages.
+    let floors = Floors::new(ctx, opts.width, opts.height, opts.config.hdr_format);
     let mut gpu_frames: Vec<Vec<StageTiming>> = Vec::new();
+    let mut floor_frames: Vec<Vec<StageTiming>> = Vec::new();
     let start = std::time::Instant::now();
     let mut done = 0;
     while done < opts.frames {
@@ -226,15 +274,25 @@ pub fn run(ctx: &GpuContext, opts: &BenchOptions) -> Result<BenchReport, GpuErro
             set(done + s);
             let mut encoder = ctx.device.create_command_encoder(&Default::default());
             r.encode(&mut encoder, s);
+            if let Some(f) = &floors {
+                f.encode(&mut encoder, s);
+            }
             ctx.queue.submit([encoder.finish()]);
         }
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         r.encode_timing_copy(&mut encoder);
+        if let Some(f) = &floors {
+            f.queries.copy(&mut encoder);
+        }
         ctx.queue.submit([encoder.finish()]);
         ctx.wait()?;
         gpu_frames.extend(r.read_timings(batch)?);
+        if let Some(f) = &floors {
+            floor_frames.extend(f.queries.read(ctx, &Floors::NAMES, batch)?);
+        }
         done += batch;
     }
+    // The floors ran inside the timed frames: their time is not the plan's.
     let elapsed = start.elapsed().as_secs_f64();
     let fps = opts.frames as f64 / elapsed;
     // With readback, one frame in flight: every frame waited for and
@@ -263,18 +321,23 @@ pub fn run(ctx: &GpuContext, opts: &BenchOptions) -> Result<BenchReport, GpuErro
         },
     )?;
     let fps_with_readback = opts.frames as f64 / start.elapsed().as_secs_f64();
-    let floor = floor_times(
-        ctx,
-        opts.width,
-        opts.height,
-        opts.config.hdr_format,
-        opts.frames.max(5),
-    )?;
-    let floor_ms = quantile(&floor, 0.5);
+    let floor_of = |i: usize| {
+        let v: Vec<f64> = floor_frames
+            .iter()
+            .filter_map(|f| Some(f.get(i)?.ms))
+            .collect();
+        if v.is_empty() {
+            f64::NAN
+        } else {
+            quantile(&v, 0.5)
+        }
+    };
+    let (floor_ms, floor_rw_ms) = (floor_of(0), floor_of(1));
     let stages = summarise(&gpu_frames)
         .into_iter()
         .map(|s| BenchStage {
-            floor_multiple: s.median_ms / floor_ms,
+            floor_multiple: median_ratio(&gpu_frames, &floor_frames, &s.name, 0),
+            rw_floor_multiple: median_ratio(&gpu_frames, &floor_frames, &s.name, 1),
             name: s.name,
             median_ms: s.median_ms,
             p95_ms: s.p95_ms,
@@ -284,6 +347,21 @@ pub fn run(ctx: &GpuContext, opts: &BenchOptions) -> Result<BenchReport, GpuErro
         .iter()
         .map(|f| f.iter().map(|t| t.ms).sum())
         .collect();
+    // Per frame, the sum of the stages `keep` keeps, as a stage of its own.
+    let summed = |keep: &dyn Fn(&str) -> bool| {
+        let sums: Vec<Vec<StageTiming>> = gpu_frames
+            .iter()
+            .map(|f| {
+                vec![StageTiming {
+                    stage: "sum".into(),
+                    ms: f.iter().filter(|t| keep(&t.stage)).map(|t| t.ms).sum(),
+                }]
+            })
+            .collect();
+        median_ratio(&sums, &floor_frames, "sum", 0)
+    };
+    let frame_floor_multiple = summed(&|_| true);
+    let display_floor_multiple = summed(&|s| !["sphere", "taa_sobel", "taa"].contains(&s));
     Ok(BenchReport {
         adapter: ctx.adapter.clone(),
         size: format!("{}x{}", opts.width, opts.height),
@@ -291,6 +369,9 @@ pub fn run(ctx: &GpuContext, opts: &BenchOptions) -> Result<BenchReport, GpuErro
         fps_with_readback,
         fps_serial_readback,
         floor_ms,
+        floor_rw_ms,
+        frame_floor_multiple,
+        display_floor_multiple,
         stages,
         frame_gpu_ms: Percentiles::of(&frame_gpu),
         frame_wall_ms_with_readback: Percentiles::of(&wall),
@@ -336,17 +417,31 @@ impl std::fmt::Display for BenchReport {
             .max(18);
         writeln!(
             f,
-            "{:<w$} {:>10} {:>10} {:>8}",
-            "stage", "median ms", "p95 ms", "x floor"
+            "{:<w$} {:>10} {:>10} {:>8} {:>8}",
+            "stage", "median ms", "p95 ms", "x floor", "x rw"
         )?;
         for s in &self.stages {
             writeln!(
                 f,
-                "{:<w$} {:>10.3} {:>10.3} {:>8.2}",
-                s.name, s.median_ms, s.p95_ms, s.floor_multiple
+                "{:<w$} {:>10.3} {:>10.3} {:>8.2} {:>8.2}",
+                s.name, s.median_ms, s.p95_ms, s.floor_multiple, s.rw_floor_multiple
             )?;
         }
-        writeln!(f, "{:<w$} {:>10.3}", "floor", self.floor_ms)?;
+        writeln!(
+            f,
+            "{:<w$} {:>10.3}   (write-only: one store per pixel)",
+            "floor", self.floor_ms
+        )?;
+        writeln!(
+            f,
+            "{:<w$} {:>10.3}   (read-write: one load and one store per pixel)",
+            "floor_rw", self.floor_rw_ms
+        )?;
+        writeln!(
+            f,
+            "multiples are medians of per-frame ratios, the floors timed inside each frame; the frame (sum of the stages) is {:.2}x the floor, the stages after sphere and TAA {:.2}x",
+            self.frame_floor_multiple, self.display_floor_multiple
+        )?;
         writeln!(
             f,
             "GPU frame ms p50/p95/p99: {:.2} / {:.2} / {:.2}",

@@ -56,7 +56,15 @@ pub const MAX_HEAD_BYTES: usize = 64 << 10;
 /// (the API answers 431 in JSON from `edge::MAX_HEADER_FIELDS` on).
 pub const MAX_HEAD_FIELDS: usize = 1000;
 
+/// The soft limit on open files of this process (None where the platform
+/// has no such limit to read, or it is unlimited).
+#[cfg(not(unix))]
+pub fn open_file_limit() -> Option<u64> {
+    None
+}
+
 /// The soft limit on open files of this process.
+#[cfg(unix)]
 pub fn open_file_limit() -> Option<u64> {
     let mut lim = libc::rlimit {
         rlim_cur: 0,

@@ -433,13 +433,12 @@ pub fn load_or_make_token(path: &std::path::Path) -> Result<String, crate::Error
         std::fs::create_dir_all(dir).map_err(err)?;
     }
     use std::io::Write;
-    use std::os::unix::fs::OpenOptionsExt;
-    let mut f = std::fs::OpenOptions::new()
-        .write(true)
-        .create_new(true)
-        .mode(0o600)
-        .open(path)
-        .map_err(err)?;
+    let mut options = std::fs::OpenOptions::new();
+    options.write(true).create_new(true);
+    // Readable by its owner only, where the platform has modes.
+    #[cfg(unix)]
+    std::os::unix::fs::OpenOptionsExt::mode(&mut options, 0o600);
+    let mut f = options.open(path).map_err(err)?;
     writeln!(f, "{token}").map_err(err)?;
     Ok(token)
 }

@@ -203,3 +203,45 @@ fn an_unknown_backend_or_adapter_is_refused_with_what_there_is() {
         "the refusal lists the adapters, the extra drivers' included: {e}"
     );
 }
+
+/// `bench` times both floors inside every measured frame and gives each
+/// stage as the median of its per-frame ratios to them (a structure check:
+/// speed is judged from `bench`'s numbers, not here).
+#[test]
+fn bench_reports_both_floors_timed_inside_each_frame() {
+    for backend in ["vulkan", "gl"] {
+        let o = common::tonegate(&[
+            "bench",
+            "--size",
+            "160x90",
+            "--frames",
+            "6",
+            "--warmup",
+            "1",
+            "--json",
+            "--backend",
+            backend,
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let (w, rw) = (
+            r["floor_ms"].as_f64().unwrap(),
+            r["floor_rw_ms"].as_f64().unwrap(),
+        );
+        assert!(w > 0.0 && rw > 0.0, "{backend}: {r}");
+        assert!(
+            r["frame_floor_multiple"].as_f64().unwrap()
+                > r["display_floor_multiple"].as_f64().unwrap(),
+            "{backend}: {r}"
+        );
+        let stages = r["stages"].as_array().unwrap();
+        assert!(stages.iter().any(|s| s["name"] == "sphere"), "{r}");
+        for s in stages {
+            let (m, mrw) = (
+                s["floor_multiple"].as_f64().unwrap(),
+                s["rw_floor_multiple"].as_f64().unwrap(),
+            );
+            assert!(m > 0.0 && mrw > 0.0, "{backend}: {s}");
+        }
+    }
+}
