@@ -145,6 +145,11 @@ impl GpuArgs {
 /// Parses the process arguments and runs the command.
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
+    // An adapter asked for by name may be a Vulkan driver outside the
+    // loader's folders: they are added now, while the process has one thread.
+    if names_an_adapter(std::env::args().skip(1)) {
+        tonegate::gpu::adapters::add_extra_vulkan_drivers();
+    }
     match run(cli) {
         Ok(code) => code,
         Err(e) => {
@@ -152,6 +157,25 @@ pub fn main() -> ExitCode {
             ExitCode::from(exit_code(&e))
         }
     }
+}
+
+/// Whether the arguments are `adapters` or name an adapter (`--adapter
+/// NAME`, not `default`, `hardware` or `any`).
+fn names_an_adapter(args: impl Iterator<Item = String>) -> bool {
+    let args: Vec<String> = args.collect();
+    if args.first().is_some_and(|a| a == "adapters") {
+        return true;
+    }
+    let values = args
+        .iter()
+        .enumerate()
+        .filter_map(|(i, a)| match a.as_str() {
+            "--adapter" => args.get(i + 1).map(String::as_str),
+            _ => a.strip_prefix("--adapter="),
+        });
+    values
+        .filter_map(|v| v.parse::<AdapterChoice>().ok())
+        .any(|c| matches!(c.pick, tonegate::gpu::AdapterPick::Name(_)))
 }
 
 /// The exit code of a command that failed with `e`: every error means the
@@ -232,4 +256,29 @@ fn write_text(path: &Path, text: &str) -> Result<()> {
         path: path.to_owned(),
         source,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::names_an_adapter;
+
+    fn names(line: &str) -> bool {
+        names_an_adapter(line.split_whitespace().map(String::from))
+    }
+
+    #[test]
+    fn only_a_named_adapter_or_the_listing_adds_the_extra_drivers() {
+        assert!(names("adapters --json"));
+        assert!(names("check --adapter swiftshader"));
+        assert!(names("render s.toml --adapter=vulkan:SwiftShader --out o"));
+        for plain in [
+            "check",
+            "check --adapter default",
+            "check --adapter hardware",
+            "bench --adapter gl:any",
+            "tonemap in.exr -o out.png",
+        ] {
+            assert!(!names(plain), "{plain}");
+        }
+    }
 }

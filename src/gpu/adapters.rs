@@ -163,12 +163,13 @@ pub fn extra_vulkan_drivers() -> Vec<PathBuf> {
 /// for those and no others.
 ///
 /// This changes the process environment, which the Vulkan loader reads when
-/// an instance is created. It runs before the instance that needs it, and at
-/// most once; the C library's `getenv` in another thread at that moment
-/// could see either value, both valid.
-pub(crate) fn add_extra_vulkan_drivers() -> bool {
-    static ADDED: OnceLock<bool> = OnceLock::new();
-    *ADDED.get_or_init(|| {
+/// an instance is created; at most once per process. Changing the
+/// environment while another thread reads it is not safe in C, so a program
+/// with threads calls this first, while it has one (the command line does,
+/// whenever an adapter is asked for by name); [`select`] calls it only if
+/// nobody did and the name was not found.
+pub fn add_extra_vulkan_drivers() -> bool {
+    *EXTRA_ADDED.get_or_init(|| {
         let pinned = ["VK_ICD_FILENAMES", "VK_DRIVER_FILES"]
             .iter()
             .any(|v| std::env::var_os(v).is_some_and(|s| !s.is_empty()));
@@ -197,6 +198,9 @@ pub(crate) fn add_extra_vulkan_drivers() -> bool {
         }
     })
 }
+
+/// Whether [`add_extra_vulkan_drivers`] ran and added any.
+static EXTRA_ADDED: OnceLock<bool> = OnceLock::new();
 
 /// What every result records about the adapter.
 #[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
@@ -397,26 +401,27 @@ pub(crate) fn select(choice: &AdapterChoice) -> Result<(wgpu::Adapter, String), 
         choice.backend,
         BackendChoice::Default | BackendChoice::Vulkan | BackendChoice::Any
     );
-    if matches!(picked, Err(GpuError::AdapterNotFound { .. }))
-        && wants_vulkan
+    if matches!(
+        picked,
+        Err(GpuError::AdapterNotFound { .. } | GpuError::NoAdapter)
+    ) && wants_vulkan
         && add_extra_vulkan_drivers()
     {
         adapters = enumerate(choice.backend, false);
-        picked = choose(&choice.pick, &candidates(&adapters)).map(|(i, why)| {
-            (
-                i,
-                format!(
-                    "{why} (found after adding {})",
-                    extra_vulkan_drivers()
-                        .iter()
-                        .map(|p| p.display().to_string())
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                ),
-            )
-        });
+        picked = choose(&choice.pick, &candidates(&adapters));
     }
-    let (i, why) = picked?;
+    let (i, mut why) = picked?;
+    // Say where the list came from when it includes drivers tonegate added.
+    if EXTRA_ADDED.get() == Some(&true) {
+        why.push_str(&format!(
+            " (with the Vulkan drivers added from outside the loader's folders: {})",
+            extra_vulkan_drivers()
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+    }
     Ok((adapters.swap_remove(i), why))
 }
 

@@ -152,6 +152,9 @@ impl GpuContext {
     /// The first error wgpu reported since the last call, if any, with the
     /// ones after it (its consequences) forgotten.
     pub fn take_first_error(&self) -> Result<(), GpuError> {
+        if let Some(e) = super::validation::take_first_error() {
+            return Err(GpuError::LayerError(e));
+        }
         let mut v = self
             .errors
             .lock()

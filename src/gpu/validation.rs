@@ -112,10 +112,10 @@ fn is_known_false(text: &str) -> bool {
         || (text.contains("eglInitialize") && text.contains("DRI2: failed to load driver"))
 }
 
-/// Whether the environment asks for validation (`WGPU_VALIDATION` set to
-/// anything but `0`/empty), as wgpu's `InstanceFlags::with_env` reads it.
+/// Whether the environment asks for validation: `WGPU_VALIDATION` set to
+/// anything but `0`, the rule of wgpu's `InstanceFlags::with_env`.
 pub fn requested() -> bool {
-    std::env::var("WGPU_VALIDATION").is_ok_and(|v| !v.is_empty() && v != "0")
+    std::env::var("WGPU_VALIDATION").is_ok_and(|v| v != "0")
 }
 
 /// Installs the logger before an instance is created, when validation is

@@ -13,6 +13,21 @@ const SYNC: (&str, &str) = (
     "VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT",
 );
 
+/// `tonegate` with none of the loader's driver variables: the tests are
+/// about what tonegate finds by itself.
+fn tonegate() -> std::process::Command {
+    let mut c = std::process::Command::new(env!("CARGO_BIN_EXE_tonegate"));
+    c.current_dir(common::repo()).env_remove("TONEGATE_DB");
+    for v in ["VK_ICD_FILENAMES", "VK_DRIVER_FILES", "VK_ADD_DRIVER_FILES"] {
+        c.env_remove(v);
+    }
+    c
+}
+
+fn run(args: &[&str]) -> std::process::Output {
+    tonegate().args(args).output().expect("tonegate runs")
+}
+
 fn out_dir() -> PathBuf {
     let d = common::repo().join("out/adapters");
     std::fs::create_dir_all(&d).unwrap();
@@ -27,14 +42,12 @@ fn gate(name: &str, args: &[&str]) -> serde_json::Value {
         out.join(format!("{name}.xml")),
         out.join(format!("{name}.json")),
     );
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_tonegate"))
+    let o = tonegate()
         .args(["check", "--no-history", "--junit"])
         .arg(&junit)
         .arg("--json")
         .arg(&json)
         .args(args)
-        .current_dir(common::repo())
-        .env_remove("TONEGATE_DB")
         .env("WGPU_VALIDATION", "1")
         .env(SYNC.0, SYNC.1)
         .output()
@@ -94,7 +107,7 @@ fn assert_whole_gate(name: &str, report: &serde_json::Value) {
 
 #[test]
 fn adapters_lists_every_implementation_and_measures_subnormals() {
-    let o = common::tonegate(&["adapters", "--json"]);
+    let o = run(&["adapters", "--json"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let list = v["adapters"].as_array().unwrap();
@@ -176,19 +189,65 @@ fn the_gate_passes_on_gl_through_egl() {
     let report = gate("gl-llvmpipe", &["--backend", "gl"]);
     assert_whole_gate("gl", &report);
     assert_eq!(report["adapter"]["backend"], "Gl");
-    // No subgroups on GL: `auto` took another reduction.
     let config = &report["renderer"];
-    assert_ne!(config["reduction_in_effect"], "subgroup", "{config}");
+    assert_eq!(config["reduction_in_effect"], "block_partials", "{config}");
+}
+
+/// What GL lacks is handled as documented: the subgroup tree runs as the
+/// shared-memory tree and says so; the hardware environment filter is
+/// refused with the missing feature named.
+#[test]
+fn gl_takes_the_fallbacks_it_documents() {
+    let out = tempfile::tempdir().unwrap();
+    let dir = out.path().to_str().unwrap();
+    let scene = "golden/scenes/grid-static.toml";
+    let o = run(&[
+        "render",
+        scene,
+        "--out",
+        dir,
+        "--backend",
+        "gl",
+        "--reduction",
+        "subgroup",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let frames: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.path().join("frames.json")).unwrap())
+            .unwrap();
+    assert_eq!(frames["gpu_config"]["reduction"], "tree", "{frames}");
+    assert!(
+        frames["notes"]
+            .to_string()
+            .contains("no subgroup operations"),
+        "{frames}"
+    );
+    let o = run(&[
+        "render",
+        scene,
+        "--out",
+        dir,
+        "--backend",
+        "gl",
+        "--env-filter",
+        "hardware",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        e.contains("FLOAT32_FILTERABLE") && e.contains("--env-filter hardware"),
+        "{e}"
+    );
 }
 
 #[test]
 fn an_unknown_backend_or_adapter_is_refused_with_what_there_is() {
-    let o = common::tonegate(&["check", "--no-history", "--backend", "glide"]);
+    let o = run(&["check", "--no-history", "--backend", "glide"]);
     assert_eq!(o.status.code(), Some(2));
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(e.contains("glide") && e.contains("vulkan, gl"), "{e}");
     let out = tempfile::tempdir().unwrap();
-    let o = common::tonegate(&[
+    let o = run(&[
         "render",
         "golden/scenes/grid-static.toml",
         "--out",
@@ -210,7 +269,7 @@ fn an_unknown_backend_or_adapter_is_refused_with_what_there_is() {
 #[test]
 fn bench_reports_both_floors_timed_inside_each_frame() {
     for backend in ["vulkan", "gl"] {
-        let o = common::tonegate(&[
+        let o = run(&[
             "bench",
             "--size",
             "160x90",
