@@ -15,7 +15,7 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use tonegate::conventions::rotation_matrix;
 use tonegate::gpu::bench::full_plan_renderer;
 use tonegate::gpu::{AdapterChoice, Execution, GpuConfig, GpuContext};
-use tonegate::scene::{HistoryFilter, TaaVariant};
+use tonegate::scene::{TaaParams, TaaVariant};
 
 fn full_plan(c: &mut Criterion) {
     let ctx = match GpuContext::new(&AdapterChoice::default()) {
@@ -32,8 +32,17 @@ fn full_plan(c: &mut Criterion) {
             execution,
             ..Default::default()
         };
-        let r = full_plan_renderer(&ctx, w, h, config, TaaVariant::Off, HistoryFilter::Bilinear)
-            .unwrap_or_else(|e| panic!("{e}"));
+        let r = full_plan_renderer(
+            &ctx,
+            w,
+            h,
+            config,
+            TaaParams {
+                variant: TaaVariant::Off,
+                ..TaaParams::default()
+            },
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
         let mut n = 0u32;
         let tag = format!("{w}x{h}_{execution:?}").to_lowercase();
         group.bench_function(&tag, |b| {

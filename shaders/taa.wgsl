@@ -14,6 +14,20 @@ override SHARPEN: f32 = 0.25;
 override NO_CLIP: bool = false;
 // `history_filter = "catmull_rom"`: 4×4 Catmull-Rom instead of bilinear.
 override CATMULL_ROM: bool = false;
+// `feedback = "motion"`: the current frame's weight from the motion and the
+// pixel's frame count, instead of the luminance difference.
+override MOTION_FEEDBACK: bool = false;
+override CURRENT_MIN: f32 = 0.0625;
+override CURRENT_MOVING: f32 = 0.2;
+override CURRENT_PER_PX: f32 = 0.1;
+override CURRENT_MAX: f32 = 0.35;
+override STATIC_PX: f32 = 0.001;
+// `variant = "variance"`: the box's half-width in standard deviations.
+override VARIANCE_GAMMA: f32 = 1.0;
+// `blend = "tonemapped"`: each colour also weighted by 1 / (1 + Y).
+override TONEMAPPED_BLEND: bool = false;
+// reference::taa::CONFIDENCE_CAP.
+const CONFIDENCE_CAP: f32 = 1024.0;
 
 struct TaaUniforms {
     // Rows of the reprojection matrix R(n−1)·R(n)ᵀ (xyz).
@@ -177,25 +191,104 @@ fn feedback(c: vec3<f32>, h: vec3<f32>) -> f32 {
     return FEEDBACK_MIN + (FEEDBACK_MAX - FEEDBACK_MIN) * w;
 }
 
-// The blend of pixel id given its clipping box; writes the new history (and
-// the output when there is no sharpen pass).
-fn finish(id: vec2<u32>, lo: vec3<f32>, hi: vec3<f32>) {
+// The frame count of the history texel under film point q, border clamped.
+fn confidence_at(q: vec2<f32>) -> f32 {
+    let dims = vec2<i32>(textureDimensions(history_in));
+    let t = clamp(vec2<i32>(floor(q)), vec2<i32>(0), dims - 1);
+    return textureLoad(history_in, t, 0).a;
+}
+
+// reference::taa::motion_weight: the current frame's weight.
+fn motion_weight(frames: f32, motion_px: f32) -> f32 {
+    var w = CURRENT_MIN;
+    if (motion_px >= STATIC_PX) {
+        w = min(CURRENT_MOVING + CURRENT_PER_PX * motion_px, CURRENT_MAX);
+    }
+    return max(w, 1.0 / frames);
+}
+
+// reference::taa::blend: c and h with the history weighing w; a static
+// pixel is blended linearly.
+fn blend(c: vec3<f32>, h: vec3<f32>, w: f32, moving: bool) -> vec3<f32> {
+    if (TONEMAPPED_BLEND && moving) {
+        let wc = (1.0 - w) / (1.0 + luminance_with(c, BT709));
+        let wh = w / (1.0 + luminance_with(h, BT709));
+        return c + (h - c) * (wh / (wc + wh));
+    }
+    return c + (h - c) * w;
+}
+
+fn to_ycocg(c: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(
+        0.25 * c.x + 0.5 * c.y + 0.25 * c.z,
+        0.5 * c.x - 0.5 * c.z,
+        -0.25 * c.x + 0.5 * c.y - 0.25 * c.z,
+    );
+}
+
+fn from_ycocg(c: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(c.x + c.y - c.z, c.x + c.z, c.x - c.y - c.z);
+}
+
+// How the history is clipped: to a box, or (VARIANCE) by the moments.
+struct Clip {
+    lo: vec3<f32>,
+    hi: vec3<f32>,
+    // YCoCg sums of the 3×3 neighbourhood and of their squares (VARIANCE).
+    sum: vec3<f32>,
+    sum_sq: vec3<f32>,
+    variance: bool,
+}
+
+// reference::taa::clip_variance, from the moments.
+fn clip_variance(h: vec3<f32>, sum: vec3<f32>, sum_sq: vec3<f32>) -> vec3<f32> {
+    let mean = sum / 9.0;
+    let sigma = sqrt(max(sum_sq / 9.0 - mean * mean, vec3<f32>(0.0)));
+    let clipped = clip_to_box(to_ycocg(h), mean - VARIANCE_GAMMA * sigma, mean + VARIANCE_GAMMA * sigma);
+    return max(from_ycocg(clipped), vec3<f32>(0.0));
+}
+
+// The blend of pixel id given how to clip; writes the new history, its
+// frame count in alpha (and the output when there is no sharpen pass).
+fn finish(id: vec2<u32>, clip: Clip) {
     let c = textureLoad(current, vec2<i32>(id), 0).rgb;
     var out = c;
+    var frames = 1.0;
     if (taa.has_history != 0u) {
         let q = reproject(id.x, id.y, taa.m0.xyz, taa.m1.xyz, taa.m2.xyz, frame);
         if (q.x >= 0.0) {
             var h = history_at(q);
+            frames = min(confidence_at(q) + 1.0, CONFIDENCE_CAP);
             if (!NO_CLIP) {
-                h = clip_to_box(h, lo, hi);
+                if (clip.variance) {
+                    h = clip_variance(h, clip.sum, clip.sum_sq);
+                } else {
+                    h = clip_to_box(h, clip.lo, clip.hi);
+                }
             }
-            out = c + (h - c) * feedback(c, h);
+            let d = q - (vec2<f32>(id) + vec2<f32>(0.5));
+            let motion = sqrt(dot(d, d));
+            var w: f32;
+            if (MOTION_FEEDBACK) {
+                w = 1.0 - motion_weight(frames, motion);
+            } else {
+                w = feedback(c, h);
+            }
+            out = blend(c, h, w, motion >= STATIC_PX);
         }
     }
-    textureStore(history_out, vec2<i32>(id), vec4<f32>(out, 1.0));
+    textureStore(history_out, vec2<i32>(id), vec4<f32>(out, frames));
     if (SHARPEN == 0.0) {
         textureStore(taa_out, vec2<i32>(id), vec4<f32>(out, 1.0));
     }
+}
+
+fn box_clip(lo: vec3<f32>, hi: vec3<f32>) -> Clip {
+    var clip: Clip;
+    clip.lo = lo;
+    clip.hi = hi;
+    clip.variance = false;
+    return clip;
 }
 
 // `taa = "clip"`: the two neighbourhoods' bounds averaged.
@@ -205,7 +298,27 @@ fn resolve_clip(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let n = neighbourhood(i32(id.x), i32(id.y));
-    finish(id.xy, 0.5 * (n.lo_cross + n.lo_all), 0.5 * (n.hi_cross + n.hi_all));
+    finish(id.xy, box_clip(0.5 * (n.lo_cross + n.lo_all), 0.5 * (n.hi_cross + n.hi_all)));
+}
+
+// `taa = "variance"`: the 3×3 neighbourhood's YCoCg moments.
+@compute @workgroup_size(64, 1)
+fn resolve_variance(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x >= frame.size.x || id.y >= frame.size.y) {
+        return;
+    }
+    var clip: Clip;
+    clip.variance = true;
+    clip.sum = vec3<f32>(0.0);
+    clip.sum_sq = vec3<f32>(0.0);
+    for (var dy = -1; dy <= 1; dy = dy + 1) {
+        for (var dx = -1; dx <= 1; dx = dx + 1) {
+            let q = to_ycocg(load_clamped(current, i32(id.x) + dx, i32(id.y) + dy));
+            clip.sum = clip.sum + q;
+            clip.sum_sq = clip.sum_sq + q * q;
+        }
+    }
+    finish(id.xy, clip);
 }
 
 // `taa = "edge_aware"`: blended by the aliasing amount, shrunk toward the
@@ -225,7 +338,7 @@ fn resolve_edge_aware(@builtin(global_invocation_id) id: vec3<u32>) {
     let c = textureLoad(current, vec2<i32>(id.xy), 0).rgb;
     let lo = n.lo_cross + (n.lo_all - n.lo_cross) * a;
     let hi = n.hi_cross + (n.hi_all - n.hi_cross) * a;
-    finish(id.xy, c + (lo - c) * a, c + (hi - c) * a);
+    finish(id.xy, box_clip(c + (lo - c) * a, c + (hi - c) * a));
 }
 
 // The sharpen: b + s·(4b − N − S − E − W), limited to the cross

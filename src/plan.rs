@@ -377,10 +377,7 @@ mod tests {
     fn taa_stages_follow_the_sphere_only_when_asked() {
         let params = |variant| TaaParams {
             variant,
-            feedback_min: 0.88,
-            feedback_max: 0.97,
-            sharpen: 0.0,
-            history_filter: crate::scene::HistoryFilter::Bilinear,
+            ..TaaParams::default()
         };
         let op = Operator::default();
         let sphere = StagePlan::build(Input::Sphere { spp: 1 }, &op, None, None);

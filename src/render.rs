@@ -4,7 +4,7 @@
 use crate::check::Rendered;
 use crate::conventions::{reprojection, rotation_matrix, taa_jitter, Mat3};
 use crate::gpu::{GpuConfig, GpuContext, GpuError, GpuFrame, GpuInput, GpuRenderer, GpuStats};
-use crate::image::{HdrImage, LinearImage, Rgb8Image};
+use crate::image::{HdrImage, Rgb8Image};
 use crate::perf::{summarise, StageTiming};
 use crate::plan::{PlanError, StagePlan};
 use crate::reference::{render_frame, render_taa_frame, scene_camera, FrameSummary, Pipeline};
@@ -152,7 +152,7 @@ struct TaaHistory {
     /// The frame the history is ready for (None: no usable history).
     next: Option<u32>,
     /// The CPU reference's history (the GPU keeps its own on the device).
-    cpu: Option<LinearImage>,
+    cpu: Option<crate::reference::taa::TaaHistory>,
 }
 
 impl<'a> SceneRenderer<'a> {

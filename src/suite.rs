@@ -97,10 +97,18 @@ impl Suite {
                     .join(", ")
             ));
         }
+        // A scene that compares with another (`min_psnr_gain_over`) brings
+        // it along; `parse_suite` made sure it comes earlier.
+        let mut wanted: Vec<&str> = names.iter().map(String::as_str).collect();
+        for s in self.scenes.iter().rev() {
+            if names.is_empty() || wanted.contains(&s.name.as_str()) {
+                wanted.extend(s.checks.iter().filter_map(|c| c.check.baseline()));
+            }
+        }
         Ok(self
             .scenes
             .iter()
-            .filter(|s| names.is_empty() || names.contains(&s.name))
+            .filter(|s| names.is_empty() || wanted.contains(&s.name.as_str()))
             .cloned()
             .collect())
     }
@@ -132,6 +140,22 @@ pub fn parse_suite(text: &str, path: &Path) -> Result<Suite, SceneError> {
                 message: format!("two scenes are named {:?}", scene.name),
             });
         }
+        for baseline in scene.checks.iter().filter_map(|c| c.check.baseline()) {
+            let invalid = |message: String| SceneError::Invalid {
+                path: path.to_owned(),
+                message: format!("scene {:?}: min_psnr_gain_over: {message}", scene.name),
+            };
+            let Some(base) = scenes.iter().find(|s| s.name == baseline) else {
+                return Err(invalid(format!(
+                    "scene {baseline:?} must be listed before this one in the suite"
+                )));
+            };
+            if base.sequence_key() != scene.sequence_key() {
+                return Err(invalid(format!(
+                    "scene {baseline:?} renders another sequence (environment, size, rotation, operator or frames differ): its frames cannot be compared with this scene's"
+                )));
+            }
+        }
         scenes.push(scene);
     }
     let p = &suite.performance;
@@ -159,4 +183,69 @@ pub fn parse_suite(text: &str, path: &Path) -> Result<Suite, SceneError> {
         stress: suite.stress,
         hash: hex::encode(h.finalize()),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scene(name: &str, omega: f64, checks: &str) -> String {
+        format!(
+            r#"name = "{name}"
+size = [32, 18]
+frames = 2
+[environment]
+builtin = "grid"
+size = [64, 32]
+[rotation]
+degrees_per_frame = {omega}
+[taa]
+variant = "clip"
+[[checks]]
+min_psnr = 1.0
+{checks}"#
+        )
+    }
+
+    /// Writes the scenes and a suite listing them in order; parses it.
+    fn suite(scenes: &[(&str, String)]) -> Result<Suite, SceneError> {
+        let dir = tempfile::tempdir().unwrap();
+        let mut list = String::from("scenes = [\n");
+        for (name, text) in scenes {
+            std::fs::write(dir.path().join(format!("{name}.toml")), text).unwrap();
+            list.push_str(&format!("  \"{name}.toml\",\n"));
+        }
+        list.push_str("]\n");
+        let path = dir.path().join("suite.toml");
+        std::fs::write(&path, &list).unwrap();
+        load_suite_file(&path)
+    }
+
+    #[test]
+    fn a_gain_check_needs_its_scene_earlier_and_on_the_same_sequence() {
+        let gain = "[[checks]]\nmin_psnr_gain_over = { scene = \"base\", db = 1.0 }\n";
+        let ok = suite(&[
+            ("base", scene("base", 0.5, "")),
+            ("taa", scene("taa", 0.5, gain)),
+        ])
+        .unwrap();
+        // Selecting the comparing scene brings its baseline along, first.
+        let picked = ok.select(&["taa".into()]).unwrap();
+        let names: Vec<&str> = picked.iter().map(|s| s.name.as_str()).collect();
+        assert_eq!(names, ["base", "taa"]);
+        let e = suite(&[
+            ("taa", scene("taa", 0.5, gain)),
+            ("base", scene("base", 0.5, "")),
+        ])
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("\"base\" must be listed before this one"), "{e}");
+        let e = suite(&[
+            ("base", scene("base", 1.0, "")),
+            ("taa", scene("taa", 0.5, gain)),
+        ])
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("renders another sequence"), "{e}");
+    }
 }

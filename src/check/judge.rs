@@ -4,7 +4,7 @@
 
 use super::figures::FRAME_METRICS;
 use super::result::{CheckResult, FrameResult, SceneResult, Summary, TestKind};
-use super::spec::{not_applied, CheckSpec, Judged, Subject};
+use super::spec::{not_applied, Check, CheckSpec, Judged, Subject};
 use crate::image::Rgb8Image;
 use crate::metrics::{compare_with_flip, fraction_over};
 use crate::perf::TimingSummary;
@@ -92,6 +92,8 @@ pub fn evaluate(
             ),
             None => result(None, format!("no GPU timing for stage {stage}"), None),
         },
+        // Decided by `judge_gains` once the other scene is rendered.
+        Subject::GainOver(g) => result(None, format!("{PENDING} {}", g.scene), None),
         Subject::Fps => match fps {
             Some(v) => result(
                 Some(!rule.fails(v)),
@@ -100,6 +102,97 @@ pub fn evaluate(
             ),
             None => result(None, "FPS is measured on the GPU renderer".into(), None),
         },
+    }
+}
+
+/// The detail of a gain check `evaluate` leaves to [`judge_gains`].
+const PENDING: &str = "waits for the render of";
+
+/// Decides `result`'s `min_psnr_gain_over` checks against the scenes
+/// rendered before it in the same run (`earlier`): frame by frame, this
+/// scene's PSNR less the other's, over this scene's judged frames. A check
+/// whose scene was not rendered fails and says so.
+pub fn judge_gains(result: &mut SceneResult, earlier: &[SceneResult]) {
+    let psnr = |r: &SceneResult, frame: u32| {
+        r.frames
+            .iter()
+            .find(|f| f.frame == frame)
+            .map(|f| f.metrics.psnr)
+    };
+    let mut decided = Vec::new();
+    for (i, c) in result.checks.iter().enumerate() {
+        let Check::MinPsnrGainOver(g) = &c.spec.check else {
+            continue;
+        };
+        if c.passed.is_some() || !c.detail.starts_with(PENDING) {
+            continue;
+        }
+        let Some(base) = earlier.iter().find(|r| r.scene == g.scene) else {
+            decided.push((
+                i,
+                false,
+                format!(
+                    "scene {} was not rendered before this one in this run",
+                    g.scene
+                ),
+                None,
+            ));
+            continue;
+        };
+        let gains: Vec<(u32, f64)> = result
+            .judged_frames
+            .iter()
+            .map(|&f| {
+                let gain = match (psnr(result, f), psnr(base, f)) {
+                    (Some(a), Some(b)) => a - b,
+                    _ => f64::NAN,
+                };
+                (f, gain)
+            })
+            .collect();
+        if gains.is_empty() {
+            decided.push((i, false, "no frames to judge".into(), None));
+            continue;
+        }
+        let mean = gains.iter().map(|g| g.1).sum::<f64>() / gains.len() as f64;
+        let (worst_frame, worst) = gains
+            .iter()
+            .copied()
+            .reduce(|w, v| if v.1.is_nan() || v.1 < w.1 { v } else { w })
+            .unwrap_or((0, f64::NAN));
+        let late_fails: Vec<u32> = match g.frame_db {
+            Some(floor) => gains
+                .iter()
+                .filter(|(f, v)| *f >= g.from_frame && (v.is_nan() || *v < floor))
+                .map(|(f, _)| *f)
+                .collect(),
+            None => Vec::new(),
+        };
+        let mean_ok = mean >= g.db;
+        let mut detail = format!(
+            "mean PSNR gain over {} {mean:+.2} dB over {} frames (min {}); worst frame {worst_frame} {worst:+.2} dB",
+            g.scene,
+            gains.len(),
+            g.db
+        );
+        if let Some(floor) = g.frame_db {
+            detail.push_str(&match late_fails.as_slice() {
+                [] => format!("; every frame from {} gains >= {floor} dB", g.from_frame),
+                f => format!("; frames {f:?} gain less than {floor} dB over {}", g.scene),
+            });
+        }
+        decided.push((
+            i,
+            mean_ok && late_fails.is_empty() && !mean.is_nan(),
+            detail,
+            Some(late_fails.first().copied().unwrap_or(worst_frame)),
+        ));
+    }
+    for (i, passed, detail, frame) in decided {
+        let c = &mut result.checks[i];
+        c.passed = Some(passed);
+        c.detail = detail;
+        c.frame = frame;
     }
 }
 

@@ -64,7 +64,7 @@ impl FrameResult {
                     .copied()
                     .unwrap_or(f64::NAN),
             ),
-            Subject::StageMs(_) | Subject::Fps => None,
+            Subject::StageMs(_) | Subject::Fps | Subject::GainOver(_) => None,
         }
     }
 

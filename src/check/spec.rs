@@ -44,6 +44,27 @@ pub enum Check {
         p: f64,
         value: f64,
     },
+    /// This scene's PSNR against another scene's of the same sequence in the
+    /// same run (its no-AA render, say): "TAA helps here" as a gate
+    /// condition.
+    MinPsnrGainOver(GainOver),
+}
+
+/// `min_psnr_gain_over = { scene = "taa-ghost-noaa", db = 2.0, frame_db =
+/// 0.0, from_frame = 16 }`: over the judged frames, the mean of this scene's
+/// PSNR less `scene`'s on the same frame is at least `db`; and, when
+/// `frame_db` is given, every judged frame from `from_frame` on gains at
+/// least `frame_db`. `scene` must render the same frames against the same
+/// goldens and come earlier in the suite.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GainOver {
+    pub scene: String,
+    pub db: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frame_db: Option<f64>,
+    #[serde(default)]
+    pub from_frame: u32,
 }
 
 /// What a rule bounds.
@@ -59,6 +80,8 @@ pub enum Subject<'a> {
     Fps,
     /// FLIP's weighted percentile `p` of a judged frame's error map.
     FlipPercentile(f64),
+    /// The PSNR gain over another scene of the run, frame by frame.
+    GainOver(&'a GainOver),
 }
 
 impl Subject<'_> {
@@ -70,6 +93,7 @@ impl Subject<'_> {
             Subject::StageMs(stage) => (*stage).into(),
             Subject::Fps => "FPS".into(),
             Subject::FlipPercentile(p) => format!("FLIP weighted percentile {p}"),
+            Subject::GainOver(g) => format!("mean PSNR gain over {}", g.scene),
         }
     }
 
@@ -81,6 +105,7 @@ impl Subject<'_> {
             Subject::StageMs(stage) => format!("{stage} median {v:.3} ms"),
             Subject::Fps => format!("{v:.1} FPS with readback"),
             Subject::FlipPercentile(p) => format!("FLIP weighted percentile {p} {v:.5}"),
+            Subject::GainOver(g) => format!("PSNR gain over {} {v:+.2} dB", g.scene),
         }
     }
 
@@ -88,6 +113,7 @@ impl Subject<'_> {
         match self {
             Subject::Frame(m) => m.bound_unit,
             Subject::StageMs(_) => " ms",
+            Subject::GainOver(_) => " dB",
             Subject::FractionOver(_) | Subject::Fps | Subject::FlipPercentile(_) => "",
         }
     }
@@ -99,6 +125,9 @@ impl Subject<'_> {
             Subject::StageMs(_) => bound.is_finite() && bound > 0.0,
             Subject::Fps => !bound.is_nan(),
             Subject::FlipPercentile(p) => (0.0..=1.0).contains(p) && (0.0..=1.0).contains(&bound),
+            Subject::GainOver(g) => {
+                bound.is_finite() && g.frame_db.is_none_or(f64::is_finite) && !g.scene.is_empty()
+            }
         }
     }
 
@@ -156,8 +185,16 @@ impl Rule<'_> {
             Side::Min => ">=",
             Side::Max => "<=",
         };
+        let frames = match self.subject {
+            Subject::GainOver(GainOver {
+                frame_db: Some(f),
+                from_frame,
+                ..
+            }) => format!(", each frame from {from_frame} >= {f} dB"),
+            _ => String::new(),
+        };
         format!(
-            "{} {op} {}{}",
+            "{} {op} {}{}{frames}",
             self.subject.title(),
             self.bound,
             self.subject.bound_unit()
@@ -200,6 +237,20 @@ impl Check {
                 Max,
                 *value,
             ),
+            Check::MinPsnrGainOver(g) => Rule::new(
+                format!("min_psnr_gain_over:{}", g.scene),
+                Subject::GainOver(g),
+                Min,
+                g.db,
+            ),
+        }
+    }
+
+    /// The scene a check compares with, if it compares with one.
+    pub fn baseline(&self) -> Option<&str> {
+        match self {
+            Check::MinPsnrGainOver(g) => Some(&g.scene),
+            _ => None,
         }
     }
 

@@ -24,13 +24,20 @@ pub struct BenchArgs {
     pub frames: u32,
     #[arg(long, default_value_t = 10)]
     pub warmup: u32,
-    /// TAA stages after `sphere` (off, clip, edge-aware), timed with a
-    /// history to resolve every frame.
+    /// TAA stages after `sphere` (off, clip, edge-aware, variance), timed
+    /// with a history to resolve every frame; the other TAA keys at a
+    /// scene's defaults (docs/taa.md).
     #[arg(long, value_enum, default_value = "off")]
     pub taa: tonegate::scene::TaaVariant,
-    /// How the TAA history is read (bilinear, catmull-rom).
-    #[arg(long, value_enum, default_value = "bilinear")]
+    /// How the TAA history is read.
+    #[arg(long, value_enum, default_value = "catmull-rom")]
     pub taa_history: tonegate::scene::HistoryFilter,
+    /// How the TAA blend's current-frame weight is chosen.
+    #[arg(long, value_enum, default_value = "motion")]
+    pub taa_feedback: tonegate::scene::FeedbackRule,
+    /// Where the TAA blend is taken.
+    #[arg(long, value_enum, default_value = "linear")]
+    pub taa_blend: tonegate::scene::BlendSpace,
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
@@ -216,8 +223,13 @@ pub fn bench(a: BenchArgs) -> Result<ExitCode> {
         frames: a.frames,
         warmup: a.warmup,
         config: a.gpu.config(),
-        taa: a.taa,
-        history_filter: a.taa_history,
+        taa: tonegate::scene::TaaParams {
+            variant: a.taa,
+            history_filter: a.taa_history,
+            feedback: a.taa_feedback,
+            blend: a.taa_blend,
+            ..Default::default()
+        },
     };
     let report = tonegate::gpu::bench::run(&ctx, &opts)?;
     if a.json {

@@ -373,6 +373,7 @@ fn run_inner(
             .map(|n| crate::golden::read_frame(&root, &scene.name, n))
             .collect::<Result<Vec<_>, _>>()?;
         let (mut result, kept) = judge(scene.judging(), rendered, goldens)?;
+        crate::check::judge_gains(&mut result, &scenes);
         apply_expectations(&mut result, &scene.expectations, &adapter, &today);
         result.taa = scene.taa.as_ref().map(|t| crate::check::TaaTag {
             variant: t.variant.name().into(),

@@ -14,8 +14,8 @@ use crate::perf::{quantile, summarise, StageTiming};
 use crate::plan::StagePlan;
 use crate::reference::Pipeline;
 use crate::scene::{
-    Bloom, BrightPass, ColourPath, Encoding, Factor, HistoryFilter, Key, NonNegative, Operator,
-    Positive, Radius, TaaParams, TaaVariant,
+    Bloom, BrightPass, ColourPath, Encoding, Factor, Key, NonNegative, Operator, Positive, Radius,
+    TaaParams,
 };
 use serde::Serialize;
 
@@ -27,11 +27,9 @@ pub struct BenchOptions {
     pub frames: u32,
     pub warmup: u32,
     pub config: GpuConfig,
-    /// The TAA stages after `sphere` (`TaaVariant::Off`: none), resolving
-    /// against a history every measured frame.
-    pub taa: TaaVariant,
-    /// How the TAA history is read.
-    pub history_filter: HistoryFilter,
+    /// The TAA stages after `sphere` (variant `TaaVariant::Off`: none),
+    /// resolving against a history every measured frame.
+    pub taa: TaaParams,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -187,14 +185,13 @@ fn median_ratio(
 
 /// A renderer of the bench's full plan at `width`×`height` over the built-in
 /// sky (2048×1024), shared by `tonegate bench` and the criterion bench; with
-/// a TAA variant, its stages after `sphere` at the scene defaults.
+/// TAA (a variant other than `TaaVariant::Off`), its stages after `sphere`.
 pub fn full_plan_renderer(
     ctx: &GpuContext,
     width: u32,
     height: u32,
     config: GpuConfig,
-    taa: TaaVariant,
-    history_filter: HistoryFilter,
+    taa: TaaParams,
 ) -> Result<GpuRenderer<'_>, GpuError> {
     let (op, bloom) = bench_operator();
     let pipeline = Pipeline {
@@ -215,13 +212,7 @@ pub fn full_plan_renderer(
         Some(&bloom),
         None,
     )
-    .with_taa(TaaParams {
-        variant: taa,
-        feedback_min: 0.88,
-        feedback_max: 0.97,
-        sharpen: 0.0,
-        history_filter,
-    });
+    .with_taa(taa);
     GpuRenderer::new(
         ctx,
         plan,
@@ -237,14 +228,7 @@ pub fn full_plan_renderer(
 
 /// Runs the bench on `ctx`.
 pub fn run(ctx: &GpuContext, opts: &BenchOptions) -> Result<BenchReport, GpuError> {
-    let r = full_plan_renderer(
-        ctx,
-        opts.width,
-        opts.height,
-        opts.config,
-        opts.taa,
-        opts.history_filter,
-    )?;
+    let r = full_plan_renderer(ctx, opts.width, opts.height, opts.config, opts.taa)?;
     let plan = r.plan.clone();
     let angle = |n: u32| rotation_matrix([1.0, 0.0, 0.0], (n as f64 * 2.0).to_radians());
     // Every frame, TAA included, is the full cost: a history to resolve.

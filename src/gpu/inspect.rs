@@ -11,15 +11,18 @@ use crate::reference::bloom_downsample::downsampled_size;
 impl GpuRenderer<'_> {
     /// Reads back the output texture of `stage` ("sphere", "taa_sobel",
     /// "taa", "tonemap", "bloom_blur", "bloom_composite", "grade", "display"
-    /// for the frame entering `encode`, or "taa_history" for the unsharpened
-    /// TAA blend of the last frame) as f64, or None when the plan has no such
-    /// stage.
+    /// for the frame entering `encode`, "taa_history" for the unsharpened
+    /// TAA blend of the last frame, or "taa_confidence" for its frame counts
+    /// in every channel) as f64, or None when the plan has no such stage.
     pub fn read_output(&self, stage: &str) -> Result<Option<LinearImage>, GpuError> {
-        // The TAA history the last frame wrote: the texture the next frame reads.
-        let history = self.taa.as_ref().map(|t| {
+        // The TAA history the last frame wrote: the texture the next frame
+        // reads, its frame counts in alpha.
+        let history = self.taa.as_ref().into_iter().flat_map(|t| {
             let odd = self.odd.load(std::sync::atomic::Ordering::Relaxed);
-            ("taa_history", &t.history[usize::from(odd)])
+            let texture = &t.history[usize::from(odd)];
+            [("taa_history", texture), ("taa_confidence", texture)]
         });
+        let alpha = stage == "taa_confidence";
         let found = self
             .outputs
             .iter()
@@ -104,7 +107,7 @@ impl GpuRenderer<'_> {
                         }
                     }
                 };
-                pixels.push([c(0), c(1), c(2)]);
+                pixels.push(if alpha { [c(3); 3] } else { [c(0), c(1), c(2)] });
             }
         }
         Ok(Some(LinearImage {

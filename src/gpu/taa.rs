@@ -8,7 +8,7 @@ use super::stages::{
     bind_group, dispatch_2d, hdr_texture, pipeline, uniform_buffer, Bind, Dispatch,
 };
 use super::{GpuContext, HdrFormat};
-use crate::scene::{HistoryFilter, TaaParams, TaaVariant};
+use crate::scene::{BlendSpace, FeedbackRule, HistoryFilter, TaaParams, TaaVariant};
 
 /// Mirrors `TaaUniforms` in shaders/taa.wgsl.
 #[repr(C)]
@@ -57,29 +57,34 @@ pub fn taa(
             _pad: [0; 3],
         }),
     );
+    let flag = |on: bool| if on { 1.0 } else { 0.0 };
     let constants = [
+        (
+            "MOTION_FEEDBACK",
+            flag(params.feedback == FeedbackRule::Motion),
+        ),
+        ("CURRENT_MIN", params.current_min),
+        ("CURRENT_MOVING", params.current_moving),
+        ("CURRENT_PER_PX", params.current_per_px),
+        ("CURRENT_MAX", params.current_max),
+        ("STATIC_PX", params.static_px),
+        ("VARIANCE_GAMMA", params.variance_gamma),
+        (
+            "TONEMAPPED_BLEND",
+            flag(params.blend == BlendSpace::Tonemapped),
+        ),
         ("FEEDBACK_MIN", params.feedback_min),
         ("FEEDBACK_MAX", params.feedback_max),
         ("SHARPEN", params.sharpen),
-        (
-            "NO_CLIP",
-            if fault == Some(TaaFault::NoClip) {
-                1.0
-            } else {
-                0.0
-            },
-        ),
+        ("NO_CLIP", flag(fault == Some(TaaFault::NoClip))),
         (
             "CATMULL_ROM",
-            if params.history_filter == HistoryFilter::CatmullRom {
-                1.0
-            } else {
-                0.0
-            },
+            flag(params.history_filter == HistoryFilter::CatmullRom),
         ),
     ];
     let entry = match (params.variant, amount) {
         (TaaVariant::EdgeAware, Some(_)) => "resolve_edge_aware",
+        (TaaVariant::Variance, _) => "resolve_variance",
         _ => "resolve_clip",
     };
     let resolve = pipeline(ctx, "taa", entry, format, &constants);

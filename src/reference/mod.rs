@@ -313,8 +313,8 @@ pub fn render_taa_frame(
     scene: &Scene,
     env: &HdrImage,
     n: u32,
-    history: Option<&LinearImage>,
-) -> Result<(FrameOutputs, LinearImage), PlanError> {
+    history: Option<&taa::TaaHistory>,
+) -> Result<(FrameOutputs, taa::TaaHistory), PlanError> {
     let plan = StagePlan::for_scene(scene, 1);
     let params = plan.taa().ok_or(PlanError::Incomplete { missing: "taa" })?;
     let camera = scene_camera(scene);

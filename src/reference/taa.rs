@@ -35,21 +35,36 @@ use super::taa_sobel::clamped;
 use crate::color::{luminance, SMALLEST_NORMAL};
 use crate::conventions::{reproject, Camera, Mat3};
 use crate::image::{Image, LinearImage};
-use crate::scene::{HistoryFilter, TaaParams, TaaVariant};
+use crate::scene::{BlendSpace, FeedbackRule, HistoryFilter, TaaParams, TaaVariant};
 use rayon::prelude::*;
+
+/// A TAA history: the resolved (unsharpened) colours and, per pixel, how
+/// many frames each has averaged since its history last started.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TaaHistory {
+    pub colour: LinearImage,
+    /// Frames in the pixel's history, 1 for a pixel that had none (a reset,
+    /// or a point that was off the film), at most [`CONFIDENCE_CAP`]. The
+    /// GPU keeps it in the history texture's alpha.
+    pub confidence: Image<f64>,
+}
+
+/// Where a pixel's frame count stops growing: far beyond any weight it
+/// sets (1/1024), and exact in f16.
+pub const CONFIDENCE_CAP: f64 = 1024.0;
 
 /// What one TAA frame resolves against.
 pub struct TaaFrame<'a> {
-    /// The previous frame's resolved (unsharpened) image; None on a reset.
-    pub history: Option<&'a LinearImage>,
+    /// The previous frame's history; None on a reset.
+    pub history: Option<&'a TaaHistory>,
     /// `conventions::reprojection` from the previous frame's rotation to this one's.
     pub reprojection: Mat3,
 }
 
 /// The stage's two images.
 pub struct TaaOutput {
-    /// The blend: next frame's history.
-    pub history: LinearImage,
+    /// The blend and its frame counts: next frame's history.
+    pub history: TaaHistory,
     /// The sharpened blend: what the later stages read.
     pub output: LinearImage,
 }
@@ -217,9 +232,93 @@ pub(crate) fn aliased_value(s: &Image<f64>, x: i64, y: i64) -> f64 {
     mixed.clamp(0.0, 1.0)
 }
 
+/// The frame count of the history texel under film point (px, py), border
+/// clamped (a count is not interpolated: the texel the point falls in).
+pub fn confidence_at(confidence: &Image<f64>, px: f64, py: f64) -> f64 {
+    clamped(confidence, px.floor() as i64, py.floor() as i64)
+}
+
+/// The current frame's weight in the blend under `FeedbackRule::Motion`,
+/// for a pixel whose new history holds `frames` frames and which moved
+/// `motion_px` pixels since the last frame.
+pub fn motion_weight(frames: f64, motion_px: f64, p: &TaaParams) -> f64 {
+    let from_motion = if motion_px < p.static_px {
+        p.current_min
+    } else {
+        (p.current_moving + p.current_per_px * motion_px).min(p.current_max)
+    };
+    from_motion.max(1.0 / frames)
+}
+
+/// YCoCg (Malvar and Sullivan's lifting transform, as TAA clipping uses
+/// it): Y = R/4 + G/2 + B/4, Co = (R − B)/2, Cg = (2G − R − B)/4.
+pub fn to_ycocg(c: [f64; 3]) -> [f64; 3] {
+    [
+        0.25 * c[0] + 0.5 * c[1] + 0.25 * c[2],
+        0.5 * c[0] - 0.5 * c[2],
+        -0.25 * c[0] + 0.5 * c[1] - 0.25 * c[2],
+    ]
+}
+
+/// The inverse of [`to_ycocg`].
+pub fn from_ycocg(c: [f64; 3]) -> [f64; 3] {
+    [c[0] + c[1] - c[2], c[0] + c[2], c[0] - c[1] - c[2]]
+}
+
+/// Variance clipping (Salvi 2016): `history` clipped, in YCoCg, toward the
+/// mean of pixel (x, y)'s 3×3 neighbourhood onto the box mean ± γσ; back in
+/// RGB, each channel at least 0.
+pub fn clip_variance(
+    current: &LinearImage,
+    x: i64,
+    y: i64,
+    history: [f64; 3],
+    gamma: f64,
+) -> [f64; 3] {
+    let mut sum = [0.0; 3];
+    let mut sum_sq = [0.0; 3];
+    for dy in -1..=1 {
+        for dx in -1..=1 {
+            let q = to_ycocg(clamped(current, x + dx, y + dy));
+            for c in 0..3 {
+                sum[c] += q[c];
+                sum_sq[c] += q[c] * q[c];
+            }
+        }
+    }
+    let mut lo = [0.0; 3];
+    let mut hi = [0.0; 3];
+    for c in 0..3 {
+        let mean = sum[c] / 9.0;
+        let sigma = (sum_sq[c] / 9.0 - mean * mean).max(0.0).sqrt();
+        lo[c] = mean - gamma * sigma;
+        hi[c] = mean + gamma * sigma;
+    }
+    let clipped = from_ycocg(clip_to_box(to_ycocg(history), lo, hi));
+    [
+        clipped[0].max(0.0),
+        clipped[1].max(0.0),
+        clipped[2].max(0.0),
+    ]
+}
+
+/// The blend of current colour `c` and clipped history `h` with the
+/// history weighing `w`, in `space`.
+pub fn blend(c: [f64; 3], h: [f64; 3], w: f64, space: BlendSpace) -> [f64; 3] {
+    match space {
+        BlendSpace::Linear => mix3(c, h, w),
+        BlendSpace::Tonemapped => {
+            let wc = (1.0 - w) / (1.0 + luminance(c));
+            let wh = w / (1.0 + luminance(h));
+            let t = wh / (wc + wh);
+            mix3(c, h, t)
+        }
+    }
+}
+
 /// Resolves `current` (this frame's jittered `sphere` output) against
 /// `frame`'s history. `amount` is `taa_sobel`'s output, required for
-/// `edge_aware` and ignored for `clip`.
+/// `edge_aware` and ignored otherwise.
 pub fn taa(
     current: &LinearImage,
     amount: Option<&Image<f64>>,
@@ -229,31 +328,62 @@ pub fn taa(
 ) -> TaaOutput {
     let (w, h) = (current.width as usize, current.height as usize);
     let amount = amount.filter(|_| p.variant == TaaVariant::EdgeAware);
-    let mut blend = vec![[0.0f64; 3]; w * h];
-    blend.par_chunks_mut(w).enumerate().for_each(|(j, row)| {
+    let mut blended = vec![([0.0f64; 3], 1.0f64); w * h];
+    blended.par_chunks_mut(w).enumerate().for_each(|(j, row)| {
         for (i, out) in row.iter_mut().enumerate() {
             let c = current.pixels[j * w + i];
             let previous = frame.history.and_then(|hist| {
-                reproject(camera, &frame.reprojection, i as u32, j as u32)
-                    .map(|(px, py)| history_at(hist, px, py, p.history_filter))
+                reproject(camera, &frame.reprojection, i as u32, j as u32).map(|(px, py)| {
+                    let colour = history_at(&hist.colour, px, py, p.history_filter);
+                    let frames =
+                        (confidence_at(&hist.confidence, px, py) + 1.0).min(CONFIDENCE_CAP);
+                    let motion = (px - (i as f64 + 0.5)).hypot(py - (j as f64 + 0.5));
+                    (colour, frames, motion)
+                })
             });
             *out = match previous {
-                None => c,
-                Some(hist) => {
-                    let (lo, hi) = clip_box(current, amount, i as i64, j as i64);
-                    let clipped = clip_to_box(hist, lo, hi);
-                    mix3(c, clipped, feedback(c, clipped, p))
+                None => (c, 1.0),
+                Some((hist, frames, motion)) => {
+                    let (x, y) = (i as i64, j as i64);
+                    let clipped = if p.variant == TaaVariant::Variance {
+                        clip_variance(current, x, y, hist, p.variance_gamma)
+                    } else {
+                        let (lo, hi) = clip_box(current, amount, x, y);
+                        clip_to_box(hist, lo, hi)
+                    };
+                    let weight = match p.feedback {
+                        FeedbackRule::Luminance => feedback(c, clipped, p),
+                        FeedbackRule::Motion => 1.0 - motion_weight(frames, motion, p),
+                    };
+                    // A static pixel is blended linearly whatever `p.blend`
+                    // says: its history then converges on the plain mean of
+                    // the jitter offsets, which is what an accumulation
+                    // reference is.
+                    let space = if motion < p.static_px {
+                        BlendSpace::Linear
+                    } else {
+                        p.blend
+                    };
+                    (blend(c, clipped, weight, space), frames)
                 }
             };
         }
     });
-    let history = Image {
+    let colour = Image {
         width: current.width,
         height: current.height,
-        pixels: blend,
+        pixels: blended.iter().map(|b| b.0).collect(),
     };
-    let output = sharpen(&history, p.sharpen);
-    TaaOutput { history, output }
+    let confidence = Image {
+        width: current.width,
+        height: current.height,
+        pixels: blended.iter().map(|b| b.1).collect(),
+    };
+    let output = sharpen(&colour, p.sharpen);
+    TaaOutput {
+        history: TaaHistory { colour, confidence },
+        output,
+    }
 }
 
 /// The TAA thesis's sharpen kernel at strength s:

@@ -20,8 +20,10 @@ pub use operator::{
     ColourPath, Key, Operator, OperatorKind, OperatorParams, DEFAULT_KEY, DEFAULT_WHITE_FRACTION,
 };
 pub use sequence::{Environment, Rotation, MAX_FRAMES};
-pub use taa::{HistoryFilter, Taa, TaaParams, TaaVariant};
-pub use units::{Factor, Feedback, NonNegative, Positive, Radius, Size, Unit, MAX_OUTPUT_PIXELS};
+pub use taa::{BlendSpace, FeedbackRule, HistoryFilter, Taa, TaaParams, TaaVariant};
+pub use units::{
+    Factor, Feedback, NonNegative, Positive, Radius, Size, Unit, Weight, MAX_OUTPUT_PIXELS,
+};
 
 use crate::check::{CheckSpec, Judging, TestKind};
 

@@ -71,6 +71,12 @@ checked_number!(
     "between 0 and 1"
 );
 checked_number!(
+    /// A current-frame weight in (0, 1]: 0 would never take a new sample.
+    Weight(f64 as "f64"),
+    |v| v > 0.0 && v <= 1.0,
+    "in (0, 1]"
+);
+checked_number!(
     /// A history weight in [0, 1): 1 would never take a new sample.
     Feedback(f64 as "f64"),
     |v| (0.0..1.0).contains(&v),

@@ -12,7 +12,8 @@ use crate::metrics::compare;
 use crate::perf::quantile;
 use crate::render::{scene_environment, RenderError, SceneRenderer};
 use crate::scene::{
-    Factor, Feedback, HistoryFilter, Positive, Radius, Scene, Taa, TaaVariant, Unit,
+    BlendSpace, Factor, FeedbackRule, HistoryFilter, Positive, Radius, Scene, Taa, TaaParams,
+    TaaVariant,
 };
 use serde::Serialize;
 
@@ -30,43 +31,44 @@ pub struct Knobs {
     pub taa: Option<TaaKnob>,
 }
 
-/// The TAA knobs of a 1-spp configuration.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub struct TaaKnob {
-    pub variant: TaaVariant,
-    pub feedback_min: f64,
-    pub feedback_max: f64,
-    pub sharpen: f64,
-    pub history_filter: HistoryFilter,
-}
+/// The TAA knobs of a 1-spp configuration: every key of the stage.
+pub type TaaKnob = TaaParams;
 
-/// The TAA configurations the sweep adds at 1 spp: no AA, and each variant
-/// at the default feedback (0.88..0.97) and a short one (0.5..0.7, less
-/// history: less blur in motion, less anti-aliasing when still), with the
-/// sharpen off and at the normalised kernel's 0.25, reading the history
-/// bilinearly; and each variant at the defaults with the Catmull-Rom history.
+/// The TAA configurations the sweep adds at 1 spp: no AA; every history
+/// filter × feedback rule × clipping box at the other keys' defaults (the
+/// luminance rule at the thesis's 0.88..0.97); and the defaults with the
+/// blend linear instead of tone-mapped, and with the sharpen at the
+/// normalised kernel's 0.25.
 pub fn taa_knobs() -> Vec<TaaKnob> {
-    let knob = |variant, (feedback_min, feedback_max), sharpen, history_filter| TaaKnob {
-        variant,
-        feedback_min,
-        feedback_max,
-        sharpen,
-        history_filter,
-    };
-    let mut all = vec![knob(
-        TaaVariant::Off,
-        (0.88, 0.97),
-        0.0,
-        HistoryFilter::Bilinear,
-    )];
-    for variant in [TaaVariant::Clip, TaaVariant::EdgeAware] {
-        for feedback in [(0.88, 0.97), (0.5, 0.7)] {
-            for sharpen in [0.0, 0.25] {
-                all.push(knob(variant, feedback, sharpen, HistoryFilter::Bilinear));
+    let defaults = TaaParams::default();
+    let mut all = vec![TaaParams {
+        variant: TaaVariant::Off,
+        ..defaults
+    }];
+    for history_filter in [HistoryFilter::Bilinear, HistoryFilter::CatmullRom] {
+        for feedback in [FeedbackRule::Luminance, FeedbackRule::Motion] {
+            for variant in [
+                TaaVariant::Clip,
+                TaaVariant::EdgeAware,
+                TaaVariant::Variance,
+            ] {
+                all.push(TaaParams {
+                    variant,
+                    history_filter,
+                    feedback,
+                    ..defaults
+                });
             }
         }
-        all.push(knob(variant, (0.88, 0.97), 0.0, HistoryFilter::CatmullRom));
     }
+    all.push(TaaParams {
+        blend: BlendSpace::Linear,
+        ..defaults
+    });
+    all.push(TaaParams {
+        sharpen: 0.25,
+        ..defaults
+    });
     all
 }
 
@@ -102,14 +104,24 @@ impl Knobs {
             None => String::new(),
             Some(t) if t.variant == TaaVariant::Off => " noaa".into(),
             Some(t) => format!(
-                " taa {} fb{}-{} s{}{}",
+                " taa {} {} {}{}{}",
                 t.variant.name(),
-                t.feedback_min,
-                t.feedback_max,
-                t.sharpen,
                 match t.history_filter {
-                    HistoryFilter::Bilinear => "",
-                    HistoryFilter::CatmullRom => " cr",
+                    HistoryFilter::Bilinear => "bilinear",
+                    HistoryFilter::CatmullRom => "cr",
+                },
+                match t.feedback {
+                    FeedbackRule::Luminance => format!("lum{}-{}", t.feedback_min, t.feedback_max),
+                    FeedbackRule::Motion => "motion".to_owned(),
+                },
+                match t.blend {
+                    BlendSpace::Linear => " linear",
+                    BlendSpace::Tonemapped => " tm",
+                },
+                if t.sharpen > 0.0 {
+                    format!(" s{}", t.sharpen)
+                } else {
+                    String::new()
                 }
             ),
         };
@@ -174,14 +186,7 @@ pub fn with_taa(scene: &Scene, knob: Option<TaaKnob>) -> Result<Scene, String> {
             .as_ref()
             .map(|t| t.reset_frames.clone())
             .unwrap_or_default();
-        variant.taa = Some(Taa {
-            variant: k.variant,
-            feedback_min: Feedback::try_from(k.feedback_min)?,
-            feedback_max: Feedback::try_from(k.feedback_max)?,
-            sharpen: Unit::try_from(k.sharpen)?,
-            history_filter: k.history_filter,
-            reset_frames: resets,
-        });
+        variant.taa = Some(Taa::from_params(&k, resets)?);
     }
     Ok(variant)
 }

@@ -43,9 +43,10 @@ fn the_sweep_covers_every_knob_and_bloom_only_where_there_is_bloom() {
     let plain = Scene::parse(&text, std::path::Path::new("x.toml")).unwrap();
     let a = sweep(&bloom, &[1, 4, 16], &[2, 4, 8]);
     let b = sweep(&plain, &[1, 4, 16], &[2, 4, 8]);
-    // Plus, at 1 spp, no AA and the two TAA variants at two feedback
-    // ranges and two sharpen strengths, and with the Catmull-Rom history.
-    let taa = 1 + 2 * (2 * 2 + 1);
+    // Plus, at 1 spp, no AA, every history filter × feedback rule ×
+    // clipping box, and the defaults with the tone-mapped blend and with
+    // the sharpen.
+    let taa = 1 + 2 * 2 * 3 + 2;
     assert_eq!(taa_knobs().len(), taa);
     // Formats × reductions (block, pingpong, tree, subgroup tree) ×
     // filters × ds × spp.

@@ -9,7 +9,7 @@ use tonegate::conventions::{reprojection, rotation_matrix, taa_jitter};
 use tonegate::gpu::{AdapterChoice, GpuConfig, GpuContext};
 use tonegate::image::LinearImage;
 use tonegate::plan::StagePlan;
-use tonegate::reference::taa::{taa, TaaFrame};
+use tonegate::reference::taa::{taa, TaaFrame, TaaHistory};
 use tonegate::reference::taa_sobel::taa_sobel;
 use tonegate::reference::{scene_camera, sphere};
 use tonegate::render::{scene_environment, SceneRenderer};
@@ -21,10 +21,11 @@ fn context() -> GpuContext {
 }
 
 fn scene(variant: &str, sharpen: f64, omega: f64) -> Scene {
-    scene_with(variant, sharpen, omega, "bilinear")
+    scene_with(variant, sharpen, omega, "")
 }
 
-fn scene_with(variant: &str, sharpen: f64, omega: f64, filter: &str) -> Scene {
+/// `keys`: more lines of the `[taa]` table ("" for every default).
+fn scene_with(variant: &str, sharpen: f64, omega: f64, keys: &str) -> Scene {
     let text = format!(
         r#"
 name = "taa-test"
@@ -38,7 +39,7 @@ degrees_per_frame = {omega}
 [taa]
 variant = "{variant}"
 sharpen = {sharpen}
-history_filter = "{filter}"
+{keys}
 reset_frames = [5]
 [[checks]]
 min_psnr = 0.0
@@ -57,10 +58,11 @@ fn worst(a: &LinearImage, b: &LinearImage, rel: f64, abs: f64) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// Each frame, the GPU's `taa_sobel`, `taa` and history against the f64
-/// stage fed the GPU's own inputs (its jittered `sphere` output and its
-/// previous history), for both variants with and without the sharpen, and
-/// with either history filter.
+/// Each frame, the GPU's `taa_sobel`, `taa`, history and frame counts
+/// against the f64 stage fed the GPU's own inputs (its jittered `sphere`
+/// output and its previous history), for every clipping box with and
+/// without the sharpen, either history filter, either feedback rule and
+/// either blend.
 ///
 /// Tolerance: 2e-4 relative plus 2e-4 of the frame's largest value. Origin:
 /// the GPU reprojects in f32, so its history read lands up to ~1e-5 px from
@@ -73,21 +75,31 @@ fn worst(a: &LinearImage, b: &LinearImage, rel: f64, abs: f64) -> f64 {
 #[test]
 fn each_taa_stage_matches_its_reference_on_the_gpus_inputs() {
     let ctx = context();
-    for (variant, sharpen, filter) in [
-        ("clip", 0.0, "bilinear"),
-        ("clip", 0.25, "bilinear"),
-        ("edge_aware", 0.0, "bilinear"),
-        ("edge_aware", 1.0, "bilinear"),
-        ("clip", 0.0, "catmull_rom"),
-        ("edge_aware", 0.25, "catmull_rom"),
+    // The thesis's TAA, as its scenes run it.
+    let thesis = "history_filter = \"bilinear\"\nfeedback = \"luminance\"\nblend = \"linear\"";
+    for (variant, sharpen, keys) in [
+        ("clip", 0.0, thesis),
+        ("clip", 0.25, thesis),
+        ("edge_aware", 0.0, thesis),
+        ("edge_aware", 1.0, thesis),
+        (
+            "clip",
+            0.0,
+            "history_filter = \"catmull_rom\"\nfeedback = \"luminance\"",
+        ),
+        ("edge_aware", 0.25, "history_filter = \"catmull_rom\""),
+        // The defaults: Catmull-Rom, motion feedback, tone-mapped blend.
+        ("clip", 0.0, ""),
+        ("variance", 0.0, ""),
+        ("variance", 0.25, "variance_gamma = 1.5\nblend = \"linear\""),
     ] {
-        let sc = scene_with(variant, sharpen, 0.5, filter);
+        let sc = scene_with(variant, sharpen, 0.5, keys);
         let env = scene_environment(&sc).unwrap();
         let r = common::scene_renderer(&ctx, &sc, &env, GpuConfig::default());
         let camera = scene_camera(&sc);
         let params = StagePlan::for_scene(&sc, 1).taa().unwrap();
         let taa_cfg = sc.taa.as_ref().unwrap();
-        let mut history: Option<LinearImage> = None;
+        let mut history: Option<TaaHistory> = None;
         let mut worst_seen: f64 = 0.0;
         for n in 0..sc.frames {
             let rot = rotation_matrix(sc.rotation.axis, sc.angle(n));
@@ -124,7 +136,16 @@ fn each_taa_stage_matches_its_reference_on_the_gpus_inputs() {
             let cpu = taa(&current, amount.as_ref(), &frame, &camera, &params);
             let gpu_out = r.read_output("taa").unwrap().unwrap();
             let gpu_hist = r.read_output("taa_history").unwrap().unwrap();
-            let e = worst(&gpu_hist, &cpu.history, 2e-4, 2e-4 * scale).max(worst(
+            let gpu_frames = r.read_output("taa_confidence").unwrap().unwrap();
+            // Frame counts are small integers: exact on both.
+            let cpu_frames = &cpu.history.confidence;
+            for (k, (g, c)) in gpu_frames.pixels.iter().zip(&cpu_frames.pixels).enumerate() {
+                assert_eq!(
+                    g[0], *c,
+                    "{variant} {keys:?} frame {n}: frame count of pixel {k}"
+                );
+            }
+            let e = worst(&gpu_hist, &cpu.history.colour, 2e-4, 2e-4 * scale).max(worst(
                 &gpu_out,
                 &cpu.output,
                 2e-4,
@@ -133,12 +154,15 @@ fn each_taa_stage_matches_its_reference_on_the_gpus_inputs() {
             worst_seen = worst_seen.max(e);
             assert!(
                 e <= 1.0,
-                "{variant} s={sharpen} frame {n}: taa off by {e} of the bound"
+                "{variant} s={sharpen} {keys:?} frame {n}: taa off by {e} of the bound"
             );
             // The next frame's history is the GPU's own (stage by stage).
-            history = Some(gpu_hist);
+            history = Some(TaaHistory {
+                colour: gpu_hist,
+                confidence: cpu.history.confidence,
+            });
         }
-        eprintln!("{variant} s={sharpen} {filter}: worst {worst_seen:.3} of the bound");
+        eprintln!("{variant} s={sharpen} {keys:?}: worst {worst_seen:.3} of the bound");
     }
 }
 

@@ -1,6 +1,7 @@
 use super::*;
 use crate::check::spec::tests::{on, spec};
 use crate::check::Check;
+use crate::check::TestKind;
 use crate::image::Rgb8Image;
 use crate::metrics::Metrics;
 
@@ -193,4 +194,94 @@ fn the_mean_check_catches_a_uniform_shift_the_per_pixel_bounds_let_through() {
     // The frame against its own golden passes everything.
     let r = judged(&checks, gradient());
     assert!(r.passed(), "{:?}", r.checks);
+}
+
+fn gain_over(scene: &str, db: f64, frame_db: Option<f64>, from_frame: u32) -> CheckSpec {
+    spec(
+        Check::MinPsnrGainOver(crate::check::GainOver {
+            scene: scene.into(),
+            db,
+            frame_db,
+            from_frame,
+        }),
+        None,
+    )
+}
+
+/// A moving scene's result with one frame per PSNR, its checks evaluated.
+fn moving(name: &str, psnrs: &[f64], specs: Vec<CheckSpec>) -> SceneResult {
+    let frames: Vec<FrameResult> = psnrs
+        .iter()
+        .enumerate()
+        .map(|(n, &p)| frame(n as u32, p))
+        .collect();
+    let judged: Vec<&FrameResult> = frames.iter().collect();
+    let checks = (0..specs.len())
+        .map(|i| evaluate(&specs, i, &judged, on("x"), &[], None))
+        .collect();
+    SceneResult {
+        scene: name.into(),
+        test: TestKind::Moving,
+        renderer: "x".into(),
+        adapter: "x".into(),
+        spp: 16,
+        plan: Vec::new(),
+        judged_frames: (0..psnrs.len() as u32).collect(),
+        frames,
+        summaries: BTreeMap::new(),
+        checks,
+        problems: Vec::new(),
+        timings: Vec::new(),
+        fps: None,
+        taa: None,
+        expectation: None,
+        expired_expectations: Vec::new(),
+    }
+}
+
+#[test]
+fn a_gain_check_compares_frame_by_frame_with_an_earlier_scene() {
+    let base = moving("noaa", &[20.0, 21.0, 22.0, 23.0], vec![]);
+    let check = |db, frame_db| vec![gain_over("noaa", db, frame_db, 2)];
+    // Gains 1, 3, 2, 2: mean 2.
+    let taa = [21.0, 24.0, 24.0, 25.0];
+    // Left to `judge_gains` by `evaluate`: not yet decided.
+    let mut r = moving("taa", &taa, check(2.0, Some(0.0)));
+    assert_eq!(r.checks[0].passed, None, "{}", r.checks[0].detail);
+    judge_gains(&mut r, std::slice::from_ref(&base));
+    assert_eq!(r.checks[0].passed, Some(true), "{}", r.checks[0].detail);
+    assert!(
+        r.checks[0].detail.contains("+2.00 dB"),
+        "{}",
+        r.checks[0].detail
+    );
+    // A mean under the bound fails.
+    let mut r = moving("taa", &taa, check(2.1, None));
+    judge_gains(&mut r, std::slice::from_ref(&base));
+    assert_eq!(r.checks[0].passed, Some(false));
+    // A frame from `from_frame` on below its floor fails, and is named;
+    // one before it does not count.
+    let mut r = moving("taa", &[19.0, 25.0, 24.5, 25.0], check(1.0, Some(2.1)));
+    judge_gains(&mut r, std::slice::from_ref(&base));
+    assert_eq!(r.checks[0].passed, Some(false), "{}", r.checks[0].detail);
+    assert_eq!(r.checks[0].frame, Some(3));
+    assert!(
+        r.checks[0].detail.contains("frames [3]"),
+        "{}",
+        r.checks[0].detail
+    );
+    // A NaN PSNR fails.
+    let mut r = moving("taa", &[21.0, f64::NAN, 24.0, 25.0], check(0.0, None));
+    judge_gains(&mut r, std::slice::from_ref(&base));
+    assert_eq!(r.checks[0].passed, Some(false));
+    // A baseline that was not rendered fails and says so.
+    let mut r = moving("taa", &taa, check(0.0, None));
+    judge_gains(&mut r, &[]);
+    assert_eq!(r.checks[0].passed, Some(false));
+    assert!(r.checks[0].detail.contains("noaa was not rendered"));
+    // The label says both conditions.
+    assert_eq!(
+        gain_over("noaa", 2.0, Some(0.0), 16).label(),
+        "mean PSNR gain over noaa >= 2 dB, each frame from 16 >= 0 dB"
+    );
 }

@@ -1,14 +1,28 @@
 use super::*;
 use crate::conventions::{reprojection, rotation_matrix};
 
+/// The thesis's TAA: bilinear history, luminance feedback, linear blend.
 fn params(variant: TaaVariant) -> TaaParams {
     TaaParams {
         variant,
+        feedback: FeedbackRule::Luminance,
         feedback_min: 0.88,
         feedback_max: 0.97,
+        blend: BlendSpace::Linear,
         sharpen: 0.0,
         history_filter: HistoryFilter::Bilinear,
+        ..TaaParams::default()
     }
+}
+
+/// A history of `colour` whose every pixel has averaged `frames` frames.
+fn history(colour: LinearImage, frames: f64) -> TaaHistory {
+    let confidence = Image {
+        width: colour.width,
+        height: colour.height,
+        pixels: vec![frames; colour.pixel_count()],
+    };
+    TaaHistory { colour, confidence }
 }
 
 #[test]
@@ -66,7 +80,8 @@ fn a_reset_passes_the_current_frame_through() {
         &camera(),
         &params(TaaVariant::Clip),
     );
-    assert_eq!(out.history.pixels, cur.pixels);
+    assert_eq!(out.history.colour.pixels, cur.pixels);
+    assert!(out.history.confidence.pixels.iter().all(|&n| n == 1.0));
 }
 
 #[test]
@@ -74,7 +89,7 @@ fn a_history_inside_the_box_converges_and_one_outside_is_clipped() {
     // Current frame flat 1.0: the box is the point 1.0 in `clip`, so any
     // history is clipped onto it.
     let cur = LinearImage::filled(16, 12, [1.0; 3]);
-    let hist = LinearImage::filled(16, 12, [5.0; 3]);
+    let hist = history(LinearImage::filled(16, 12, [5.0; 3]), 4.0);
     let frame = TaaFrame {
         history: Some(&hist),
         reprojection: still(),
@@ -82,19 +97,20 @@ fn a_history_inside_the_box_converges_and_one_outside_is_clipped() {
     let out = taa(&cur, None, &frame, &camera(), &params(TaaVariant::Clip));
     assert!(out
         .history
+        .colour
         .pixels
         .iter()
         .all(|p| (p[0] - 1.0).abs() < 1e-12));
     // A checkerboard current frame: the box spans [0, 1], a grey history
     // is inside it and keeps 97 % of its weight (equal luminance).
     let cur = LinearImage::from_fn(16, 12, |x, y| [((x + y) % 2) as f64; 3]);
-    let hist = LinearImage::filled(16, 12, [0.5; 3]);
+    let hist = history(LinearImage::filled(16, 12, [0.5; 3]), 4.0);
     let frame = TaaFrame {
         history: Some(&hist),
         reprojection: still(),
     };
     let out = taa(&cur, None, &frame, &camera(), &params(TaaVariant::Clip));
-    let p = out.history.get(5, 5);
+    let p = out.history.colour.get(5, 5);
     let c = cur.get(5, 5)[0];
     let k = feedback([c; 3], [0.5; 3], &params(TaaVariant::Clip));
     assert!((p[0] - (c + (0.5 - c) * k)).abs() < 1e-12, "{p:?}");
@@ -105,7 +121,10 @@ fn edge_aware_rejects_history_where_there_is_no_edge() {
     // A smooth ramp: no edge anywhere, so the box shrinks to the current
     // colour and a stale history is dropped; `clip` keeps some of it.
     let cur = LinearImage::from_fn(16, 12, |x, _| [1.0 + 0.001 * x as f64; 3]);
-    let hist = LinearImage::from_fn(16, 12, |x, _| [1.0 + 0.001 * x as f64 + 0.0015; 3]);
+    let hist = history(
+        LinearImage::from_fn(16, 12, |x, _| [1.0 + 0.001 * x as f64 + 0.0015; 3]),
+        4.0,
+    );
     let frame = TaaFrame {
         history: Some(&hist),
         reprojection: still(),
@@ -120,8 +139,8 @@ fn edge_aware_rejects_history_where_there_is_no_edge() {
     );
     let clip = taa(&cur, None, &frame, &camera(), &params(TaaVariant::Clip));
     let (e, c, now) = (
-        edge.history.get(8, 6)[0],
-        clip.history.get(8, 6)[0],
+        edge.history.colour.get(8, 6)[0],
+        clip.history.colour.get(8, 6)[0],
         cur.get(8, 6)[0],
     );
     assert!(
@@ -136,7 +155,7 @@ fn history_off_the_film_is_rejected() {
     let cur = LinearImage::filled(16, 12, [1.0; 3]);
     // A coloured history: clipped toward the grey box centre, it cannot
     // land on the current grey value.
-    let hist = LinearImage::filled(16, 12, [3.0, 0.0, 3.0]);
+    let hist = history(LinearImage::filled(16, 12, [3.0, 0.0, 3.0]), 4.0);
     // A large turn about x: the top rows saw the sphere above the film.
     let m = reprojection(
         &rotation_matrix([1.0, 0.0, 0.0], 0.0),
@@ -162,9 +181,12 @@ fn history_off_the_film_is_rejected() {
         .collect();
     assert!(rejected.iter().any(|&r| r) && rejected.iter().any(|&r| !r));
     for (j, r) in rejected.iter().enumerate() {
-        let got = out.history.get(8, j as u32);
+        let got = out.history.colour.get(8, j as u32);
         let now = cur2.get(8, j as u32);
         assert_eq!(got == now, *r, "row {j}: {got:?} vs {now:?}");
+        // The frame count starts again at 1 where the history was lost.
+        let frames = out.history.confidence.get(8, j as u32);
+        assert_eq!(frames, if *r { 1.0 } else { 5.0 }, "row {j}");
     }
     let _ = cur;
 }
@@ -219,4 +241,123 @@ fn sharpen_at_strength_one_is_the_seed_kernel_and_a_quarter_the_normalised_one()
     let out = sharpen(&line, 1.0);
     assert_eq!(out.get(1, 2)[0], 0.1);
     assert_eq!(out.get(2, 2)[0], 10.0);
+}
+
+#[test]
+fn the_motion_rule_weighs_the_current_frame_by_motion_and_frame_count() {
+    let p = TaaParams::default();
+    assert_eq!(p.feedback, FeedbackRule::Motion);
+    // Static with a full history: the smallest weight.
+    assert_eq!(motion_weight(100.0, 0.0, &p), p.current_min);
+    // A young history averages its frames equally: 1/k of the k-th frame.
+    assert_eq!(motion_weight(2.0, 0.0, &p), 0.5);
+    assert_eq!(motion_weight(5.0, 0.0, &p), 0.2);
+    // Moving: a base plus a term per pixel, up to the most.
+    assert!((motion_weight(100.0, 1.0, &p) - (p.current_moving + p.current_per_px)).abs() < 1e-15);
+    assert_eq!(motion_weight(100.0, 50.0, &p), p.current_max);
+    // Under the static threshold a point counts as still.
+    assert_eq!(motion_weight(100.0, 0.5 * p.static_px, &p), p.current_min);
+}
+
+#[test]
+fn a_static_history_is_the_plain_mean_of_its_frames_and_counts_them() {
+    // Frames of a checkerboard whose levels change frame to frame but stay
+    // inside the box (so nothing is clipped): with the motion rule the
+    // history is the exact mean of the frames so far, the frame count
+    // grows by one per frame, and the tone-mapped blend is not used on a
+    // static pixel.
+    let p = TaaParams {
+        blend: BlendSpace::Tonemapped,
+        ..TaaParams::default()
+    };
+    let frame = |k: usize| {
+        LinearImage::from_fn(16, 12, move |x, y| {
+            let hi = [3.0, 5.0, 6.0, 6.0][k];
+            [if (x + y) % 2 == 0 { 0.5 } else { hi }; 3]
+        })
+    };
+    let mut hist: Option<TaaHistory> = None;
+    for k in 0..4 {
+        let out = taa(
+            &frame(k),
+            None,
+            &TaaFrame {
+                history: hist.as_ref(),
+                reprojection: still(),
+            },
+            &camera(),
+            &p,
+        );
+        hist = Some(out.history);
+    }
+    let h = hist.unwrap();
+    // Pixel (5, 6) is odd: its levels were 3, 5, 6, 6 (each at least the
+    // mean before it, so the box never clips it).
+    assert!(
+        (h.colour.get(5, 6)[0] - 5.0).abs() < 1e-12,
+        "{:?}",
+        h.colour.get(5, 6)
+    );
+    assert!((h.colour.get(6, 6)[0] - 0.5).abs() < 1e-12);
+    assert!(h.confidence.pixels.iter().all(|&n| n == 4.0));
+    // The count stops at its cap.
+    let full = history(LinearImage::filled(16, 12, [1.0; 3]), CONFIDENCE_CAP);
+    let out = taa(
+        &LinearImage::filled(16, 12, [1.0; 3]),
+        None,
+        &TaaFrame {
+            history: Some(&full),
+            reprojection: still(),
+        },
+        &camera(),
+        &p,
+    );
+    assert!(out
+        .history
+        .confidence
+        .pixels
+        .iter()
+        .all(|&n| n == CONFIDENCE_CAP));
+}
+
+#[test]
+fn the_tonemapped_blend_keeps_a_bright_sample_from_dominating() {
+    let (c, h) = ([100.0; 3], [1.0; 3]);
+    let linear = blend(c, h, 0.5, BlendSpace::Linear)[0];
+    let tm = blend(c, h, 0.5, BlendSpace::Tonemapped)[0];
+    assert_eq!(linear, 50.5);
+    // Weights 0.5/101 and 0.5/2: the mean leans to the dark sample.
+    let expected = (100.0 / 101.0 + 1.0 / 2.0) / (1.0 / 101.0 + 1.0 / 2.0);
+    assert!((tm - expected).abs() < 1e-12 && tm < 3.0, "{tm}");
+    // Equal colours blend to themselves either way.
+    assert_eq!(blend(h, h, 0.3, BlendSpace::Tonemapped), h);
+}
+
+#[test]
+fn variance_clipping_works_in_ycocg_around_the_neighbourhood_mean() {
+    for c in [[1.0, 2.0, 3.0], [0.0, 0.5, 7.0], [1e3, 1e-3, 5.0]] {
+        let back = from_ycocg(to_ycocg(c));
+        for k in 0..3 {
+            assert!(
+                (back[k] - c[k]).abs() < 1e-12 * c[k].abs().max(1.0),
+                "{c:?} {back:?}"
+            );
+        }
+    }
+    // Grey checkerboard 0/2: Y mean 1, σ 1, no chroma. A grey history
+    // inside mean ± σ stays; one beyond is clipped onto Y = 2 (γ = 1) or
+    // Y = 1.5 (γ = 0.5); a coloured history loses its colour (the box is
+    // flat in Co and Cg) and lands on the mean.
+    let cur = LinearImage::from_fn(16, 12, |x, y| [((x + y) % 2) as f64 * 2.0; 3]);
+    // At (5, 5) the 3×3 holds five 0s and four 2s: mean 8/9.
+    let (m, s) = (8.0 / 9.0, (4.0 * 4.0 / 9.0 - (8.0 / 9.0f64).powi(2)).sqrt());
+    assert_eq!(clip_variance(&cur, 5, 5, [1.2; 3], 1.0), [1.2; 3]);
+    let hi = clip_variance(&cur, 5, 5, [5.0; 3], 1.0)[0];
+    assert!((hi - (m + s)).abs() < 1e-12, "{hi}");
+    let half = clip_variance(&cur, 5, 5, [5.0; 3], 0.5)[0];
+    assert!((half - (m + 0.5 * s)).abs() < 1e-12, "{half}");
+    let coloured = clip_variance(&cur, 5, 5, [3.0, 0.0, 0.0], 1.0);
+    for k in 0..3 {
+        assert!((coloured[k] - m).abs() < 1e-12, "{coloured:?}");
+    }
 }
