@@ -178,8 +178,12 @@ pub struct SceneResult {
 /// Which TAA variant a scene ran, on which sequence.
 #[derive(Clone, Debug, Serialize)]
 pub struct TaaTag {
-    /// `off`, `clip` or `edge_aware`.
+    /// `off`, `clip`, `edge_aware` or `variance`.
     pub variant: String,
+    /// The other keys that tell TAA configurations apart: history filter,
+    /// feedback rule, blend ("" for no AA).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub settings: String,
     /// `Scene::sequence_key`: equal for scenes that differ only in their TAA
     /// settings, name, description and checks (same frames, same goldens).
     pub sequence: String,

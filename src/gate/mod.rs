@@ -377,6 +377,7 @@ fn run_inner(
         apply_expectations(&mut result, &scene.expectations, &adapter, &today);
         result.taa = scene.taa.as_ref().map(|t| crate::check::TaaTag {
             variant: t.variant.name().into(),
+            settings: t.settings(),
             sequence: scene.sequence_key(),
         });
         // The kept frames' images go to the artifacts folder and, content-

@@ -320,6 +320,24 @@ impl Taa {
         })
     }
 
+    /// What tells this TAA from another of the same variant, for reports:
+    /// "catmull_rom history, motion feedback, tonemapped blend" ("" for no AA).
+    pub fn settings(&self) -> String {
+        if self.variant == TaaVariant::Off {
+            return String::new();
+        }
+        let mut s = format!(
+            "{} history, {} feedback, {} blend",
+            self.history_filter.name(),
+            self.feedback.name(),
+            self.blend.name()
+        );
+        if self.sharpen.get() > 0.0 {
+            s.push_str(&format!(", sharpen {}", self.sharpen.get()));
+        }
+        s
+    }
+
     /// Whether frame `n` starts with an empty history.
     pub fn resets_at(&self, n: u32) -> bool {
         n == 0 || self.reset_frames.contains(&n)

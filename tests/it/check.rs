@@ -59,7 +59,7 @@ fn check_passes_on_main_writes_junit_json_and_records_the_run() {
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
     let xml = std::fs::read_to_string(&junit).unwrap();
     // One test suite a scene, and the stress suite (the built-in suite sets `stress = true`).
-    assert_eq!(xml.matches("<testsuite ").count(), 16, "{xml}");
+    assert_eq!(xml.matches("<testsuite ").count(), 22, "{xml}");
     assert!(xml.contains("<testsuite name=\"stress\""), "{xml}");
     assert!(!xml.contains("<failure"), "{xml}");
     assert!(

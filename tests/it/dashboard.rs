@@ -189,17 +189,18 @@ fn the_dashboard_shows_runs_charts_and_image_comparisons_in_chromium() {
     }
 }
 
-/// A run of the TAA scenes shows the no-AA / clip / edge-aware
-/// comparison: one table per test with every variant's best / worst / mean,
-/// and each variant's last frame and SSIM map beside the golden, decoded by
-/// the browser.
+/// A run of the TAA scenes shows the no-AA / clip / edge-aware / default
+/// TAA comparison: one table per test with every variant's best / worst /
+/// mean, the ghosting test's PSNR gain over no AA frame by frame as a chart
+/// (a line per TAA scene), and each variant's last frame and SSIM map beside
+/// the golden, decoded by the browser.
 #[test]
 fn the_dashboard_compares_the_taa_variants_in_chromium() {
     let dir = tempfile::tempdir().unwrap();
     let seeded = common::seed_empty(dir.path());
     std::fs::write(
         &seeded.suite,
-        "scenes = [\"scenes/taa-static-noaa.toml\", \"scenes/taa-static-clip.toml\", \"scenes/taa-static-edge.toml\", \"scenes/taa-ghost-noaa.toml\", \"scenes/taa-ghost-clip.toml\", \"scenes/taa-ghost-edge.toml\"]\n",
+        "scenes = [\"scenes/taa-static-noaa.toml\", \"scenes/taa-static-clip.toml\", \"scenes/taa-static-edge.toml\", \"scenes/taa-ghost-noaa.toml\", \"scenes/taa-ghost-clip.toml\", \"scenes/taa-ghost-edge.toml\", \"scenes/taa-ghost.toml\"]\n",
     )
     .unwrap();
     let (suite, db) = (seeded.suite.to_str().unwrap(), seeded.db.to_str().unwrap());
@@ -217,17 +218,33 @@ fn the_dashboard_compares_the_taa_variants_in_chromium() {
         2,
         "static and ghosting:\n{dom}"
     );
-    assert_eq!(count(&dom, "class=\"taa-row\""), 6, "{dom}");
-    for variant in ["off", "clip", "edge_aware"] {
+    assert_eq!(count(&dom, "class=\"taa-row\""), 7, "{dom}");
+    // Both tests for each variant; the ghosting test twice for `clip` (the
+    // thesis's and the default TAA).
+    for (variant, images) in [("off", 4), ("clip", 6), ("edge_aware", 4)] {
         assert_eq!(
             count(
                 &dom,
                 &format!("data-variant=\"{variant}\" data-loaded=\"1\"")
             ),
-            4,
+            images,
             "{variant}: actual and SSIM map of both tests decoded:\n{dom}"
         );
     }
+    // The gain chart: only the ghosting test (a static test judges one
+    // frame), a line per TAA scene, the default TAA's settings in its row.
+    assert_eq!(count(&dom, "taa-gain"), 1, "{dom}");
+    for scene in ["taa-ghost-clip", "taa-ghost-edge", "taa-ghost"] {
+        assert!(
+            dom.contains(&format!("data-series=\"{scene}\"")),
+            "{scene} line:\n{dom}"
+        );
+    }
+    assert!(dom.contains("PSNR gain over no AA (taa-ghost-noaa)"), "{dom}");
+    assert!(
+        dom.contains("catmull_rom history, motion feedback, tonemapped blend"),
+        "{dom}"
+    );
     assert_eq!(
         count(
             &dom,

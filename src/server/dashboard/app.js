@@ -248,7 +248,7 @@ async function runPage(id, params) {
         h("tbody", {}, report.regressions.map((g) => h("tr", { class: "bad" }, h("td", {}, g.scene), h("td", {}, g.metric), h("td", {}, num(g.value, 3)), h("td", {}, num(g.median, 3)), h("td", {}, num(g.bound, 3)), h("td", {}, num(g.ratio, 3)), h("td", {}, String(g.runs)))))));
   }
   const taa = taaComparisons(id, report);
-  if (taa.length) parts.push(h("h2", { id: "taa" }, "Anti-aliasing: no AA / clip / edge-aware"), ...taa);
+  if (taa.length) parts.push(h("h2", { id: "taa" }, "Anti-aliasing: every TAA against no AA"), ...taa);
   if (scene) parts.push(...scenePanel(id, run, report, scene, params));
   if (report.stress) {
     const failed = report.stress.cases.filter((c) => !c.passed);
@@ -257,9 +257,10 @@ async function runPage(id, params) {
   show(...parts);
 }
 // The TAA thesis's tables (docs/taa.md): the TAA scenes of one sequence side by side, best /
-// worst / mean of each metric over the judged frames with frame indices, and
-// the last frame of each variant (actual and SSIM map) beside the golden.
-const VARIANTS = ["off", "clip", "edge_aware"];
+// worst / mean of each metric over the judged frames with frame indices, the
+// PSNR gain of each over no AA frame by frame (a moving test with a no-AA
+// scene), and the last frame of each variant (actual and SSIM map) beside the golden.
+const VARIANTS = ["off", "clip", "edge_aware", "variance"];
 function taaComparisons(id, report) {
   const groups = new Map();
   for (const s of report.scenes) {
@@ -281,7 +282,7 @@ function taaComparisons(id, report) {
     };
     const cell = (st, digits) => st ? `${num(st.best[1], digits)} @${st.best[0]} · ${num(st.worst[1], digits)} @${st.worst[0]} · ${num(st.mean, digits)}` : "–";
     const rows = scenes.map((s) => h("tr", { class: "taa-row", "data-variant": s.taa.variant },
-      h("td", {}, s.taa.variant === "off" ? "no AA" : s.taa.variant),
+      h("td", {}, s.taa.variant === "off" ? "no AA" : s.taa.variant, s.taa.settings ? h("div", { class: "muted" }, s.taa.settings) : ""),
       h("td", {}, h("a", { href: `#/runs/${id}?scene=${encodeURIComponent(s.scene)}` }, s.scene)),
       h("td", {}, s.test), h("td", {}, String(s.judged_frames.length)),
       h("td", {}, cell(stat(s, "psnr", true), 2)), h("td", {}, cell(stat(s, "ssim", true), 4)), h("td", {}, cell(stat(s, "flip_mean", false), 4))));
@@ -295,9 +296,19 @@ function taaComparisons(id, report) {
       return i;
     };
     const label = (v) => (v === "off" ? "no AA" : v);
+    // Frame by frame, each TAA scene's PSNR less no AA's on the same frame.
+    const off = scenes.find((s) => s.taa.variant === "off");
+    const psnrOf = (s, n) => { const f = s.frames.find((x) => x.frame === n); return f ? f.metrics.psnr : NaN; };
+    const gains = off && scenes[0].test === "moving" ? scenes.filter((s) => s !== off).map((s) => ({
+      name: s.scene,
+      points: s.judged_frames.map((n) => ({ x: n, y: psnrOf(s, n) - psnrOf(off, n), label: `frame ${n}` })).filter((p) => Number.isFinite(p.y)),
+    })) : [];
+    const gainChart = gains.length ? [h("figure", { class: "chart-box taa-gain" }, h("figcaption", {}, `PSNR gain over no AA (${off.scene}), frame by frame: above 0, TAA helps`),
+      lineChart(gains, { title: "PSNR gain over no AA", yLabel: "dB", xLabel: "frame", legend: true }))] : [];
     out.push(h("section", { class: "taa-compare", "data-test": scenes[0].test },
       h("h3", {}, `${scenes[0].test === "static" ? "Static" : "Ghosting"} test: ${scenes[0].frames.length} frames at ${scenes[0].spp} spp, each variant against the accumulation reference`),
       h("table", { class: "taa" }, h("thead", {}, h("tr", {}, ["Variant", "Scene", "Test", "Judged", "PSNR dB best @f · worst @f · mean", "SSIM best · worst · mean", "FLIP best · worst · mean"].map((t) => h("th", {}, t)))), h("tbody", {}, rows)),
+      ...gainChart,
       h("div", { class: "side-by-side" },
         h("figure", {}, art(scenes[0], "golden"), h("figcaption", {}, `golden, frame ${last}`)),
         scenes.flatMap((s) => [h("figure", {}, art(s, "actual"), h("figcaption", {}, `${label(s.taa.variant)}, frame ${last}`)),
