@@ -240,7 +240,10 @@ fn the_dashboard_compares_the_taa_variants_in_chromium() {
             "{scene} line:\n{dom}"
         );
     }
-    assert!(dom.contains("PSNR gain over no AA (taa-ghost-noaa)"), "{dom}");
+    assert!(
+        dom.contains("PSNR gain over no AA (taa-ghost-noaa)"),
+        "{dom}"
+    );
     assert!(
         dom.contains("catmull_rom history, motion feedback, tonemapped blend"),
         "{dom}"
