@@ -38,34 +38,41 @@ fn the_sweep_measures_every_configuration_and_marks_a_consistent_front() {
     let report: serde_json::Value = serde_json::from_str(&text).unwrap();
     let points = report["points"].as_array().unwrap();
     // f32/f16 x block/pingpong/tree/subgroup tree x manual/hardware x
-    // 1/4/16 spp; no
-    // bloom here; then at 1 spp no AA and the TAA variants (docs/taa.md): clip
-    // and edge-aware x two feedback ranges x two sharpen strengths, and each
-    // with the Catmull-Rom history.
-    assert_eq!(points.len(), 48 + 11);
+    // 1/4/16 spp; no bloom here; then at 1 spp no AA and the TAA
+    // configurations (docs/taa.md): every history filter x feedback rule x
+    // clipping box, and the defaults with a linear blend and with the
+    // sharpen.
+    assert_eq!(points.len(), 48 + 15);
     let taa: Vec<&serde_json::Value> = points
         .iter()
         .filter(|p| !p["knobs"]["taa"].is_null())
         .collect();
-    assert_eq!(taa.len(), 11);
-    let taa_psnr = |variant: &str, fb: f64, s: f64| {
+    assert_eq!(taa.len(), 15);
+    let taa_psnr = |variant: &str, filter: &str, feedback: &str, blend: &str| {
         taa.iter()
             .find(|p| {
                 let t = &p["knobs"]["taa"];
                 t["variant"] == variant
-                    && t["feedback_max"].as_f64() == Some(fb)
-                    && t["sharpen"].as_f64() == Some(s)
-                    && t["history_filter"] == "bilinear"
+                    && t["history_filter"] == filter
+                    && t["feedback"] == feedback
+                    && t["blend"] == blend
+                    && t["sharpen"].as_f64() == Some(0.0)
             })
-            .unwrap_or_else(|| panic!("no {variant} {fb} {s} point"))["psnr"]
+            .unwrap_or_else(|| panic!("no {variant} {filter} {feedback} {blend} point"))["psnr"]
             .as_f64()
             .unwrap()
     };
     // The static grid: the history of the 6 frames averages 6 jitter
     // offsets, which beats one unjittered sample against the supersampled
-    // reference.
-    let (off, clip) = (taa_psnr("off", 0.97, 0.0), taa_psnr("clip", 0.97, 0.0));
+    // reference, with the defaults and with the thesis's luminance rule.
+    let off = taa_psnr("off", "catmull_rom", "motion", "tonemapped");
+    let clip = taa_psnr("clip", "catmull_rom", "motion", "tonemapped");
     assert!(clip > off + 3.0, "no AA {off} dB, clip {clip} dB");
+    let thesis_rule = taa_psnr("clip", "bilinear", "luminance", "tonemapped");
+    assert!(
+        thesis_rule > off + 3.0,
+        "no AA {off} dB, clip {thesis_rule} dB"
+    );
     for p in points {
         assert!(p["ms"].as_f64().unwrap() > 0.0, "{p}");
         // At the reference's own spp in f32, the adaptation luminance is the
