@@ -37,6 +37,54 @@ pub struct JobSpec {
     pub label: Option<String>,
 }
 
+impl JobSpec {
+    /// The rules a queued job's selectors follow, in the words both the
+    /// API (a 400) and `tonegate enqueue` (exit 2) refuse with: a label of
+    /// [`valid_label`]'s characters; an adapter substring of 1 to 200
+    /// characters; at most 1000 scene names of 1 to 200 characters; no
+    /// control characters (a NUL reached PostgreSQL, which refused the
+    /// statement, and the client got a 500).
+    pub fn check(&self) -> Result<(), String> {
+        let shown = |s: &str| {
+            let n = s.chars().count();
+            let head: String = s.chars().take(48).collect();
+            if n <= 48 {
+                format!("{head:?}")
+            } else {
+                format!("{head:?}… ({n} characters)")
+            }
+        };
+        let plain = |s: &str, most: usize| {
+            !s.is_empty() && s.chars().count() <= most && !s.chars().any(char::is_control)
+        };
+        if let Some(l) = self.label.as_deref().filter(|l| !valid_label(l)) {
+            return Err(format!(
+                "label: use letters, digits, '-', '_', '.' or ':' (at most 64), got {}",
+                shown(l)
+            ));
+        }
+        if let Some(a) = self.adapter.as_deref().filter(|a| !plain(a, 200)) {
+            return Err(format!(
+                "adapter: a name substring of 1 to 200 characters, no control characters, got {}",
+                shown(a)
+            ));
+        }
+        if self.scenes.len() > 1000 {
+            return Err(format!(
+                "scenes: at most 1000 names, got {}",
+                self.scenes.len()
+            ));
+        }
+        if let Some(bad) = self.scenes.iter().find(|s| !plain(s, 200)) {
+            return Err(format!(
+                "scenes: names of 1 to 200 characters, no control characters, got {}",
+                shown(bad)
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// A queued, running or finished job.
 #[derive(Clone, Debug, Serialize, utoipa::ToSchema)]
 pub struct JobRow {
@@ -130,11 +178,7 @@ pub fn valid_label(l: &str) -> bool {
 impl History {
     /// Queues a check run; returns the job's id.
     pub fn enqueue(&self, spec: &JobSpec) -> Result<i64, HistoryError> {
-        if let Some(l) = spec.label.as_deref().filter(|l| !valid_label(l)) {
-            return Err(HistoryError::Invalid(format!(
-                "label {l:?}: use letters, digits, '-', '_', '.' or ':' (at most 64)"
-            )));
-        }
+        spec.check().map_err(HistoryError::Invalid)?;
         self.db()
             .query_opt(
                 "INSERT INTO jobs (state, suite, scenes, renderer, want_adapter, want_label,
@@ -144,7 +188,7 @@ impl History {
                     &spec.suite,
                     scenes_json(&spec.scenes),
                     if spec.cpu { "cpu" } else { "gpu" },
-                    spec.adapter.as_deref().filter(|a| !a.is_empty()),
+                    spec.adapter.as_deref(),
                     spec.label.as_deref(),
                     now()
                 ],
@@ -189,7 +233,10 @@ impl History {
         )? == 1)
     }
 
-    /// Claims the oldest queued job this runner matches, if any.
+    /// Claims the oldest queued job this runner matches, if any: its
+    /// adapter name contains the job's `want_adapter` (case-insensitive) and
+    /// its labels include the job's `want_label`, both as plain text (a `%`
+    /// or `_` in them matches only itself).
     pub fn claim(
         &self,
         runner: i64,
@@ -202,12 +249,15 @@ impl History {
              WHERE state = 'queued' AND id = (
                SELECT id FROM jobs
                WHERE state = 'queued'
-                 AND (want_adapter IS NULL OR LOWER($3) LIKE '%' || LOWER(want_adapter) || '%')
-                 AND (want_label IS NULL OR ',' || $4 || ',' LIKE '%,' || want_label || ',%')
-               ORDER BY id LIMIT 1{}
+                 AND (want_adapter IS NULL
+                      OR LOWER($3) LIKE '%' || {adapter} || '%' ESCAPE '!')
+                 AND (want_label IS NULL OR ',' || $4 || ',' LIKE '%,' || {label} || ',%' ESCAPE '!')
+               ORDER BY id LIMIT 1{skip}
              )
              RETURNING id, suite, scenes, renderer, attempts",
-            self.db().dialect().skip_locked()
+            adapter = like_literal("LOWER(want_adapter)"),
+            label = like_literal("want_label"),
+            skip = self.db().dialect().skip_locked()
         );
         let mut claimed = None;
         self.db().transaction(&mut |tx| {
@@ -412,4 +462,11 @@ impl History {
             })
             .collect()
     }
+}
+
+/// SQL for `expr` with LIKE's wildcards (`%`, `_`) and the escape character
+/// `!` escaped, for a pattern that uses `ESCAPE '!'`: the same text in
+/// SQLite and PostgreSQL (`!` needs no quoting in either).
+fn like_literal(expr: &str) -> String {
+    format!("REPLACE(REPLACE(REPLACE({expr}, '!', '!!'), '%', '!%'), '_', '!_')")
 }

@@ -175,9 +175,18 @@ pub fn now() -> String {
     chrono::Utc::now().to_rfc3339_opts(chrono::SecondsFormat::Millis, true)
 }
 
-/// The current time less `d`, in the stored form (RFC 3339 UTC, ms).
+/// The current time less `d`, in the stored form (RFC 3339 UTC, ms). A
+/// span reaching back before 1970 gives 1970-01-01, before anything a
+/// history holds: `history prune --keep-days 100000000` keeps everything
+/// rather than overflowing (a negative year would also sort as text after
+/// today under some PostgreSQL collations).
 pub(super) fn ago(d: Duration) -> String {
-    let t = chrono::Utc::now() - chrono::Duration::from_std(d).unwrap_or(chrono::TimeDelta::MAX);
+    let epoch = chrono::DateTime::<chrono::Utc>::UNIX_EPOCH;
+    let t = chrono::Duration::from_std(d)
+        .ok()
+        .and_then(|d| chrono::Utc::now().checked_sub_signed(d))
+        .filter(|t| *t > epoch)
+        .unwrap_or(epoch);
     t.to_rfc3339_opts(chrono::SecondsFormat::Millis, true)
 }
 
@@ -478,6 +487,16 @@ fn configure(db: &sqlite::Sqlite) -> Result<(), HistoryError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_span_before_1970_stops_there_instead_of_overflowing() {
+        let far = Duration::from_secs(100_000_000 * 86_400);
+        assert_eq!(ago(far), "1970-01-01T00:00:00.000Z");
+        assert_eq!(ago(Duration::MAX), "1970-01-01T00:00:00.000Z");
+        // A day ago is a day ago, and sorts before now.
+        let day = ago(Duration::from_secs(86_400));
+        assert!(day.starts_with("20") && day < now(), "{day}");
+    }
 
     #[test]
     fn stored_words_are_the_serde_names() {

@@ -112,39 +112,16 @@ pub fn job_request(body: &[u8], suite: &std::path::Path) -> Result<JobSpec, ApiE
         ));
     }
     let cpu = renderer_is_cpu(req.renderer.as_deref())?;
-    if let Some(l) = req
-        .label
-        .as_deref()
-        .filter(|l| !crate::history::valid_label(l))
-    {
-        return Err(ApiError::bad(format!(
-            "label: use letters, digits, '-', '_', '.' or ':' (at most 64), got {}",
-            super::error::clip(l)
-        )));
-    }
-    if let Some(a) = req
-        .adapter
-        .as_deref()
-        .filter(|a| a.is_empty() || a.len() > 200)
-    {
-        return Err(ApiError::bad(format!(
-            "adapter: a name substring of 1 to 200 characters, got {:?}",
-            super::error::clip(a)
-        )));
-    }
     let scenes = req.scenes.unwrap_or_default();
-    if scenes.len() > 1000 || scenes.iter().any(|s| s.is_empty() || s.len() > 200) {
-        return Err(ApiError::bad(
-            "scenes: at most 1000 names of 1 to 200 characters",
-        ));
-    }
-    Ok(JobSpec {
+    let spec = JobSpec {
         suite: suite.display().to_string(),
         scenes,
         cpu,
         adapter: req.adapter,
         label: req.label,
-    })
+    };
+    spec.check().map_err(ApiError::bad)?;
+    Ok(spec)
 }
 
 fn parse_run_request(body: &[u8]) -> Result<RunRequest, ApiError> {

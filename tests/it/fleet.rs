@@ -170,11 +170,25 @@ fn eight_runners_do_every_queued_run_exactly_once_and_a_killed_runners_run_is_fi
             .unwrap();
         assert_eq!(r.status(), 202);
     }
-    // A selector is checked: an unknown key and a bad label are 400s.
-    for body in [
-        r#"{"renderer": "cpu", "gpu": 1}"#,
-        r#"{"label": "a,b"}"#,
-        r#"{"spp": 4}"#,
+    // A selector is checked: an unknown key, a bad label, an empty adapter
+    // and control characters are 400s (a NUL reached PostgreSQL, which
+    // refused the statement: a 500), in the words `enqueue` uses.
+    for (body, says) in [
+        (r#"{"renderer": "cpu", "gpu": 1}"#, "unknown field"),
+        (r#"{"label": "a,b"}"#, "label: use letters"),
+        (r#"{"spp": 4}"#, "spp"),
+        (
+            r#"{"adapter": ""}"#,
+            "adapter: a name substring of 1 to 200 characters, no control characters",
+        ),
+        (
+            r#"{"adapter": "a\u0000b"}"#,
+            "adapter: a name substring of 1 to 200 characters, no control characters, got",
+        ),
+        (
+            r#"{"scenes": ["sky\u0007"]}"#,
+            "scenes: names of 1 to 200 characters, no control characters",
+        ),
     ] {
         let r = rt
             .block_on(
@@ -186,7 +200,24 @@ fn eight_runners_do_every_queued_run_exactly_once_and_a_killed_runners_run_is_fi
             )
             .unwrap();
         assert_eq!(r.status(), 400, "{body}");
+        let text = rt.block_on(r.text()).unwrap();
+        assert!(text.contains(says), "{body}: {text}");
     }
+    let o = tonegate(&[
+        "enqueue",
+        "--db",
+        &url,
+        "--suite",
+        tiny.to_str().unwrap(),
+        "--want-adapter",
+        "",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("adapter: a name substring of 1 to 200 characters, no control characters"),
+        "{err}"
+    );
     let started = Instant::now();
     let mut others: Vec<Child> = (1..8)
         .map(|i| {

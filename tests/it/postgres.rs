@@ -547,9 +547,10 @@ fn check_history_and_serve_work_on_postgres() {
 }
 
 /// The fleet's queue on both engines: a job's selector is matched against
-/// the runner's adapter (a case-insensitive substring) and labels, the
-/// oldest matching job goes first, a lost runner's job is queued again once
-/// and aborted the second time, and a lost runner cannot finish its job.
+/// the runner's adapter (a case-insensitive substring) and labels, as plain
+/// text, the oldest matching job goes first, a lost runner's job is queued
+/// again once and aborted the second time, and a lost runner cannot finish
+/// its job.
 #[test]
 fn claims_follow_selectors_and_a_job_lost_twice_is_aborted() {
     use tonegate::history::{JobSpec, RunnerInfo};
@@ -619,7 +620,21 @@ fn claims_follow_selectors_and_a_job_lost_twice_is_aborted() {
                 ..Default::default()
             })
             .unwrap_err();
-        assert!(err.to_string().contains("label \"a,b\""), "{err}");
+        assert!(
+            err.to_string().contains("label: use letters, digits")
+                && err.to_string().contains("\"a,b\""),
+            "{err}"
+        );
+        // A selector is plain text: LIKE's wildcards in it match only
+        // themselves (`prob_` is not `probe`, `%` is not every adapter).
+        let wildcard_label = job(None, Some("prob_"));
+        let wildcard_adapter = job(Some("%"), None);
+        let probe = runner("cpu-reference", &["probe"]);
+        assert_eq!(claim(&probe), None, "{db:?}");
+        let exact = runner("cpu-reference", &["prob_"]);
+        assert_eq!(claim(&exact), Some(wildcard_label), "{db:?}");
+        let percent = runner("odd 100% adapter", &[]);
+        assert_eq!(claim(&percent), Some(wildcard_adapter), "{db:?}");
     }
 }
 
@@ -678,6 +693,12 @@ fn artifacts_are_stored_once_and_pruning_keeps_what_kept_runs_name() {
                 c.execute(sql.as_str(), &[]).unwrap();
             }
         }
+        // A span reaching back before 1970 keeps everything, on both
+        // engines (it overflowed the date arithmetic and panicked).
+        let p = h
+            .prune_artifacts(Duration::from_secs(100_000_000 * 86_400))
+            .unwrap();
+        assert_eq!((p.runs.len(), p.names, p.blobs), (0, 0, 0), "{db:?}");
         let p = h.prune_artifacts(Duration::from_secs(86_400)).unwrap();
         assert_eq!(p.runs, [old]);
         assert_eq!((p.names, p.blobs, p.bytes), (2, 1, 1000), "{db:?}");
