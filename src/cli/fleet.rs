@@ -23,7 +23,8 @@ pub struct RunnerArgs {
     /// Labels a job can ask for (comma-separated: letters, digits, - _ . :).
     #[arg(long, value_delimiter = ',')]
     pub labels: Vec<String>,
-    /// The runner's name in the dashboard (default: host:pid).
+    /// The runner's name in the dashboard, 1 to 128 characters (default:
+    /// host:pid).
     #[arg(long)]
     pub name: Option<String>,
     /// Milliseconds between looks at an empty queue.

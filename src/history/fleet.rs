@@ -199,6 +199,18 @@ impl History {
 
     /// Registers a runner of this process; returns its id.
     pub fn register_runner(&self, r: &RunnerInfo) -> Result<i64, HistoryError> {
+        let n = r.name.chars().count();
+        if n == 0 || n > 128 || r.name.chars().any(char::is_control) {
+            let head: String = r.name.chars().take(48).collect();
+            return Err(HistoryError::Invalid(format!(
+                "runner name: 1 to 128 characters, no control characters, got {head:?}{}",
+                if n > 48 {
+                    format!("… ({n} characters)")
+                } else {
+                    String::new()
+                }
+            )));
+        }
         if let Some(l) = r.labels.iter().find(|l| !valid_label(l)) {
             return Err(HistoryError::Invalid(format!(
                 "label {l:?}: use letters, digits, '-', '_', '.' or ':' (at most 64)"

@@ -625,6 +625,21 @@ fn claims_follow_selectors_and_a_job_lost_twice_is_aborted() {
                 && err.to_string().contains("\"a,b\""),
             "{err}"
         );
+        // A runner's name is bounded (it had no limit) and plain.
+        for name in ["n".repeat(129), String::new(), "a\u{0}b".into()] {
+            let err = h
+                .register_runner(&RunnerInfo {
+                    name,
+                    adapter: "a".into(),
+                    driver: "d".into(),
+                    labels: Vec::new(),
+                })
+                .unwrap_err();
+            assert!(
+                err.to_string().contains("runner name: 1 to 128 characters"),
+                "{err}"
+            );
+        }
         // A selector is plain text: LIKE's wildcards in it match only
         // themselves (`prob_` is not `probe`, `%` is not every adapter).
         let wildcard_label = job(None, Some("prob_"));
