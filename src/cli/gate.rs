@@ -91,7 +91,8 @@ pub struct HistoryArgs {
     /// stage name (median ms). Without it, the run list.
     #[arg(long)]
     pub metric: Option<String>,
-    /// Only runs on this adapter (exact name).
+    /// Only runs on an adapter whose name contains this, any case (as the
+    /// API's `adapter`).
     #[arg(long)]
     pub adapter: Option<String>,
     /// Newest runs shown.
@@ -244,15 +245,29 @@ pub fn history(a: HistoryArgs) -> Result<ExitCode> {
             a.db.shown()
         )));
     }
+    // Refused in the API's words (it answered 400 where this printed "no
+    // values" and exited 0).
+    if let Some(m) = a
+        .metric
+        .as_deref()
+        .filter(|m| !tonegate::gate::is_recorded_metric(m))
+    {
+        return Err(invalid(format!(
+            "--metric: unknown metric {m:?}; use {}",
+            tonegate::gate::recorded_metrics().join(", ")
+        )));
+    }
     let h = History::open_read_only(&a.db.db)?;
     let Some(metric) = &a.metric else {
         let runs = h.runs(a.limit)?;
         let runs: Vec<_> = runs
             .into_iter()
             .filter(|r| {
-                a.adapter
-                    .as_ref()
-                    .is_none_or(|x| r.adapter.as_ref() == Some(x))
+                a.adapter.as_ref().is_none_or(|x| {
+                    r.adapter
+                        .as_ref()
+                        .is_some_and(|n| n.to_lowercase().contains(&x.to_lowercase()))
+                })
             })
             .collect();
         if a.json {
@@ -286,7 +301,8 @@ pub fn history(a: HistoryArgs) -> Result<ExitCode> {
         metric,
         &tonegate::history::TrendFilter {
             scene: a.scene.as_deref(),
-            adapter: a.adapter.as_deref(),
+            adapter: None,
+            adapter_contains: a.adapter.as_deref(),
             config: None,
             before: None,
             finished_only: false,

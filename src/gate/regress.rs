@@ -63,6 +63,7 @@ pub fn find_regressions(
                     &TrendFilter {
                         scene: Some(&r.scene),
                         adapter: Some(adapter),
+                        adapter_contains: None,
                         config: Some(config),
                         before: Some(run),
                         finished_only: true,

@@ -194,11 +194,27 @@ pub struct RunsFilter<'a> {
     pub limit: u32,
 }
 
+/// A LIKE pattern (with `ESCAPE '\\'`) matching names that contain `a`, any
+/// case: LIKE's own wildcards in `a` match only themselves.
+fn substring_pattern(a: &str) -> String {
+    let escaped = a
+        .to_lowercase()
+        .replace('\\', "\\\\")
+        .replace('%', "\\%")
+        .replace('_', "\\_");
+    format!("%{escaped}%")
+}
+
 /// Filters of a trend query; None matches everything.
 #[derive(Clone, Debug, Default)]
 pub struct TrendFilter<'a> {
     pub scene: Option<&'a str>,
+    /// The exact adapter name (regression baselines: one implementation's
+    /// runs, never another's whose name contains it).
     pub adapter: Option<&'a str>,
+    /// A substring of the adapter name, any case, as the run list takes it
+    /// (the API's and the command line's `adapter`).
+    pub adapter_contains: Option<&'a str>,
     /// Only runs before this id (exclusive).
     pub before: Option<i64>,
     /// Only runs with exactly this renderer configuration (JSON as recorded).
@@ -220,16 +236,7 @@ impl History {
 
     /// The newest runs the filter keeps, newest first (filtered in SQL).
     pub fn runs_where(&self, f: &RunsFilter) -> Result<Vec<RunRow>, HistoryError> {
-        // The adapter is a case-insensitive substring: LIKE's own
-        // wildcards in it are escaped.
-        let pattern = f.adapter.map(|a| {
-            let escaped = a
-                .to_lowercase()
-                .replace('\\', "\\\\")
-                .replace('%', "\\%")
-                .replace('_', "\\_");
-            format!("%{escaped}%")
-        });
+        let pattern = f.adapter.map(substring_pattern);
         self.select_runs(
             "WHERE (CAST($1 AS TEXT) IS NULL OR r.status = $1)
                AND (CAST($2 AS TEXT) IS NULL OR r.kind = $2)
@@ -360,6 +367,7 @@ impl History {
                  AND (CAST($3 AS BIGINT) IS NULL OR r.id < $3)
                  AND ($4 = 0 OR r.status IN ('passed', 'failed'))
                  AND (CAST($7 AS TEXT) IS NULL OR r.config = $7)
+                 AND (CAST($8 AS TEXT) IS NULL OR LOWER(r.adapter) LIKE $8 ESCAPE '\\')
                  AND EXISTS (SELECT 1 FROM scene_results s WHERE s.run_id = r.id
                                AND (CAST($1 AS TEXT) IS NULL OR s.scene = $1)
                                AND ({value}) IS NOT NULL)
@@ -382,7 +390,8 @@ impl History {
                 filter.finished_only,
                 filter.limit,
                 metric,
-                filter.config
+                filter.config,
+                filter.adapter_contains.map(substring_pattern)
             ],
         )?;
         let mut points = rows

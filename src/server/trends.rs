@@ -21,7 +21,7 @@ pub struct TrendsQuery {
     scene: Option<String>,
     /// psnr (default), ssim, snr, mse, rmse, max_abs_diff, mean_abs_diff, fraction_over_1lsb, flip_mean, fps, or a stage name (median ms).
     metric: Option<String>,
-    /// Exact adapter name.
+    /// A substring of the adapter name, any case (as `/runs` takes it).
     adapter: Option<String>,
     /// Newest runs (default 200, at most 5000).
     limit: Option<u32>,
@@ -50,7 +50,7 @@ pub async fn trends(
             &metric,
             &TrendFilter {
                 scene: q.scene.as_deref(),
-                adapter: q.adapter.as_deref(),
+                adapter_contains: q.adapter.as_deref(),
                 limit,
                 ..Default::default()
             },

@@ -374,6 +374,15 @@ fn history_prints_a_metric_trend_and_refuses_unknown_metrics() {
     let o = tonegate(&["history", "--db", s(&db), "--metric", "bogus metric"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(text(&o).contains("unknown metric"), "{}", text(&o));
+    // A name that could be a stage but is not one is refused too, in the
+    // API's words (it printed "no values" and exited 0).
+    let o = tonegate(&["history", "--db", s(&db), "--metric", "bogus"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        text(&o).contains("unknown metric \"bogus\"; use psnr"),
+        "{}",
+        text(&o)
+    );
     let o = tonegate(&["history", "--db", s(&dir.path().join("none.sqlite"))]);
     assert_eq!(o.status.code(), Some(2));
 }

@@ -146,6 +146,30 @@ fn a_slowdown_is_flagged_against_the_same_adapter_and_config_only() {
     assert_eq!(trend.len(), 8);
     assert!(trend.last().unwrap().regression);
     assert!(!trend[0].regression);
+    // The API's and the command line's filter is a substring in any case,
+    // as the run list's is (it needed the exact name); the exact one stays
+    // for regression baselines.
+    let by = |exact: Option<&str>, contains: Option<&str>| {
+        h.trend(
+            "sphere",
+            &tonegate::history::TrendFilter {
+                scene: Some("sky"),
+                adapter: exact,
+                adapter_contains: contains,
+                limit: 50,
+                ..Default::default()
+            },
+        )
+        .unwrap()
+        .len()
+    };
+    assert_eq!(by(None, Some("LLVM")), 8);
+    assert_eq!(
+        by(None, Some("llvm_")),
+        0,
+        "a LIKE wildcard matches only itself"
+    );
+    assert_eq!(by(Some("llvm"), None), 0);
 }
 
 #[test]
