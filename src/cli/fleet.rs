@@ -138,6 +138,16 @@ pub fn enqueue(a: EnqueueArgs) -> Result<ExitCode> {
             a.count
         )));
     }
+    // The suite must load here and name the scenes asked for, in the API's
+    // words: a bad name used to be queued and fail in a runner, and a file
+    // that is not a suite put its first line into the run's detail.
+    let suite = tonegate::suite::load_suite_file(std::path::Path::new(&a.suite))
+        .map_err(|e| Error::Invalid(format!("--suite: {e}")))?;
+    if !a.scene.is_empty() {
+        suite
+            .select(&a.scene)
+            .map_err(|m| Error::Invalid(format!("scenes: {m}")))?;
+    }
     let h = History::open(&a.db.db)?;
     let spec = JobSpec {
         suite: a.suite.clone(),

@@ -121,6 +121,15 @@ pub fn job_request(body: &[u8], suite: &std::path::Path) -> Result<JobSpec, ApiE
         label: req.label,
     };
     spec.check().map_err(ApiError::bad)?;
+    // Checked against the server's own suite now, not by a runner later:
+    // an unknown name was queued (202) and became an `error` run.
+    let known = crate::suite::load_suite_file(suite)
+        .map_err(|e| ApiError::internal(format!("the server's suite {}: {e}", suite.display())))?;
+    if !spec.scenes.is_empty() {
+        known
+            .select(&spec.scenes)
+            .map_err(|m| ApiError::bad(format!("scenes: {m}")))?;
+    }
     Ok(spec)
 }
 

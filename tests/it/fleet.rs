@@ -189,6 +189,7 @@ fn eight_runners_do_every_queued_run_exactly_once_and_a_killed_runners_run_is_fi
             r#"{"scenes": ["sky\u0007"]}"#,
             "scenes: names of 1 to 200 characters, no control characters",
         ),
+        (r#"{"scenes": ["no-such-scene"]}"#, "scenes: no scene "),
     ] {
         let r = rt
             .block_on(
@@ -218,6 +219,34 @@ fn eight_runners_do_every_queued_run_exactly_once_and_a_killed_runners_run_is_fi
         err.contains("adapter: a name substring of 1 to 200 characters, no control characters"),
         "{err}"
     );
+    // Scenes are checked against the suite when queued, in the API's words;
+    // a file that is not a suite is refused before anything is queued.
+    let o = tonegate(&[
+        "enqueue",
+        "--db",
+        &url,
+        "--suite",
+        tiny.to_str().unwrap(),
+        "--scene",
+        "no-such-scene",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("scenes: no scene \"no-such-scene\" in the suite; it has: "),
+        "{err}"
+    );
+    let not_a_suite = dir.path().join("passwd");
+    std::fs::write(&not_a_suite, "root:x:0:0:root:/root:/bin/bash\n").unwrap();
+    let o = tonegate(&[
+        "enqueue",
+        "--db",
+        &url,
+        "--suite",
+        not_a_suite.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--suite: "));
     let started = Instant::now();
     let mut others: Vec<Child> = (1..8)
         .map(|i| {
