@@ -62,16 +62,22 @@ pub struct ToneSettings {
     /// Bloom strength k (0 = no bloom).
     #[cfg_attr(feature = "cli", arg(long, default_value_t = 0.0))]
     pub bloom: f64,
-    #[cfg_attr(feature = "cli", arg(long, value_enum, default_value = "scaled"))]
-    pub bloom_pass: BrightPass,
-    #[cfg_attr(feature = "cli", arg(long, default_value_t = 1.0))]
-    pub bloom_threshold: f64,
-    #[cfg_attr(feature = "cli", arg(long, default_value_t = 2))]
-    pub bloom_downsample: u32,
-    #[cfg_attr(feature = "cli", arg(long, default_value_t = 6))]
-    pub bloom_radius: u32,
-    #[cfg_attr(feature = "cli", arg(long, default_value_t = 3.0))]
-    pub bloom_sigma: f64,
+    /// The bright pass (default scaled). This and the four below refine a
+    /// bloom: given without one (strength 0), they are refused.
+    #[cfg_attr(feature = "cli", arg(long, value_enum))]
+    pub bloom_pass: Option<BrightPass>,
+    /// Bright-pass threshold (default 1).
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub bloom_threshold: Option<f64>,
+    /// Downsample factor, 2 to 8 (default 2).
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub bloom_downsample: Option<u32>,
+    /// Blur radius in pixels, 1 to 64 (default 6).
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub bloom_radius: Option<u32>,
+    /// Blur sigma in pixels (default 3).
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub bloom_sigma: Option<f64>,
     #[cfg_attr(feature = "cli", arg(long, default_value_t = 1.0))]
     pub brightness: f64,
     #[cfg_attr(feature = "cli", arg(long, default_value_t = 1.0))]
@@ -94,11 +100,11 @@ impl Default for ToneSettings {
             log_average: None,
             colour: ColourPath::Ratio,
             bloom: 0.0,
-            bloom_pass: BrightPass::Scaled,
-            bloom_threshold: 1.0,
-            bloom_downsample: 2,
-            bloom_radius: 6,
-            bloom_sigma: 3.0,
+            bloom_pass: None,
+            bloom_threshold: None,
+            bloom_downsample: None,
+            bloom_radius: None,
+            bloom_sigma: None,
             brightness: 1.0,
             contrast: 1.0,
             saturation: 1.0,
@@ -212,20 +218,36 @@ impl ToneSettings {
         Operator::try_from(params).map_err(invalid)
     }
 
-    /// The bloom, None at strength 0; its other knobs are checked either way
-    /// (a bad radius is a mistake even while bloom is off).
+    /// The bloom, None at strength 0. A refinement (`bloom_pass`, …) given
+    /// without a bloom is refused rather than ignored, and each is checked
+    /// either way (a bad radius is a mistake even while bloom is off).
     fn bloom(&self) -> Result<Option<Bloom>> {
+        let given = [
+            ("bloom_pass", self.bloom_pass.is_some()),
+            ("bloom_threshold", self.bloom_threshold.is_some()),
+            ("bloom_downsample", self.bloom_downsample.is_some()),
+            ("bloom_radius", self.bloom_radius.is_some()),
+            ("bloom_sigma", self.bloom_sigma.is_some()),
+        ];
         let bloom = Bloom {
-            bright_pass: self.bloom_pass,
-            threshold: non_negative("bloom_threshold", self.bloom_threshold)?,
-            downsample: Factor::try_from(self.bloom_downsample)
+            bright_pass: self.bloom_pass.unwrap_or(BrightPass::Scaled),
+            threshold: non_negative("bloom_threshold", self.bloom_threshold.unwrap_or(1.0))?,
+            downsample: Factor::try_from(self.bloom_downsample.unwrap_or(2))
                 .map_err(|e| invalid(format!("bloom_downsample: {e}")))?,
-            radius: Radius::try_from(self.bloom_radius)
+            radius: Radius::try_from(self.bloom_radius.unwrap_or(6))
                 .map_err(|e| invalid(format!("bloom_radius: {e}")))?,
-            sigma: positive("bloom_sigma", self.bloom_sigma)?,
+            sigma: positive("bloom_sigma", self.bloom_sigma.unwrap_or(3.0))?,
             strength: non_negative("bloom", self.bloom)?,
         };
-        Ok((self.bloom != 0.0).then_some(bloom))
+        if self.bloom == 0.0 {
+            if let Some((name, _)) = given.iter().find(|(_, set)| *set) {
+                return Err(invalid(format!(
+                    "{name}: refines a bloom, and bloom (its strength) is 0; give bloom > 0 too, or leave {name} out"
+                )));
+            }
+            return Ok(None);
+        }
+        Ok(Some(bloom))
     }
 }
 
@@ -268,6 +290,34 @@ mod tests {
             ..Default::default()
         };
         assert!(s.resolve().unwrap_err().to_string().contains("gamma"));
+    }
+
+    /// Found by a hostile client: `bloom_radius=9` without `bloom` was
+    /// accepted and did nothing.
+    #[test]
+    fn a_bloom_refinement_without_a_bloom_is_refused() {
+        let s = ToneSettings {
+            bloom_radius: Some(9),
+            ..Default::default()
+        };
+        let e = s.resolve().unwrap_err().to_string();
+        assert!(e.contains("bloom_radius: refines a bloom"), "{e}");
+        let s = ToneSettings {
+            bloom: 0.5,
+            bloom_radius: Some(9),
+            ..Default::default()
+        };
+        s.resolve().unwrap();
+        // Out of range is refused either way.
+        let s = ToneSettings {
+            bloom_radius: Some(0),
+            ..Default::default()
+        };
+        assert!(s
+            .resolve()
+            .unwrap_err()
+            .to_string()
+            .contains("bloom_radius"));
     }
 
     /// Found by a hostile client: `white=-1` was ignored under the default

@@ -442,6 +442,14 @@ async fn tonemap_returns_the_reference_image_and_refuses_bad_input() {
         "bad_parameter",
     )
     .await;
+    // A bloom refinement without a bloom was accepted and did nothing.
+    let detail = expect_error(
+        s.tonemap("bloom_radius=9", hdr.clone()).await,
+        StatusCode::BAD_REQUEST,
+        "bad_parameter",
+    )
+    .await;
+    assert!(detail.contains("bloom_radius: refines a bloom"), "{detail}");
     // Bodies: empty, not HDR, truncated, NaN, over the byte and pixel limits.
     expect_error(
         s.tonemap("gpu=false", vec![]).await,
