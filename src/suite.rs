@@ -140,6 +140,21 @@ pub fn parse_suite(text: &str, path: &Path) -> Result<Suite, SceneError> {
                 message: format!("two scenes are named {:?}", scene.name),
             });
         }
+        for c in &scene.checks {
+            if let crate::check::Check::MinPsnrGainOver(g) = &c.check {
+                if g.frame_db.is_some() && g.from_frame >= scene.frames {
+                    return Err(SceneError::Invalid {
+                        path: path.to_owned(),
+                        message: format!(
+                            "scene {:?}: min_psnr_gain_over: from_frame {} is past the last frame {}",
+                            scene.name,
+                            g.from_frame,
+                            scene.frames - 1
+                        ),
+                    });
+                }
+            }
+        }
         for baseline in scene.checks.iter().filter_map(|c| c.check.baseline()) {
             let invalid = |message: String| SceneError::Invalid {
                 path: path.to_owned(),
@@ -150,9 +165,11 @@ pub fn parse_suite(text: &str, path: &Path) -> Result<Suite, SceneError> {
                     "scene {baseline:?} must be listed before this one in the suite"
                 )));
             };
-            if base.sequence_key() != scene.sequence_key() {
+            if base.sequence_key() != scene.sequence_key()
+                || base.default_spp() != scene.default_spp()
+            {
                 return Err(invalid(format!(
-                    "scene {baseline:?} renders another sequence (environment, size, rotation, operator or frames differ): its frames cannot be compared with this scene's"
+                    "scene {baseline:?} renders another sequence (environment, size, rotation, operator, frames or samples per pixel differ): its frames cannot be compared with this scene's"
                 )));
             }
         }
@@ -247,5 +264,19 @@ min_psnr = 1.0
         .unwrap_err()
         .to_string();
         assert!(e.contains("renders another sequence"), "{e}");
+        // A baseline without TAA renders at its reference spp, not at 1.
+        let plain = scene("base", 0.5, "").replace("[taa]\nvariant = \"clip\"\n", "");
+        let e = suite(&[("base", plain), ("taa", scene("taa", 0.5, gain))])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("samples per pixel"), "{e}");
+        let late = "[[checks]]\nmin_psnr_gain_over = { scene = \"base\", db = 1.0, frame_db = 0.0, from_frame = 2 }\n";
+        let e = suite(&[
+            ("base", scene("base", 0.5, "")),
+            ("taa", scene("taa", 0.5, late)),
+        ])
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("from_frame 2 is past the last frame 1"), "{e}");
     }
 }

@@ -136,6 +136,7 @@ pub fn judge_gains(result: &mut SceneResult, earlier: &[SceneResult]) {
                     g.scene
                 ),
                 None,
+                Vec::new(),
             ));
             continue;
         };
@@ -151,7 +152,7 @@ pub fn judge_gains(result: &mut SceneResult, earlier: &[SceneResult]) {
             })
             .collect();
         if gains.is_empty() {
-            decided.push((i, false, "no frames to judge".into(), None));
+            decided.push((i, false, "no frames to judge".into(), None, Vec::new()));
             continue;
         }
         let mean = gains.iter().map(|g| g.1).sum::<f64>() / gains.len() as f64;
@@ -181,20 +182,34 @@ pub fn judge_gains(result: &mut SceneResult, earlier: &[SceneResult]) {
                 f => format!("; frames {f:?} gain less than {floor} dB over {}", g.scene),
             });
         }
-        decided.push((
-            i,
-            mean_ok && late_fails.is_empty() && !mean.is_nan(),
-            detail,
-            Some(late_fails.first().copied().unwrap_or(worst_frame)),
-        ));
+        let frame = Some(late_fails.first().copied().unwrap_or(worst_frame));
+        let passed = mean_ok && late_fails.is_empty() && !mean.is_nan();
+        decided.push((i, passed, detail, frame, late_fails));
     }
-    for (i, passed, detail, frame) in decided {
+    for (i, passed, detail, frame, late_fails) in decided {
         let c = &mut result.checks[i];
         c.passed = Some(passed);
         c.detail = detail;
         c.frame = frame;
+        // A frame under the per-frame floor lists the check as it lists a
+        // per-frame check it fails.
+        for f in result
+            .frames
+            .iter_mut()
+            .filter(|f| late_fails.contains(&f.frame))
+        {
+            f.failed_checks.push(i);
+        }
+    }
+    // `judge` found nothing judged while the gain checks waited; a decided
+    // one is judged.
+    if result.checks.iter().any(|c| c.passed.is_some()) {
+        result.problems.retain(|p| !p.starts_with(NOTHING_JUDGED));
     }
 }
+
+/// How `judge` reports a scene none of whose checks applies.
+const NOTHING_JUDGED: &str = "none of the scene's";
 
 /// What judging needs to know of a scene.
 #[derive(Clone, Copy, Debug)]
@@ -342,7 +357,7 @@ pub fn judge(
         problems.push("the scene has no checks: a scene with no checks fails".into());
     } else if checks.iter().all(|c| c.passed.is_none()) {
         problems.push(format!(
-            "none of the scene's {} checks applies to {adapter} at {spp} spp: nothing was judged",
+            "{NOTHING_JUDGED} {} checks applies to {adapter} at {spp} spp: nothing was judged",
             checks.len()
         ));
     }

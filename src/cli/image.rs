@@ -36,7 +36,7 @@ pub struct BenchArgs {
     #[arg(long, value_enum, default_value = "motion")]
     pub taa_feedback: tonegate::scene::FeedbackRule,
     /// Where the TAA blend is taken.
-    #[arg(long, value_enum, default_value = "linear")]
+    #[arg(long, value_enum, default_value = "tonemapped")]
     pub taa_blend: tonegate::scene::BlendSpace,
     /// Print the report as JSON.
     #[arg(long)]

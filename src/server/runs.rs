@@ -121,8 +121,13 @@ pub fn job_request(body: &[u8], suite: &std::path::Path) -> Result<JobSpec, ApiE
         label: req.label,
     };
     spec.check().map_err(ApiError::bad)?;
-    // Checked against the server's own suite now, not by a runner later:
-    // an unknown name was queued (202) and became an `error` run.
+    Ok(spec)
+}
+
+/// Checks a job's scenes against the server's own suite, now rather than in
+/// a runner later (an unknown name was queued, 202, and became an `error`
+/// run). Reads files: call it off the async workers.
+fn check_queued_scenes(spec: &JobSpec, suite: &std::path::Path) -> Result<(), ApiError> {
     let known = crate::suite::load_suite_file(suite)
         .map_err(|e| ApiError::internal(format!("the server's suite {}: {e}", suite.display())))?;
     if !spec.scenes.is_empty() {
@@ -130,7 +135,7 @@ pub fn job_request(body: &[u8], suite: &std::path::Path) -> Result<JobSpec, ApiE
             .select(&spec.scenes)
             .map_err(|m| ApiError::bad(format!("scenes: {m}")))?;
     }
-    Ok(spec)
+    Ok(())
 }
 
 fn parse_run_request(body: &[u8]) -> Result<RunRequest, ApiError> {
@@ -221,13 +226,18 @@ pub struct RunQueued {
 async fn queue_run(st: &Arc<AppState>, body: &[u8]) -> Result<Response, ApiError> {
     let spec = job_request(body, &st.suite)?;
     let db = st.db.clone();
-    let job = tokio::task::spawn_blocking(move || History::open(&db)?.enqueue(&spec))
-        .await
-        .map_err(|e| ApiError::internal(e.to_string()))?
-        .map_err(|e| match e {
-            HistoryError::Invalid(d) => ApiError::bad(d),
-            e => ApiError::of_history(&e),
-        })?;
+    let suite = st.suite.clone();
+    let job = tokio::task::spawn_blocking(move || {
+        check_queued_scenes(&spec, &suite)?;
+        History::open(&db)
+            .and_then(|h| h.enqueue(&spec))
+            .map_err(|e| match e {
+                HistoryError::Invalid(d) => ApiError::bad(d),
+                e => ApiError::of_history(&e),
+            })
+    })
+    .await
+    .map_err(|e| ApiError::internal(e.to_string()))??;
     let url = format!("/api/v1/queue?job={job}");
     let body = RunQueued {
         job,

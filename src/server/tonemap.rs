@@ -198,7 +198,7 @@ pub async fn tonemap(
         .await
         .map_err(|_| timed_out(timeout))?
         .map_err(|_| ApiError::internal("the tone-map worker dropped the job"))??;
-    Ok(respond(out, extra.json, &settings))
+    Ok(respond(out, extra.json, &settings.in_effect()))
 }
 
 fn too_large_body(len: u64, limit: usize) -> ApiError {

@@ -218,6 +218,21 @@ impl ToneSettings {
         Operator::try_from(params).map_err(invalid)
     }
 
+    /// These settings with the bloom's refinements filled in with the values
+    /// in effect (the defaults where not given) when there is a bloom: what
+    /// a report echoes.
+    pub fn in_effect(&self) -> ToneSettings {
+        let mut s = self.clone();
+        if s.bloom != 0.0 {
+            s.bloom_pass.get_or_insert(BrightPass::Scaled);
+            s.bloom_threshold.get_or_insert(1.0);
+            s.bloom_downsample.get_or_insert(2);
+            s.bloom_radius.get_or_insert(6);
+            s.bloom_sigma.get_or_insert(3.0);
+        }
+        s
+    }
+
     /// The bloom, None at strength 0. A refinement (`bloom_pass`, …) given
     /// without a bloom is refused rather than ignored, and each is checked
     /// either way (a bad radius is a mistake even while bloom is off).

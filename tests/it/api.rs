@@ -378,6 +378,16 @@ async fn tonemap_returns_the_reference_image_and_refuses_bad_input() {
         .decode(v["image"]["base64"].as_str().unwrap())
         .unwrap();
     assert_eq!(image::load_from_memory(&png).unwrap().width(), 96);
+    // The settings echoed are those in effect: a bloom's refinements left
+    // out are its defaults, not nulls; without a bloom they stay null.
+    let r = s
+        .tonemap("gpu=false&format=json&bloom=0.5&bloom_sigma=2", hdr.clone())
+        .await;
+    let v: serde_json::Value = r.json().await.unwrap();
+    assert_eq!(v["settings"]["bloom_radius"], 6, "{}", v["settings"]);
+    assert_eq!(v["settings"]["bloom_sigma"], 2.0);
+    assert_eq!(v["settings"]["bloom_pass"], "scaled");
+    assert!(v["settings"]["bloom_radius"].is_number());
     let form = reqwest::multipart::Form::new()
         .text("operator", "reinhard02")
         .text("white", "4")

@@ -270,6 +270,8 @@ fn a_gain_check_compares_frame_by_frame_with_an_earlier_scene() {
         "{}",
         r.checks[0].detail
     );
+    assert_eq!(r.frames[3].failed_checks, [0]);
+    assert!(r.frames[0].failed_checks.is_empty());
     // A NaN PSNR fails.
     let mut r = moving("taa", &[21.0, f64::NAN, 24.0, 25.0], check(0.0, None));
     judge_gains(&mut r, std::slice::from_ref(&base));
