@@ -4,7 +4,7 @@
 
 use super::figures::FRAME_METRICS;
 use super::result::{CheckResult, FrameResult, SceneResult, Summary, TestKind};
-use super::spec::{not_applied, Check, CheckSpec, Judged, Subject};
+use super::spec::{not_applied, Check, CheckSpec, GainOver, Judged, Subject};
 use crate::image::Rgb8Image;
 use crate::metrics::{compare_with_flip, fraction_over};
 use crate::perf::TimingSummary;
@@ -92,8 +92,12 @@ pub fn evaluate(
             ),
             None => result(None, format!("no GPU timing for stage {stage}"), None),
         },
-        // Decided by `judge_gains` once the other scene is rendered.
-        Subject::GainOver(g) => result(None, format!("{PENDING} {}", g.scene), None),
+        // Needs the other scene's frames: `judge` decides it (`judge_gain`).
+        Subject::GainOver(g) => result(
+            None,
+            format!("compares with scene {}: judged with the run", g.scene),
+            None,
+        ),
         Subject::Fps => match fps {
             Some(v) => result(
                 Some(!rule.fails(v)),
@@ -105,111 +109,77 @@ pub fn evaluate(
     }
 }
 
-/// The detail of a gain check `evaluate` leaves to [`judge_gains`].
-const PENDING: &str = "waits for the render of";
-
-/// Decides `result`'s `min_psnr_gain_over` checks against the scenes
-/// rendered before it in the same run (`earlier`): frame by frame, this
-/// scene's PSNR less the other's, over this scene's judged frames. A check
-/// whose scene was not rendered fails and says so.
-pub fn judge_gains(result: &mut SceneResult, earlier: &[SceneResult]) {
-    let psnr = |r: &SceneResult, frame: u32| {
-        r.frames
-            .iter()
-            .find(|f| f.frame == frame)
-            .map(|f| f.metrics.psnr)
+/// A `min_psnr_gain_over` check, decided against the scenes rendered before
+/// this one in the same run (`earlier`): frame by frame, this scene's PSNR
+/// (`frames`) less the other's, over this scene's `judged` frames. Returns
+/// the result and the frames under the per-frame floor. A check whose scene
+/// was not rendered fails and says so.
+pub fn judge_gain(
+    spec: &CheckSpec,
+    g: &GainOver,
+    frames: &[FrameResult],
+    judged: &[u32],
+    earlier: &[SceneResult],
+) -> (CheckResult, Vec<u32>) {
+    let result = |passed: bool, detail: String, frame: Option<u32>| CheckResult {
+        spec: spec.clone(),
+        passed: Some(passed),
+        detail,
+        frame,
     };
-    let mut decided = Vec::new();
-    for (i, c) in result.checks.iter().enumerate() {
-        let Check::MinPsnrGainOver(g) = &c.spec.check else {
-            continue;
-        };
-        if c.passed.is_some() || !c.detail.starts_with(PENDING) {
-            continue;
-        }
-        let Some(base) = earlier.iter().find(|r| r.scene == g.scene) else {
-            decided.push((
-                i,
-                false,
-                format!(
-                    "scene {} was not rendered before this one in this run",
-                    g.scene
-                ),
-                None,
-                Vec::new(),
-            ));
-            continue;
-        };
-        let gains: Vec<(u32, f64)> = result
-            .judged_frames
-            .iter()
-            .map(|&f| {
-                let gain = match (psnr(result, f), psnr(base, f)) {
-                    (Some(a), Some(b)) => a - b,
-                    _ => f64::NAN,
-                };
-                (f, gain)
-            })
-            .collect();
-        if gains.is_empty() {
-            decided.push((i, false, "no frames to judge".into(), None, Vec::new()));
-            continue;
-        }
-        let mean = gains.iter().map(|g| g.1).sum::<f64>() / gains.len() as f64;
-        let (worst_frame, worst) = gains
-            .iter()
-            .copied()
-            .reduce(|w, v| if v.1.is_nan() || v.1 < w.1 { v } else { w })
-            .unwrap_or((0, f64::NAN));
-        let late_fails: Vec<u32> = match g.frame_db {
-            Some(floor) => gains
-                .iter()
-                .filter(|(f, v)| *f >= g.from_frame && (v.is_nan() || *v < floor))
-                .map(|(f, _)| *f)
-                .collect(),
-            None => Vec::new(),
-        };
-        let mean_ok = mean >= g.db;
-        let mut detail = format!(
-            "mean PSNR gain over {} {mean:+.2} dB over {} frames (min {}); worst frame {worst_frame} {worst:+.2} dB",
-            g.scene,
-            gains.len(),
-            g.db
+    let psnr = |frames: &[FrameResult], n: u32| {
+        frames.iter().find(|f| f.frame == n).map(|f| f.metrics.psnr)
+    };
+    let Some(base) = earlier.iter().find(|r| r.scene == g.scene) else {
+        let why = format!(
+            "scene {} was not rendered before this one in this run",
+            g.scene
         );
-        if let Some(floor) = g.frame_db {
-            detail.push_str(&match late_fails.as_slice() {
-                [] => format!("; every frame from {} gains >= {floor} dB", g.from_frame),
-                f => format!("; frames {f:?} gain less than {floor} dB over {}", g.scene),
-            });
-        }
-        let frame = Some(late_fails.first().copied().unwrap_or(worst_frame));
-        let passed = mean_ok && late_fails.is_empty() && !mean.is_nan();
-        decided.push((i, passed, detail, frame, late_fails));
+        return (result(false, why, None), Vec::new());
+    };
+    let gains: Vec<(u32, f64)> = judged
+        .iter()
+        .map(|&n| {
+            let gain = match (psnr(frames, n), psnr(&base.frames, n)) {
+                (Some(a), Some(b)) => a - b,
+                _ => f64::NAN,
+            };
+            (n, gain)
+        })
+        .collect();
+    if gains.is_empty() {
+        return (result(false, "no frames to judge".into(), None), Vec::new());
     }
-    for (i, passed, detail, frame, late_fails) in decided {
-        let c = &mut result.checks[i];
-        c.passed = Some(passed);
-        c.detail = detail;
-        c.frame = frame;
-        // A frame under the per-frame floor lists the check as it lists a
-        // per-frame check it fails.
-        for f in result
-            .frames
-            .iter_mut()
-            .filter(|f| late_fails.contains(&f.frame))
-        {
-            f.failed_checks.push(i);
-        }
+    let mean = gains.iter().map(|g| g.1).sum::<f64>() / gains.len() as f64;
+    let (worst_frame, worst) = gains
+        .iter()
+        .copied()
+        .reduce(|w, v| if v.1.is_nan() || v.1 < w.1 { v } else { w })
+        .unwrap_or((0, f64::NAN));
+    let late_fails: Vec<u32> = match g.frame_db {
+        Some(floor) => gains
+            .iter()
+            .filter(|(n, v)| *n >= g.from_frame && (v.is_nan() || *v < floor))
+            .map(|(n, _)| *n)
+            .collect(),
+        None => Vec::new(),
+    };
+    let mut detail = format!(
+        "mean PSNR gain over {} {mean:+.2} dB over {} frames (min {}); worst frame {worst_frame} {worst:+.2} dB",
+        g.scene,
+        gains.len(),
+        g.db
+    );
+    if let Some(floor) = g.frame_db {
+        detail.push_str(&match late_fails.as_slice() {
+            [] => format!("; every frame from {} gains >= {floor} dB", g.from_frame),
+            f => format!("; frames {f:?} gain less than {floor} dB over {}", g.scene),
+        });
     }
-    // `judge` found nothing judged while the gain checks waited; a decided
-    // one is judged.
-    if result.checks.iter().any(|c| c.passed.is_some()) {
-        result.problems.retain(|p| !p.starts_with(NOTHING_JUDGED));
-    }
+    let frame = Some(late_fails.first().copied().unwrap_or(worst_frame));
+    let passed = mean >= g.db && late_fails.is_empty() && !mean.is_nan();
+    (result(passed, detail, frame), late_fails)
 }
-
-/// How `judge` reports a scene none of whose checks applies.
-const NOTHING_JUDGED: &str = "none of the scene's";
 
 /// What judging needs to know of a scene.
 #[derive(Clone, Copy, Debug)]
@@ -223,6 +193,9 @@ pub struct Judging<'a> {
     /// Keep the last frame's images as well (TAA scenes: the frame the
     /// variants are compared on).
     pub keep_last: bool,
+    /// The scenes rendered before this one in the run, which
+    /// `min_psnr_gain_over` checks compare with.
+    pub earlier: &'a [SceneResult],
 }
 
 /// What a renderer produced for one scene.
@@ -338,16 +311,29 @@ pub fn judge(
         reference_spp: on.reference_spp,
         options: &options,
     };
-    let checks: Vec<CheckResult> = (0..on.checks.len())
-        .map(|i| evaluate(on.checks, i, &judged, applies_on, &timings, fps))
-        .collect();
+    // (check index, frames under its per-frame floor) of the gain checks.
+    let mut gain_fails: Vec<(usize, Vec<u32>)> = Vec::new();
+    let mut checks: Vec<CheckResult> = Vec::with_capacity(on.checks.len());
+    for (i, spec) in on.checks.iter().enumerate() {
+        match &spec.check {
+            Check::MinPsnrGainOver(g) if not_applied(on.checks, i, applies_on).is_none() => {
+                let (r, late) = judge_gain(spec, g, &frames, &judged_frames, on.earlier);
+                gain_fails.push((i, late));
+                checks.push(r);
+            }
+            _ => checks.push(evaluate(on.checks, i, &judged, applies_on, &timings, fps)),
+        }
+    }
     // Per-frame failures of the applied checks, on the judged frames.
     for f in frames
         .iter_mut()
         .filter(|f| judged_frames.contains(&f.frame))
     {
         for (i, c) in checks.iter().enumerate() {
-            if c.passed.is_some() && f.fails(&c.spec) == Some(true) {
+            let under_floor = gain_fails
+                .iter()
+                .any(|(k, late)| *k == i && late.contains(&f.frame));
+            if c.passed.is_some() && (f.fails(&c.spec) == Some(true) || under_floor) {
                 f.failed_checks.push(i);
             }
         }
@@ -357,7 +343,7 @@ pub fn judge(
         problems.push("the scene has no checks: a scene with no checks fails".into());
     } else if checks.iter().all(|c| c.passed.is_none()) {
         problems.push(format!(
-            "{NOTHING_JUDGED} {} checks applies to {adapter} at {spp} spp: nothing was judged",
+            "none of the scene's {} checks applies to {adapter} at {spp} spp: nothing was judged",
             checks.len()
         ));
     }

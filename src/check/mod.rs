@@ -15,7 +15,7 @@ pub mod spec;
 
 pub use expect::{Expectation, ExpectationOutcome, Expected};
 pub use figures::{FrameMetric, FRAME_METRICS};
-pub use judge::{evaluate, judge, judge_gains, JudgeError, Judging, KeptFrame, Rendered};
+pub use judge::{evaluate, judge, judge_gain, JudgeError, Judging, KeptFrame, Rendered};
 pub use result::{CheckResult, FrameResult, SceneResult, Summary, TaaTag, TestKind};
 pub use spec::{
     not_applied, AccuracyOption, Check, CheckSpec, GainOver, Judged, Rule, Side, Subject,

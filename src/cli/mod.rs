@@ -14,6 +14,7 @@ use tonegate::gpu::{
 };
 
 mod adapters;
+mod bench;
 mod fleet;
 mod gate;
 mod golden;
@@ -46,7 +47,7 @@ pub enum Command {
     /// Stiff and extreme inputs through both renderers: finiteness, error against f64, time.
     Stress(sweep::StressArgs),
     /// Time every stage of the full plan on the GPU: per-stage table, floor ratio, FPS.
-    Bench(image::BenchArgs),
+    Bench(bench::BenchArgs),
     /// Tone-map one HDR image (.hdr, .exr, .pfm); output format from the extension.
     Tonemap(image::TonemapArgs),
     /// Compare an image with a reference: two 8-bit PNGs (MSE, RMSE, PSNR, SNR, SSIM,
@@ -206,7 +207,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         Command::History(a) => gate::history(a),
         Command::Tradeoff(a) => sweep::tradeoff(a),
         Command::Stress(a) => sweep::stress(a),
-        Command::Bench(a) => image::bench(a),
+        Command::Bench(a) => bench::bench(a),
         Command::Tonemap(a) => image::tonemap(a),
         Command::Compare(a) => image::compare(a),
         Command::Plan(a) => image::plan(a),

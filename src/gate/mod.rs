@@ -372,8 +372,11 @@ fn run_inner(
         let goldens = (0..scene.frames)
             .map(|n| crate::golden::read_frame(&root, &scene.name, n))
             .collect::<Result<Vec<_>, _>>()?;
-        let (mut result, kept) = judge(scene.judging(), rendered, goldens)?;
-        crate::check::judge_gains(&mut result, &scenes);
+        let judging = crate::check::Judging {
+            earlier: &scenes,
+            ..scene.judging()
+        };
+        let (mut result, kept) = judge(judging, rendered, goldens)?;
         apply_expectations(&mut result, &scene.expectations, &adapter, &today);
         result.taa = scene.taa.as_ref().map(|t| crate::check::TaaTag {
             variant: t.variant.name().into(),

@@ -305,6 +305,7 @@ impl Scene {
             reference_spp: self.default_spp(),
             test: self.test_kind(),
             keep_last: self.taa.is_some(),
+            earlier: &[],
         }
     }
 

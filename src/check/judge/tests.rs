@@ -126,12 +126,18 @@ fn gradient() -> Rgb8Image {
 }
 
 fn judged(checks: &[CheckSpec], frame: Rgb8Image) -> SceneResult {
+    judged_after(checks, frame, &[])
+}
+
+/// `judged`, with `earlier` the scenes rendered before it in the run.
+fn judged_after(checks: &[CheckSpec], frame: Rgb8Image, earlier: &[SceneResult]) -> SceneResult {
     let on = Judging {
         scene: "s",
         checks,
         reference_spp: 16,
         test: TestKind::Static,
         keep_last: false,
+        earlier,
     };
     let rendered = Rendered {
         renderer: "test".into(),
@@ -239,51 +245,78 @@ fn moving(name: &str, psnrs: &[f64], specs: Vec<CheckSpec>) -> SceneResult {
     }
 }
 
+/// `judge_gain` of `spec` for a moving scene with one frame per PSNR.
+fn gain(psnrs: &[f64], spec: &CheckSpec, earlier: &[SceneResult]) -> (CheckResult, Vec<u32>) {
+    let Check::MinPsnrGainOver(g) = &spec.check else {
+        panic!("not a gain check")
+    };
+    let frames: Vec<FrameResult> = psnrs
+        .iter()
+        .enumerate()
+        .map(|(n, &p)| frame(n as u32, p))
+        .collect();
+    let judged: Vec<u32> = (0..psnrs.len() as u32).collect();
+    judge_gain(spec, g, &frames, &judged, earlier)
+}
+
 #[test]
 fn a_gain_check_compares_frame_by_frame_with_an_earlier_scene() {
-    let base = moving("noaa", &[20.0, 21.0, 22.0, 23.0], vec![]);
-    let check = |db, frame_db| vec![gain_over("noaa", db, frame_db, 2)];
+    let base = [moving("noaa", &[20.0, 21.0, 22.0, 23.0], vec![])];
+    let check = |db, frame_db| gain_over("noaa", db, frame_db, 2);
     // Gains 1, 3, 2, 2: mean 2.
     let taa = [21.0, 24.0, 24.0, 25.0];
-    // Left to `judge_gains` by `evaluate`: not yet decided.
-    let mut r = moving("taa", &taa, check(2.0, Some(0.0)));
+    // Alone, `evaluate` cannot decide it: `judge` does, with the run.
+    let r = moving("taa", &taa, vec![check(2.0, Some(0.0))]);
     assert_eq!(r.checks[0].passed, None, "{}", r.checks[0].detail);
-    judge_gains(&mut r, std::slice::from_ref(&base));
-    assert_eq!(r.checks[0].passed, Some(true), "{}", r.checks[0].detail);
-    assert!(
-        r.checks[0].detail.contains("+2.00 dB"),
-        "{}",
-        r.checks[0].detail
-    );
+    let (r, late) = gain(&taa, &check(2.0, Some(0.0)), &base);
+    assert_eq!(r.passed, Some(true), "{}", r.detail);
+    assert!(r.detail.contains("+2.00 dB"), "{}", r.detail);
+    assert!(late.is_empty());
     // A mean under the bound fails.
-    let mut r = moving("taa", &taa, check(2.1, None));
-    judge_gains(&mut r, std::slice::from_ref(&base));
-    assert_eq!(r.checks[0].passed, Some(false));
-    // A frame from `from_frame` on below its floor fails, and is named;
-    // one before it does not count.
-    let mut r = moving("taa", &[19.0, 25.0, 24.5, 25.0], check(1.0, Some(2.1)));
-    judge_gains(&mut r, std::slice::from_ref(&base));
-    assert_eq!(r.checks[0].passed, Some(false), "{}", r.checks[0].detail);
-    assert_eq!(r.checks[0].frame, Some(3));
-    assert!(
-        r.checks[0].detail.contains("frames [3]"),
-        "{}",
-        r.checks[0].detail
-    );
-    assert_eq!(r.frames[3].failed_checks, [0]);
-    assert!(r.frames[0].failed_checks.is_empty());
+    let (r, _) = gain(&taa, &check(2.1, None), &base);
+    assert_eq!(r.passed, Some(false));
+    // A frame from `from_frame` on below its floor fails, and is named
+    // (`judge` lists the check among that frame's failures); one before it
+    // does not count.
+    let (r, late) = gain(&[19.0, 25.0, 24.5, 25.0], &check(1.0, Some(2.1)), &base);
+    assert_eq!(r.passed, Some(false), "{}", r.detail);
+    assert_eq!(r.frame, Some(3));
+    assert!(r.detail.contains("frames [3]"), "{}", r.detail);
+    assert_eq!(late, [3]);
     // A NaN PSNR fails.
-    let mut r = moving("taa", &[21.0, f64::NAN, 24.0, 25.0], check(0.0, None));
-    judge_gains(&mut r, std::slice::from_ref(&base));
-    assert_eq!(r.checks[0].passed, Some(false));
+    let (r, _) = gain(&[21.0, f64::NAN, 24.0, 25.0], &check(0.0, None), &base);
+    assert_eq!(r.passed, Some(false));
     // A baseline that was not rendered fails and says so.
-    let mut r = moving("taa", &taa, check(0.0, None));
-    judge_gains(&mut r, &[]);
-    assert_eq!(r.checks[0].passed, Some(false));
-    assert!(r.checks[0].detail.contains("noaa was not rendered"));
+    let (r, _) = gain(&taa, &check(0.0, None), &[]);
+    assert_eq!(r.passed, Some(false));
+    assert!(r.detail.contains("noaa was not rendered"));
     // The label says both conditions.
     assert_eq!(
         gain_over("noaa", 2.0, Some(0.0), 16).label(),
         "mean PSNR gain over noaa >= 2 dB, each frame from 16 >= 0 dB"
     );
+}
+
+/// `judge` decides a gain check with the run's earlier scenes: a frame under
+/// the per-frame floor lists it among its failures, and a scene whose only
+/// check is a gain check is judged.
+#[test]
+fn judge_decides_a_gain_check_with_the_earlier_scenes() {
+    let shifted = {
+        let mut g = gradient();
+        for p in g.pixels.iter_mut() {
+            p[0] = p[0].saturating_add(3);
+        }
+        g
+    };
+    let psnr = judged(&[spec(Check::MinPsnr(0.0), None)], shifted.clone()).frames[0]
+        .metrics
+        .psnr;
+    // The baseline is 1 dB better on frame 0.
+    let base = [moving("noaa", &[psnr + 1.0], vec![])];
+    let checks = [gain_over("noaa", -5.0, Some(0.0), 0)];
+    let r = judged_after(&checks, shifted, &base);
+    assert_eq!(r.checks[0].passed, Some(false), "{}", r.checks[0].detail);
+    assert_eq!(r.frames[0].failed_checks, [0]);
+    assert!(r.problems.is_empty(), "{:?}", r.problems);
 }

@@ -1,0 +1,68 @@
+//! `tonegate bench`: every stage of the full plan timed on the GPU against
+//! the floor passes (`tonegate::gpu::bench`).
+
+use super::{invalid, write_json, GpuArgs};
+use clap::Args;
+use std::path::Path;
+use std::process::ExitCode;
+use tonegate::error::Result;
+use tonegate::gpu::GpuContext;
+use tonegate::scene::Size;
+
+#[derive(Args)]
+pub struct BenchArgs {
+    #[arg(long, default_value = "1920x1080")]
+    pub size: Size,
+    /// Measured frames (after the warm-up).
+    #[arg(long, default_value_t = 60)]
+    pub frames: u32,
+    #[arg(long, default_value_t = 10)]
+    pub warmup: u32,
+    /// TAA stages after `sphere` (off, clip, edge-aware, variance), timed
+    /// with a history to resolve every frame; the other TAA keys at a
+    /// scene's defaults (docs/taa.md).
+    #[arg(long, value_enum, default_value = "off")]
+    pub taa: tonegate::scene::TaaVariant,
+    /// How the TAA history is read.
+    #[arg(long, value_enum, default_value = "catmull-rom")]
+    pub taa_history: tonegate::scene::HistoryFilter,
+    /// How the TAA blend's current-frame weight is chosen.
+    #[arg(long, value_enum, default_value = "motion")]
+    pub taa_feedback: tonegate::scene::FeedbackRule,
+    /// Where the TAA blend is taken.
+    #[arg(long, value_enum, default_value = "tonemapped")]
+    pub taa_blend: tonegate::scene::BlendSpace,
+    /// Print the report as JSON.
+    #[arg(long)]
+    pub json: bool,
+    #[command(flatten)]
+    pub gpu: GpuArgs,
+}
+
+pub fn bench(a: BenchArgs) -> Result<ExitCode> {
+    let ctx = GpuContext::new(&a.gpu.adapter())?;
+    if a.frames == 0 {
+        return Err(invalid("--frames must be at least 1"));
+    }
+    let opts = tonegate::gpu::bench::BenchOptions {
+        width: a.size.width,
+        height: a.size.height,
+        frames: a.frames,
+        warmup: a.warmup,
+        config: a.gpu.config(),
+        taa: tonegate::scene::TaaParams {
+            variant: a.taa,
+            history_filter: a.taa_history,
+            feedback: a.taa_feedback,
+            blend: a.taa_blend,
+            ..Default::default()
+        },
+    };
+    let report = tonegate::gpu::bench::run(&ctx, &opts)?;
+    if a.json {
+        write_json(Path::new("-"), "the bench report", &report)?;
+    } else {
+        println!("{report}");
+    }
+    Ok(ExitCode::SUCCESS)
+}
