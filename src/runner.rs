@@ -154,7 +154,12 @@ pub fn run(opts: &RunnerOptions, say: &mut dyn FnMut(&str)) -> Result<RunnerSumm
             .as_ref()
             .is_some_and(|s| s.load(Ordering::Relaxed))
     };
+    let mut recovered = crate::history::last_recovery();
     loop {
+        if crate::history::last_recovery() != recovered {
+            recovered = crate::history::last_recovery();
+            say("the history database was unreachable and answers again: reconnected");
+        }
         if stopping() {
             say("asked to stop: no more jobs taken");
             break;
@@ -170,7 +175,12 @@ pub fn run(opts: &RunnerOptions, say: &mut dyn FnMut(&str)) -> Result<RunnerSumm
         if opts.max_jobs.is_some_and(|m| summary.jobs >= m) {
             break;
         }
-        let expired = h.expire_runners(opts.lost_after)?;
+        let expired = match patiently(&h, say, &stopping, "looking for lost runners", |h| {
+            h.expire_runners(opts.lost_after)
+        })? {
+            Some(e) => e,
+            None => continue,
+        };
         if !expired.runners.is_empty() {
             say(&format!(
                 "runners {:?} declared lost: jobs {:?} queued again, {:?} aborted",
@@ -178,7 +188,10 @@ pub fn run(opts: &RunnerOptions, say: &mut dyn FnMut(&str)) -> Result<RunnerSumm
             ));
         }
         let claimable = if opts.cpu { "" } else { info.adapter.as_str() };
-        let Some(job) = h.claim(id, claimable, &info.labels)? else {
+        let claimed = patiently(&h, say, &stopping, "claiming a job", |h| {
+            h.claim(id, claimable, &info.labels)
+        })?;
+        let Some(job) = claimed.flatten() else {
             if opts
                 .exit_when_idle
                 .is_some_and(|d| idle_since.elapsed() >= d)
@@ -220,8 +233,16 @@ pub fn run(opts: &RunnerOptions, say: &mut dyn FnMut(&str)) -> Result<RunnerSumm
             .map_err(|e| HistoryError::Invalid(format!("starting job {}: {e}", job.id)))?;
         // The run's id arrives as soon as it is recorded (never, when the
         // run could not start: the sender is dropped with the options).
+        // A database lost past the retry budget here only costs the link
+        // from the job to its run (the run itself is recorded by the gate,
+        // which retries on its own connection): the job is still run.
         if let Ok(run) = rx.recv() {
-            h.job_started(job.id, run)?;
+            if let Err(e) = h.job_started(job.id, run) {
+                if !e.unavailable() {
+                    return Err(e.into());
+                }
+                say(&format!("job {}: its run {run} is not linked: {e}", job.id));
+            }
         }
         let outcome = gate.join().unwrap_or_else(|_| {
             CheckOutcome::Error(
@@ -247,7 +268,13 @@ pub fn run(opts: &RunnerOptions, say: &mut dyn FnMut(&str)) -> Result<RunnerSumm
             }
         };
         summary.jobs += 1;
-        let held = h.finish_job(id, job.id, &detail)?;
+        // The result is kept through a database outage of any length: a
+        // runner asked to stop gives up only after one more retry budget.
+        let never = || false;
+        let held = patiently(&h, say, &never, "storing the job's end", |h| {
+            h.finish_job(id, job.id, &detail)
+        })?
+        .unwrap_or(false);
         if !held {
             summary.discarded += 1;
         }
@@ -265,6 +292,48 @@ pub fn run(opts: &RunnerOptions, say: &mut dyn FnMut(&str)) -> Result<RunnerSumm
         idle_since = Instant::now();
     }
     drop(heart);
-    h.stop_runner(id)?;
+    if let Err(e) = h.stop_runner(id) {
+        // Not marked stopped: the fleet declares it lost after its silence.
+        if !e.unavailable() {
+            return Err(e.into());
+        }
+        say(&format!("could not mark runner {id} stopped: {e}"));
+    }
     Ok(summary)
+}
+
+/// Runs `f` until the database answers: an unreachable database (past the
+/// retry budget each try already spent, reconnecting) is said once and
+/// waited out, so a restart or failover of the fleet's database never stops
+/// a runner. None when `stop` was asked for while waiting; any other error
+/// is returned.
+fn patiently<T>(
+    h: &History,
+    say: &mut dyn FnMut(&str),
+    stop: &dyn Fn() -> bool,
+    what: &str,
+    mut f: impl FnMut(&History) -> Result<T, HistoryError>,
+) -> Result<Option<T>, crate::Error> {
+    let mut said = false;
+    loop {
+        match f(h) {
+            Ok(v) => {
+                if said {
+                    say(&format!("{what}: the history database answers again"));
+                }
+                return Ok(Some(v));
+            }
+            Err(e) if e.unavailable() => {
+                if !said {
+                    say(&format!("{what}: {e}; waiting for the database"));
+                    said = true;
+                }
+                if stop() {
+                    return Ok(None);
+                }
+                std::thread::sleep(Duration::from_secs(1));
+            }
+            Err(e) => return Err(e.into()),
+        }
+    }
 }

@@ -84,6 +84,7 @@ pub fn runner(a: RunnerArgs) -> Result<ExitCode> {
             2 * a.heartbeat_ms
         )));
     }
+    a.db.set_retry(600);
     let opts = RunnerOptions {
         db: a.db.db.clone(),
         name: a.name.clone(),
@@ -132,6 +133,7 @@ pub struct EnqueueArgs {
 }
 
 pub fn enqueue(a: EnqueueArgs) -> Result<ExitCode> {
+    a.db.set_retry(10);
     if !(1..=10_000).contains(&a.count) {
         return Err(Error::Invalid(format!(
             "--count: must be 1 to 10000, got {}",
@@ -187,6 +189,7 @@ pub struct FleetArgs {
 }
 
 pub fn fleet(a: FleetArgs) -> Result<ExitCode> {
+    a.db.set_retry(10);
     let h = History::open_read_only(&a.db.db)?;
     let runners = h.runners(a.all)?;
     let jobs = h.jobs(None, a.limit)?;

@@ -17,9 +17,23 @@ pub struct DbArgs {
     /// PostgreSQL database shared by a fleet (postgres://user@host/db).
     #[arg(long, env = "TONEGATE_DB", default_value = ".tonegate/history.sqlite")]
     pub db: PathBuf,
+    /// Seconds to keep retrying a PostgreSQL history that is down or
+    /// restarting (reconnecting, backing off with jitter) before giving up
+    /// (default: 600 for `runner`, 2 for `serve`, which then answers 503
+    /// with Retry-After, 10 for the other commands).
+    #[arg(long, env = "TONEGATE_DB_RETRY_S")]
+    pub db_retry_s: Option<u64>,
 }
 
 impl DbArgs {
+    /// Sets the process's retry budget for a lost database connection:
+    /// `--db-retry-s`, or the command's own default.
+    pub fn set_retry(&self, default_s: u64) {
+        tonegate::history::set_retry_budget(std::time::Duration::from_secs(
+            self.db_retry_s.unwrap_or(default_s),
+        ));
+    }
+
     /// Whether the history is a PostgreSQL database.
     pub fn is_url(&self) -> bool {
         tonegate::history::is_url(&self.db.to_string_lossy())
@@ -104,6 +118,7 @@ pub struct HistoryArgs {
 }
 
 pub fn check(a: CheckArgs) -> Result<ExitCode> {
+    a.db.set_retry(10);
     if let Some(spp) = a.spp.filter(|&n| n == 0 || n > MAX_SPP) {
         return Err(invalid(format!(
             "--spp must be between 1 and {MAX_SPP}, got {spp}"
@@ -198,6 +213,7 @@ pub struct PruneArgs {
 }
 
 fn prune(a: PruneArgs) -> Result<ExitCode> {
+    a.db.set_retry(10);
     if !a.db.is_url() && !a.db.db.exists() {
         return Err(invalid(format!("no history at {}", a.db.shown())));
     }
@@ -236,6 +252,7 @@ fn prune(a: PruneArgs) -> Result<ExitCode> {
 }
 
 pub fn history(a: HistoryArgs) -> Result<ExitCode> {
+    a.db.set_retry(10);
     if let Some(HistoryAction::Prune(p)) = a.action {
         return prune(p);
     }

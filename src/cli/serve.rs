@@ -71,6 +71,7 @@ pub fn serve(a: ServeArgs) -> Result<ExitCode> {
             "--timeout: must be at least 1 second".into(),
         ));
     }
+    a.db.set_retry(2);
     // Beside a SQLite history; a PostgreSQL one has no folder.
     let token_file = a.token_file.clone().unwrap_or_else(|| {
         let dir = if a.db.is_url() {

@@ -45,6 +45,7 @@ pub struct TradeoffArgs {
 }
 
 pub fn tradeoff(a: TradeoffArgs) -> Result<ExitCode> {
+    a.db.set_retry(10);
     if a.reference_spp == 0 || a.reference_spp > MAX_SPP {
         return Err(invalid(format!(
             "--reference-spp must be between 1 and {MAX_SPP}, got {}",

@@ -274,9 +274,24 @@ impl History {
         let mut claimed = None;
         self.db().transaction(&mut |tx| {
             claimed = None;
-            let Some(row) = tx.query_opt(&sql, args![runner, now(), adapter, labels.join(",")])?
-            else {
-                return Ok(());
+            // A runner claims only when it holds no job, so a job it holds
+            // here was claimed by a try whose COMMIT went through but whose
+            // answer was lost with the connection: it is that claim's job,
+            // returned again rather than left held by nobody at work on it.
+            let held = tx.query_opt(
+                "SELECT id, suite, scenes, renderer, attempts FROM jobs
+                 WHERE runner_id = $1 AND state = 'claimed' AND run_id IS NULL
+                 ORDER BY id LIMIT 1",
+                args![runner],
+            )?;
+            let row = match held {
+                Some(row) => row,
+                None => {
+                    match tx.query_opt(&sql, args![runner, now(), adapter, labels.join(",")])? {
+                        Some(row) => row,
+                        None => return Ok(()),
+                    }
+                }
             };
             let job = ClaimedJob {
                 id: row.int(0)?,
@@ -314,7 +329,15 @@ impl History {
                 "UPDATE jobs SET state = 'done', finished_at = $3, detail = $4
                  WHERE id = $1 AND runner_id = $2 AND state = 'claimed'",
                 args![job, runner, now(), detail],
-            )? == 1;
+            )? == 1
+                // Done by this runner already: a try whose COMMIT went
+                // through but whose answer was lost with the connection.
+                || tx
+                    .query_opt(
+                        "SELECT 1 FROM jobs WHERE id = $1 AND runner_id = $2 AND state = 'done'",
+                        args![job, runner],
+                    )?
+                    .is_some();
             tx.execute(
                 "UPDATE runners SET state = 'idle', job_id = NULL
                  WHERE id = $1 AND state = 'busy'",
@@ -338,7 +361,14 @@ impl History {
     /// Declares runners silent for longer than `lost_after` lost: each job
     /// one held is queued again (or aborted once it has had its
     /// [`MAX_ATTEMPTS`]), and the run it had started is marked aborted.
+    ///
+    /// A process that has just had its database back after losing it
+    /// declares nobody lost until `lost_after` has passed since: the other
+    /// runners could not heartbeat through the outage either.
     pub fn expire_runners(&self, lost_after: Duration) -> Result<Expired, HistoryError> {
+        if super::last_recovery().is_some_and(|at| at.elapsed() < lost_after) {
+            return Ok(Expired::default());
+        }
         let cutoff = ago(lost_after);
         let mut out = Expired::default();
         self.db().transaction(&mut |tx| {

@@ -25,7 +25,7 @@ pub use artifacts::{ArtifactStats, Pruned};
 pub use fleet::{
     valid_label, ClaimedJob, Expired, JobRow, JobSpec, RunnerInfo, RunnerRow, MAX_ATTEMPTS,
 };
-pub use postgres::{is_url, redacted};
+pub use postgres::{is_url, last_recovery, redacted, set_retry_budget};
 
 pub use query::{RunRow, RunsFilter, TradeoffRow, TrendFilter, TrendPoint};
 pub use record::{CheckRecord, FrameRecord, Regression, SceneRecord, TradeoffRecord};
@@ -76,6 +76,18 @@ pub enum HistoryError {
     /// A query asked for something that does not exist.
     #[error("{0}")]
     Invalid(String),
+}
+
+impl HistoryError {
+    /// Whether the database could not be reached (down, restarting, the
+    /// connection lost) past the process's retry budget: a condition to wait
+    /// out, not a fault of the request.
+    pub fn unavailable(&self) -> bool {
+        match self {
+            HistoryError::Postgres { source, .. } => postgres::connection_lost(source),
+            _ => false,
+        }
+    }
 }
 
 /// A value stored as one of a fixed set of words.

@@ -12,7 +12,9 @@ use super::{HistoryError, SCHEMA_VERSION};
 use bytes::BytesMut;
 use postgres::types::{IsNull, ToSql, Type};
 use postgres::{Client, GenericClient, NoTls};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Mutex, MutexGuard};
+use std::time::{Duration, Instant};
 
 /// The address as errors and the console show it: without a password.
 pub fn redacted(url: &str) -> String {
@@ -73,6 +75,133 @@ const MIGRATION_LOCK: i64 = 0x746f_6e65_6761_7465; // "tonegate"
 static IDLE: Mutex<Vec<(String, bool, Client)>> = Mutex::new(Vec::new());
 const IDLE_MAX: usize = 16;
 
+/// How long this process retries a statement through a lost connection, in
+/// milliseconds: `set_retry_budget`.
+static RETRY_BUDGET_MS: AtomicU64 = AtomicU64::new(10_000);
+
+/// When this process last had the database back after losing it.
+static RECOVERED: Mutex<Option<Instant>> = Mutex::new(None);
+
+/// Sets how long this process keeps retrying a statement (reconnecting
+/// between tries, backing off with jitter) while the database is
+/// unreachable or restarting: a runner waits minutes for its database, the
+/// server a moment before it answers 503.
+pub fn set_retry_budget(budget: Duration) {
+    RETRY_BUDGET_MS.store(
+        u64::try_from(budget.as_millis()).unwrap_or(u64::MAX),
+        Ordering::Relaxed,
+    );
+}
+
+fn retry_budget() -> Duration {
+    Duration::from_millis(RETRY_BUDGET_MS.load(Ordering::Relaxed))
+}
+
+/// When this process last got the database back after losing the
+/// connection, if it ever did.
+pub fn last_recovery() -> Option<Instant> {
+    *RECOVERED.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// Whether an error means the connection, not the statement, failed: the
+/// socket closed, the server refused or dropped the connection (SQLSTATE
+/// class 08), or it is shutting down or starting (57P01 admin shutdown,
+/// 57P02 crash shutdown, 57P03 cannot connect now). Such a statement did not
+/// run, or ran in a transaction the server rolled back, so it may be sent
+/// again on a new connection. (The one exception is a COMMIT whose answer is
+/// lost after the server wrote it; the fleet's statements that matter, the
+/// claim and the end of a job, are written to be run twice.)
+pub fn connection_lost(e: &postgres::Error) -> bool {
+    if e.is_closed() {
+        return true;
+    }
+    if let Some(code) = e.code() {
+        let c = code.code();
+        return c.starts_with("08") || matches!(c, "57P01" | "57P02" | "57P03");
+    }
+    let mut cause = std::error::Error::source(e);
+    while let Some(c) = cause {
+        if c.is::<std::io::Error>() {
+            return true;
+        }
+        cause = c.source();
+    }
+    false
+}
+
+/// Waits between tries: 50 ms doubling to 2 s, each wait drawn between half
+/// and all of that (so a fleet that lost its database together does not
+/// reconnect in step), until the budget is spent.
+struct Backoff {
+    started: Instant,
+    next: Duration,
+    seed: u64,
+    tries: u32,
+}
+
+impl Backoff {
+    fn new() -> Backoff {
+        let nanos = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.subsec_nanos());
+        let thread = {
+            use std::hash::{Hash, Hasher};
+            let mut h = std::collections::hash_map::DefaultHasher::new();
+            std::thread::current().id().hash(&mut h);
+            h.finish()
+        };
+        Backoff {
+            started: Instant::now(),
+            next: Duration::from_millis(50),
+            seed: (u64::from(nanos) ^ thread ^ u64::from(std::process::id()) << 32) | 1,
+            tries: 0,
+        }
+    }
+
+    /// Sleeps before the next try; false when the budget is spent.
+    fn wait(&mut self) -> bool {
+        let left = retry_budget().saturating_sub(self.started.elapsed());
+        if left.is_zero() {
+            return false;
+        }
+        // xorshift64: jitter needs no better randomness.
+        self.seed ^= self.seed << 13;
+        self.seed ^= self.seed >> 7;
+        self.seed ^= self.seed << 17;
+        let fraction = 0.5 + (self.seed % 1000) as f64 / 2000.0;
+        std::thread::sleep(self.next.mul_f64(fraction).min(left));
+        self.next = (self.next * 2).min(Duration::from_secs(2));
+        self.tries += 1;
+        true
+    }
+
+    /// Records that the database answered after this many lost tries.
+    fn answered(&self) {
+        if self.tries > 0 {
+            *RECOVERED.lock().unwrap_or_else(|p| p.into_inner()) = Some(Instant::now());
+            tracing::info!(
+                "history database back after {} tries in {:.1} s",
+                self.tries,
+                self.started.elapsed().as_secs_f64()
+            );
+        }
+    }
+}
+
+fn open_client(url: &str, read_only: bool) -> Result<Client, postgres::Error> {
+    let mut c = Client::connect(url, NoTls)?;
+    // The history's queries are short index walks. PostgreSQL's JIT
+    // compiles any plan whose estimate is high (as a fresh or unanalysed
+    // table's estimates are), which cost 7-70 ms a query for ~1 ms of work
+    // in benches/history.rs.
+    let mut setup = "SET jit = off;".to_owned();
+    if read_only {
+        setup += "SET default_transaction_read_only = on;";
+    }
+    c.batch_execute(&setup)?;
+    Ok(c)
+}
+
 pub struct Postgres {
     client: Mutex<Option<Client>>,
     url: String,
@@ -80,6 +209,8 @@ pub struct Postgres {
 }
 
 impl Postgres {
+    /// Connects (reusing an idle connection to the same address when there
+    /// is one), retrying within the process's retry budget.
     pub fn connect(url: &str, read_only: bool) -> Result<Postgres, HistoryError> {
         let reused = {
             let mut idle = IDLE.lock().unwrap_or_else(|p| p.into_inner());
@@ -87,35 +218,16 @@ impl Postgres {
                 .position(|(u, r, c)| u == url && *r == read_only && !c.is_closed())
                 .map(|i| idle.swap_remove(i).2)
         };
-        let client = match reused {
-            Some(c) => c,
-            None => {
-                let mut c =
-                    Client::connect(url, NoTls).map_err(|source| HistoryError::Postgres {
-                        url: redacted(url),
-                        source,
-                    })?;
-                // The history's queries are short index walks. PostgreSQL's
-                // JIT compiles any plan whose estimate is high (as a fresh or
-                // unanalysed table's estimates are), which cost 7-70 ms a
-                // query for ~1 ms of work in benches/history.rs.
-                let mut setup = "SET jit = off;".to_owned();
-                if read_only {
-                    setup += "SET default_transaction_read_only = on;";
-                }
-                c.batch_execute(&setup)
-                    .map_err(|source| HistoryError::Postgres {
-                        url: redacted(url),
-                        source,
-                    })?;
-                c
-            }
-        };
-        Ok(Postgres {
-            client: Mutex::new(Some(client)),
+        let db = Postgres {
+            client: Mutex::new(reused),
             url: url.to_owned(),
             read_only,
-        })
+        };
+        // A reused connection is tried by its first statement (and replaced
+        // then if the server dropped it); a new one is made here, so an
+        // unreachable address is this call's error.
+        db.with(|_| Ok(()))?;
+        Ok(db)
     }
 
     fn err(&self, source: postgres::Error) -> HistoryError {
@@ -131,15 +243,40 @@ impl Postgres {
             .map_err(|_| HistoryError::Invalid("history connection poisoned by a panic".into()))
     }
 
+    /// Runs `f` on the connection, made anew when it was lost; a lost
+    /// connection (`connection_lost`) is replaced and `f` run again, backing
+    /// off, until the retry budget is spent.
     fn with<T>(
         &self,
-        f: impl FnOnce(&mut Client) -> Result<T, postgres::Error>,
+        mut f: impl FnMut(&mut Client) -> Result<T, postgres::Error>,
     ) -> Result<T, HistoryError> {
-        let mut guard = self.lock()?;
-        let client = guard
-            .as_mut()
-            .ok_or_else(|| HistoryError::Invalid("history connection closed".into()))?;
-        f(client).map_err(|e| self.err(e))
+        let mut backoff = Backoff::new();
+        loop {
+            let mut guard = self.lock()?;
+            let tried = match guard.as_mut() {
+                Some(client) => f(client),
+                None => open_client(&self.url, self.read_only).and_then(|mut c| {
+                    let out = f(&mut c);
+                    *guard = Some(c);
+                    out
+                }),
+            };
+            match tried {
+                Ok(v) => {
+                    backoff.answered();
+                    return Ok(v);
+                }
+                Err(e) if connection_lost(&e) => {
+                    *guard = None;
+                    drop(guard);
+                    tracing::debug!("history database: {}; trying again", describe(&e));
+                    if !backoff.wait() {
+                        return Err(self.err(e));
+                    }
+                }
+                Err(e) => return Err(self.err(e)),
+            }
+        }
     }
 }
 
@@ -268,16 +405,51 @@ impl Backend for Postgres {
         &self,
         f: &mut dyn FnMut(&dyn Sql) -> Result<(), HistoryError>,
     ) -> Result<(), HistoryError> {
-        let mut guard = self.lock()?;
-        let client = guard
-            .as_mut()
-            .ok_or_else(|| HistoryError::Invalid("history connection closed".into()))?;
-        let mut tx = client.transaction().map_err(|e| self.err(e))?;
-        f(&InTransaction {
-            tx: std::cell::RefCell::new(&mut tx),
-            db: self,
-        })?;
-        tx.commit().map_err(|e| self.err(e))
+        // As `with`, for a transaction: one whose connection was lost was
+        // rolled back by the server, and is run again whole on a new one.
+        let mut backoff = Backoff::new();
+        loop {
+            let mut guard = self.lock()?;
+            if guard.is_none() {
+                match open_client(&self.url, self.read_only) {
+                    Ok(c) => *guard = Some(c),
+                    Err(e) if connection_lost(&e) => {
+                        drop(guard);
+                        if !backoff.wait() {
+                            return Err(self.err(e));
+                        }
+                        continue;
+                    }
+                    Err(e) => return Err(self.err(e)),
+                }
+            }
+            let Some(client) = guard.as_mut() else {
+                continue;
+            };
+            let done = match client.transaction() {
+                Ok(mut tx) => f(&InTransaction {
+                    tx: std::cell::RefCell::new(&mut tx),
+                    db: self,
+                })
+                .and_then(|()| tx.commit().map_err(|e| self.err(e))),
+                Err(e) => Err(self.err(e)),
+            };
+            match done {
+                Ok(()) => {
+                    backoff.answered();
+                    return Ok(());
+                }
+                Err(HistoryError::Postgres { source, .. }) if connection_lost(&source) => {
+                    *guard = None;
+                    drop(guard);
+                    tracing::debug!("history database: {}; trying again", describe(&source));
+                    if !backoff.wait() {
+                        return Err(self.err(source));
+                    }
+                }
+                Err(e) => return Err(e),
+            }
+        }
     }
 
     fn schema_version(&self) -> Result<i64, HistoryError> {

@@ -22,13 +22,17 @@ pub fn clip(s: &str) -> String {
 /// The longest detail an error answer carries, in characters.
 pub const MAX_DETAIL: usize = 400;
 
+/// What a 503 for an unreachable history asks the client to wait, in
+/// seconds: about what a PostgreSQL restart takes.
+pub const HISTORY_RETRY_AFTER_S: u64 = 2;
+
 /// The body of every error answer.
 #[derive(Serialize, ToSchema)]
 pub struct ErrorBody {
     /// Stable code: bad_parameter, unauthorized, forbidden, not_found,
     /// method_not_allowed, conflict, too_large, uri_too_long,
     /// headers_too_large, unsupported_media_type, bad_image, busy, timeout,
-    /// history_read_only, no_adapter, gpu_error, internal.
+    /// history_read_only, history_unavailable, no_adapter, gpu_error, internal.
     pub error: String,
     /// What was wrong and where, for a person.
     pub detail: String,
@@ -131,7 +135,18 @@ impl ApiError {
         }
     }
 
+    /// A history that cannot be reached (down or restarting, past the
+    /// server's retry budget) is 503 `history_unavailable` with
+    /// `Retry-After`: nothing was done and the same request may be sent
+    /// again. Anything else is 500.
     pub fn of_history(e: &crate::history::HistoryError) -> Self {
+        if e.unavailable() {
+            return Self::unavailable(
+                "history_unavailable",
+                format!("history: {e}; nothing was stored, send the request again"),
+                HISTORY_RETRY_AFTER_S,
+            );
+        }
         Self::internal(format!("history: {e}"))
     }
 }

@@ -18,7 +18,7 @@ use tonegate::history::{History, JobSpec, RunStatus};
 
 /// A copy of golden/ with a one-frame 48x32 scene and its golden blessed,
 /// and the two-scene suite as the long job.
-fn suites(dir: &Path) -> (PathBuf, PathBuf) {
+pub(crate) fn suites(dir: &Path) -> (PathBuf, PathBuf) {
     let golden = dir.join("golden");
     copy_dir(&repo().join("golden"), &golden);
     std::fs::write(
@@ -82,7 +82,7 @@ fn runner(url: &str, name: &str, labels: &str, log: &Path) -> Child {
         .unwrap()
 }
 
-fn wait_for(what: &str, limit: Duration, mut done: impl FnMut() -> bool) {
+pub(crate) fn wait_for(what: &str, limit: Duration, mut done: impl FnMut() -> bool) {
     let start = Instant::now();
     while !done() {
         assert!(start.elapsed() < limit, "timed out waiting for {what}");

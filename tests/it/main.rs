@@ -12,6 +12,7 @@ mod common;
 mod adapters;
 mod api;
 mod architecture;
+mod chaos;
 mod check;
 mod compare_cli;
 mod dashboard;

@@ -20,6 +20,7 @@ pub struct PgServer {
     /// The cluster, its socket and its log (`server.log`).
     pub dir: PathBuf,
     next: AtomicU32,
+    bin: PathBuf,
 }
 
 /// The newest installed server's binaries.
@@ -83,12 +84,12 @@ fn run(mut c: Command, what: &str) -> Result<(), String> {
     }
 }
 
-fn start() -> Result<PgServer, String> {
+fn start(name: &str) -> Result<PgServer, String> {
     let bin = bin_dir().map_err(|e| {
         format!("PostgreSQL is not installed ({e}): the tests need Debian's postgresql package (ci/deps.sh installs it)")
     })?;
     let owner = owner();
-    let dir = std::env::temp_dir().join(format!("tonegate-pg-{}", std::process::id()));
+    let dir = std::env::temp_dir().join(format!("tonegate-pg-{}{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     if let Some((_, uid, gid)) = &owner {
@@ -122,39 +123,64 @@ fn start() -> Result<PgServer, String> {
         .and_then(|l| l.local_addr())
         .map_err(|e| format!("finding a free port: {e}"))?
         .port();
-    let mut ctl = as_owner(&owner, &bin.join("pg_ctl"));
-    ctl.arg("-D")
-        .arg(&data)
-        .arg("-l")
-        .arg(dir.join("server.log"))
-        .args(["-w", "-t", "60", "-o"])
-        .arg(format!(
-            "-p {port} -k {} -c listen_addresses=127.0.0.1 -c max_connections=200 \
-             -c fsync=off -c full_page_writes=off",
-            dir.display()
-        ))
-        .arg("start");
-    run(ctl, "pg_ctl start").map_err(|e| {
-        let log = std::fs::read_to_string(dir.join("server.log")).unwrap_or_default();
-        format!("{e}\nserver log:\n{log}")
-    })?;
-    Ok(PgServer {
+    let server = PgServer {
         port,
         dir,
         next: AtomicU32::new(0),
-    })
+        bin,
+    };
+    server.start_again()?;
+    Ok(server)
+}
+
+/// A cluster of the calling test's own, which it may stop and start
+/// (`stop`, `start_again`) without disturbing the other tests.
+pub fn private(name: &str) -> PgServer {
+    start(&format!("-{name}")).unwrap_or_else(|e| panic!("starting PostgreSQL for {name}: {e}"))
 }
 
 /// This test binary's server, started on first use.
 pub fn server() -> &'static PgServer {
     static SERVER: OnceLock<Result<PgServer, String>> = OnceLock::new();
-    match SERVER.get_or_init(start) {
+    match SERVER.get_or_init(|| start("")) {
         Ok(s) => s,
         Err(e) => panic!("starting PostgreSQL for the tests: {e}"),
     }
 }
 
 impl PgServer {
+    /// Starts the server (again), on the same port, waiting until it
+    /// accepts connections.
+    pub fn start_again(&self) -> Result<(), String> {
+        let owner = owner();
+        let mut ctl = as_owner(&owner, &self.bin.join("pg_ctl"));
+        ctl.arg("-D")
+            .arg(self.dir.join("data"))
+            .arg("-l")
+            .arg(self.dir.join("server.log"))
+            .args(["-w", "-t", "60", "-o"])
+            .arg(format!(
+                "-p {} -k {} -c listen_addresses=127.0.0.1 -c max_connections=200 \
+                 -c fsync=off -c full_page_writes=off",
+                self.port,
+                self.dir.display()
+            ))
+            .arg("start");
+        run(ctl, "pg_ctl start").map_err(|e| format!("{e}\nserver log:\n{}", self.log()))
+    }
+
+    /// Stops the server in `mode` (`fast`: connections are terminated and
+    /// transactions rolled back; `immediate`: the processes are killed and
+    /// the next start recovers from the WAL), waiting until it is down.
+    pub fn stop(&self, mode: &str) -> Result<(), String> {
+        let owner = owner();
+        let mut ctl = as_owner(&owner, &self.bin.join("pg_ctl"));
+        ctl.arg("-D")
+            .arg(self.dir.join("data"))
+            .args(["-w", "-t", "60", "-m", mode, "stop"]);
+        run(ctl, "pg_ctl stop")
+    }
+
     /// The server's log so far, for a test's failure message.
     pub fn log(&self) -> String {
         std::fs::read_to_string(self.dir.join("server.log")).unwrap_or_default()
@@ -178,4 +204,13 @@ impl PgServer {
 /// A fresh database on this test binary's server.
 pub fn database() -> String {
     server().database()
+}
+
+impl Drop for PgServer {
+    /// A private cluster is stopped and removed with its test (the shared
+    /// one is a static, never dropped: the watchdog ends it).
+    fn drop(&mut self) {
+        let _ = self.stop("immediate");
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
 }
