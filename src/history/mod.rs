@@ -363,6 +363,17 @@ impl History {
         Ok(n)
     }
 
+    /// Marks a run that is still `running` aborted, saying why; false when
+    /// it had already ended.
+    pub fn abort_run(&self, id: i64, why: &str) -> Result<bool, HistoryError> {
+        let at = now();
+        Ok(self.db.execute(
+            "UPDATE runs SET status = 'aborted', ended_at = $2, detail = $3
+             WHERE id = $1 AND status = 'running'",
+            args![id, &at, format!("{why}; at {at}")],
+        )? == 1)
+    }
+
     /// The status of run `id`, if it exists.
     pub fn status(&self, id: i64) -> Result<Option<RunStatus>, HistoryError> {
         self.db

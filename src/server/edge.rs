@@ -93,3 +93,73 @@ where
         }
     }
 }
+
+/// Reads a request's body after the request was accepted (the token and
+/// the declared length checked first, so nothing is read, and no
+/// `100 Continue` sent, for a request that is refused): at most `limit`
+/// bytes, within `timeout`, and given up at once when the server starts
+/// stopping, so a stalled upload holds neither memory past the limit nor a
+/// shutdown. Every refusal closes the connection (the rest of the body is
+/// still coming).
+pub async fn read_body(
+    st: &super::AppState,
+    body: axum::body::Body,
+    limit: usize,
+    timeout: std::time::Duration,
+) -> Result<axum::body::Bytes, ApiError> {
+    let mut closing = st.closing.subscribe();
+    let read = tokio::time::timeout(timeout, axum::body::to_bytes(body, limit));
+    let out = tokio::select! {
+        r = read => match r {
+            Ok(Ok(bytes)) => Ok(bytes),
+            Ok(Err(e)) => Err(body_error(&e, limit)),
+            Err(_) => Err(ApiError::new(
+                StatusCode::REQUEST_TIMEOUT,
+                "timeout",
+                format!("the body did not arrive within {} s", timeout.as_secs_f64()),
+            )),
+        },
+        _ = closing.wait_for(|c| *c) => Err(stopping()),
+    };
+    out.map_err(ApiError::closing)
+}
+
+/// The answer to a request cut off by the server's shutdown.
+pub fn stopping() -> ApiError {
+    ApiError::unavailable(
+        "shutting_down",
+        "the server is stopping; send the request again to it or another",
+        5,
+    )
+}
+
+/// A declared length over `limit` (413, before reading).
+pub fn declared_too_large(headers: &axum::http::HeaderMap, limit: usize) -> Result<(), ApiError> {
+    let declared = headers
+        .get(axum::http::header::CONTENT_LENGTH)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.parse::<u64>().ok());
+    match declared {
+        Some(len) if len > limit as u64 => Err(ApiError::new(
+            StatusCode::PAYLOAD_TOO_LARGE,
+            "too_large",
+            format!("the body is {len} bytes; the limit is {limit} bytes"),
+        )
+        .closing()),
+        _ => Ok(()),
+    }
+}
+
+/// How reading a body failed: over the limit is 413, anything else 400.
+pub fn body_error(e: &axum::Error, limit: usize) -> ApiError {
+    let text = e.to_string();
+    if text.contains("length limit") {
+        ApiError::new(
+            StatusCode::PAYLOAD_TOO_LARGE,
+            "too_large",
+            format!("the body is over the limit of {limit} bytes"),
+        )
+    } else {
+        ApiError::bad(format!("reading the body: {text}"))
+    }
+}

@@ -200,6 +200,9 @@ pub async fn serve(
         });
     }
     drop(listener);
+    // Uploads still arriving are cut off (answered 503, connection closed)
+    // rather than waited for; answers being worked on finish.
+    st.closing.send_replace(true);
     graceful.shutdown().await;
     Ok(())
 }

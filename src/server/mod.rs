@@ -98,6 +98,8 @@ pub struct AppState {
     pub cpu: Queue,
     pub slot: Mutex<RunSlot>,
     pub(crate) requests: prom::Requests,
+    /// Set when the server starts stopping: body reads in progress give up.
+    pub closing: tokio::sync::watch::Sender<bool>,
 }
 
 /// The token of an `Authorization: Bearer <token>` value. The scheme is
@@ -383,6 +385,7 @@ impl Server {
                 cpu,
                 slot: Mutex::new(RunSlot::Idle),
                 requests: Default::default(),
+                closing: tokio::sync::watch::Sender::new(false),
             }),
         })
     }
@@ -401,7 +404,32 @@ impl Server {
         shutdown: impl std::future::Future<Output = ()> + Send + 'static,
     ) -> std::io::Result<()> {
         let app = router(self.state.clone());
-        listen::serve(self.listener, app, self.state, &self.conn, shutdown).await
+        let st = self.state.clone();
+        let served = listen::serve(self.listener, app, self.state, &self.conn, shutdown).await;
+        // A suite run of this server's that is still going ends with it:
+        // marked aborted now rather than found `running` by the next start.
+        let running = match *st.slot.lock().unwrap_or_else(|p| p.into_inner()) {
+            RunSlot::Running(id) => Some(id),
+            _ => None,
+        };
+        if let Some(id) = running {
+            let db = st.db.clone();
+            let marked = tokio::task::spawn_blocking(move || {
+                crate::history::History::open(&db).and_then(|h| {
+                    h.abort_run(
+                        id,
+                        "the server stopped (SIGTERM or Ctrl-C) before the run finished",
+                    )
+                })
+            })
+            .await;
+            match marked {
+                Ok(Ok(_)) => tracing::info!("run {id} marked aborted: the server stopped"),
+                Ok(Err(e)) => tracing::warn!("run {id} could not be marked aborted: {e}"),
+                Err(e) => tracing::warn!("run {id} could not be marked aborted: {e}"),
+            }
+        }
+        served
     }
 }
 

@@ -1,12 +1,11 @@
 //! `/api/v1/runs`: the run list, one run, and starting a run (on this
 //! server, or queued for a fleet's runners).
 
-use super::edge::ApiPath as Path;
+use super::edge::{declared_too_large, read_body, ApiPath as Path};
 use super::error::{ApiError, ErrorBody};
 use super::params::{accepted, limit, query, read, renderer_is_cpu, run_id};
 use super::AppState;
 use crate::history::{History, HistoryError, JobSpec, RunKind, RunRow, RunStatus};
-use axum::body::Bytes;
 use axum::extract::{RawQuery, State};
 use axum::http::{header, HeaderMap};
 use axum::response::{IntoResponse, Response};
@@ -191,10 +190,14 @@ pub struct RunStarted {
         (status = 503, description = "The history cannot be written (the detail names the file and folder)", body = ErrorBody)))]
 pub async fn post_run(
     State(st): State<Arc<AppState>>,
-    headers: HeaderMap,
-    body: Bytes,
+    req: axum::extract::Request,
 ) -> Result<Response, ApiError> {
-    st.authorize_write(&headers)?;
+    // The token and the declared length first: a refused request has
+    // nothing of its body read (and no `100 Continue`).
+    st.authorize_write(req.headers())
+        .map_err(ApiError::closing)?;
+    declared_too_large(req.headers(), RUN_BODY_LIMIT)?;
+    let body = read_body(&st, req.into_body(), RUN_BODY_LIMIT, RUN_BODY_TIMEOUT).await?;
     if crate::history::is_url(&st.db.to_string_lossy()) {
         return queue_run(&st, &body).await;
     }
@@ -211,6 +214,13 @@ pub async fn post_run(
     };
     Ok(accepted(body, &url))
 }
+
+/// The largest `POST /runs` body: a selector of 1000 scene names of 200
+/// characters (the most `JobSpec::check` allows) with room to spare.
+pub const RUN_BODY_LIMIT: usize = 256 << 10;
+
+/// How long a `POST /runs` body may take to arrive.
+pub const RUN_BODY_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(10);
 
 /// What `POST /runs` answers when it queued the run for the fleet.
 #[derive(Serialize, ToSchema)]

@@ -153,7 +153,8 @@ pub async fn tonemap(
     .map_err(ApiError::closing)?;
     let queue = if extra.gpu { &st.gpu } else { &st.cpu };
     let timeout = st.limits.timeout;
-    let body = tokio::time::timeout(timeout, async {
+    let mut closing = st.closing.subscribe();
+    let read = tokio::time::timeout(timeout, async {
         if is_multipart {
             read_multipart(req, &mut pairs).await
         } else {
@@ -161,10 +162,12 @@ pub async fn tonemap(
                 .await
                 .map_err(|e| body_error(&e, limit))
         }
-    })
-    .await
-    .map_err(|_| timed_out(timeout))
-    .and_then(|r| r)
+    });
+    // An upload still arriving when the server starts stopping is cut off.
+    let body = tokio::select! {
+        r = read => r.map_err(|_| timed_out(timeout)).and_then(|r| r),
+        _ = closing.wait_for(|c| *c) => Err(super::edge::stopping()),
+    }
     .map_err(ApiError::closing)?;
     if body.is_empty() {
         return Err(ApiError::bad(

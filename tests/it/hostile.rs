@@ -16,10 +16,10 @@ use std::sync::{Arc, RwLock};
 use std::time::{Duration, Instant};
 
 /// `tonegate serve` as a child process, killed on drop.
-struct Served {
-    child: Child,
-    addr: SocketAddr,
-    log: PathBuf,
+pub(crate) struct Served {
+    pub(crate) child: Child,
+    pub(crate) addr: SocketAddr,
+    pub(crate) log: PathBuf,
 }
 
 impl Drop for Served {
@@ -30,7 +30,7 @@ impl Drop for Served {
 }
 
 /// `--db` and `--suite` of a seeded history, then `more`.
-fn history_args<'a>(seeded: &'a common::Seeded, more: &[&'a str]) -> Vec<&'a str> {
+pub(crate) fn history_args<'a>(seeded: &'a common::Seeded, more: &[&'a str]) -> Vec<&'a str> {
     let mut args = vec![
         "--db",
         seeded.db.to_str().unwrap(),
@@ -43,14 +43,14 @@ fn history_args<'a>(seeded: &'a common::Seeded, more: &[&'a str]) -> Vec<&'a str
 
 /// How to start the binary.
 #[derive(Default)]
-struct Launch<'a> {
-    args: Vec<&'a str>,
+pub(crate) struct Launch<'a> {
+    pub(crate) args: Vec<&'a str>,
     /// Soft and hard limit on open files.
-    nofile: Option<u64>,
+    pub(crate) nofile: Option<u64>,
     /// Run as `nobody` (when the tests run as root, where permissions bind nobody).
-    as_nobody: bool,
+    pub(crate) as_nobody: bool,
     /// RUST_LOG for the server (default "warn").
-    log: Option<&'a str>,
+    pub(crate) log: Option<&'a str>,
 }
 
 const AS_NOBODY: [&str; 3] = ["--reuid=65534", "--regid=65534", "--clear-groups"];
@@ -113,7 +113,7 @@ fn command(launch: &Launch<'_>, dir: &Path) -> Command {
 
 /// Starts the binary and waits for its "serving http://ADDR/" line; the
 /// error is the exit status and the log when it stops instead.
-fn serve(launch: &Launch<'_>, dir: &Path) -> Result<Served, (i32, String)> {
+pub(crate) fn serve(launch: &Launch<'_>, dir: &Path) -> Result<Served, (i32, String)> {
     let log = dir.join(format!("serve-{}.log", std::process::id()));
     let mut child = command(launch, dir)
         .stdout(Stdio::piped())

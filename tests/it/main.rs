@@ -22,6 +22,7 @@ mod golden;
 mod gpu;
 mod history;
 mod hostile;
+mod hostile_runs;
 mod io_exr;
 mod io_roundtrip;
 mod io_validation;
