@@ -118,6 +118,9 @@ pub struct EnqueueArgs {
     /// Only this scene (repeatable; default: the whole suite).
     #[arg(long)]
     pub scene: Vec<String>,
+    /// Refuse to queue past this many waiting jobs.
+    #[arg(long, default_value_t = tonegate::history::MAX_QUEUED_JOBS)]
+    pub max_queued: u64,
     /// Ask for the CPU reference instead of the runner's GPU.
     #[arg(long)]
     pub cpu: bool,
@@ -158,9 +161,17 @@ pub fn enqueue(a: EnqueueArgs) -> Result<ExitCode> {
         adapter: a.want_adapter.clone(),
         label: a.want_label.clone(),
     };
-    let ids = (0..a.count)
-        .map(|_| h.enqueue(&spec))
-        .collect::<std::result::Result<Vec<_>, _>>()?;
+    let mut ids = Vec::new();
+    let mut refused = None;
+    for _ in 0..a.count {
+        match h.enqueue_within(&spec, a.max_queued) {
+            Ok(id) => ids.push(id),
+            Err(e) => {
+                refused = Some(e);
+                break;
+            }
+        }
+    }
     match ids.as_slice() {
         [one] => println!("queued job {one} in {}", a.db.shown()),
         [first, .., last] => println!(
@@ -170,7 +181,10 @@ pub fn enqueue(a: EnqueueArgs) -> Result<ExitCode> {
         ),
         [] => {}
     }
-    Ok(ExitCode::SUCCESS)
+    match refused {
+        Some(e) => Err(e.into()),
+        None => Ok(ExitCode::SUCCESS),
+    }
 }
 
 #[derive(Args)]

@@ -41,6 +41,10 @@ pub struct ServeArgs {
     /// POST /tonemap: seconds a request may take, upload and waiting included.
     #[arg(long, default_value_t = Limits::default().timeout.as_secs())]
     pub timeout: u64,
+    /// POST /runs on a fleet's history: jobs that may wait in the queue
+    /// before a submission is answered 503 `queue_full`.
+    #[arg(long, default_value_t = Limits::default().max_queued_jobs)]
+    pub max_queued_jobs: u64,
     /// Connections served at once (default 1024, lowered to fit the
     /// open-file limit); past it, health checks are answered and the rest
     /// get 503 with `Connection: close`.
@@ -95,6 +99,7 @@ pub fn serve(a: ServeArgs) -> Result<ExitCode> {
             max_pixels: a.max_pixels,
             queue: a.queue,
             timeout: std::time::Duration::from_secs(a.timeout),
+            max_queued_jobs: a.max_queued_jobs,
         },
         conn: tonegate::server::listen::ConnLimits {
             max_connections: a.max_connections,

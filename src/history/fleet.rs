@@ -17,6 +17,19 @@ use std::time::Duration;
 /// How many times a job may be claimed: the first claim and one requeue.
 pub const MAX_ATTEMPTS: i64 = 2;
 
+/// How many jobs may wait in the queue by default (`serve
+/// --max-queued-jobs`, `enqueue --max-queued`): past it a submission is
+/// refused (503 `queue_full`), so a client cannot grow the queue without
+/// bound.
+pub const MAX_QUEUED_JOBS: u64 = 10_000;
+
+/// How many of a job's scene names a listing shows (`scenes_total` says how
+/// many it has): a listing's size does not grow with the names queued.
+pub const LISTED_SCENES: usize = 20;
+
+/// The longest detail a listing shows, in characters.
+const LISTED_DETAIL: usize = 400;
+
 /// What a queued check run asks for.
 #[derive(Clone, Debug, Default, Serialize, Deserialize, utoipa::ToSchema)]
 #[serde(deny_unknown_fields)]
@@ -92,7 +105,10 @@ pub struct JobRow {
     /// queued, claimed, done or aborted.
     pub state: String,
     pub suite: String,
+    /// The first [`LISTED_SCENES`] scene names (empty: the whole suite).
     pub scenes: Vec<String>,
+    /// How many scene names the job has.
+    pub scenes_total: usize,
     pub cpu: bool,
     pub want_adapter: Option<String>,
     pub want_label: Option<String>,
@@ -176,9 +192,26 @@ pub fn valid_label(l: &str) -> bool {
 }
 
 impl History {
-    /// Queues a check run; returns the job's id.
+    /// Queues a check run; returns the job's id. Refused when
+    /// [`MAX_QUEUED_JOBS`] are waiting (`enqueue_within` sets the limit).
     pub fn enqueue(&self, spec: &JobSpec) -> Result<i64, HistoryError> {
+        self.enqueue_within(spec, MAX_QUEUED_JOBS)
+    }
+
+    /// Queues a check run unless `max_queued` jobs are waiting already
+    /// (`HistoryError::QueueFull`); returns the job's id.
+    pub fn enqueue_within(&self, spec: &JobSpec, max_queued: u64) -> Result<i64, HistoryError> {
         spec.check().map_err(HistoryError::Invalid)?;
+        let queued = self
+            .db()
+            .query_opt("SELECT COUNT(*) FROM jobs WHERE state = 'queued'", &[])?
+            .map_or(Ok(0), |r| r.int(0))?;
+        if u64::try_from(queued).unwrap_or(0) >= max_queued {
+            return Err(HistoryError::QueueFull {
+                queued,
+                limit: max_queued,
+            });
+        }
         self.db()
             .query_opt(
                 "INSERT INTO jobs (state, suite, scenes, renderer, want_adapter, want_label,
@@ -431,23 +464,55 @@ impl History {
         Ok(out)
     }
 
-    /// The newest `limit` jobs, newest first (`state` filters).
+    /// The newest `limit` jobs, newest first (`state` filters), each with
+    /// its first [`LISTED_SCENES`] scene names and its detail cut to 400
+    /// characters.
     pub fn jobs(&self, state: Option<&str>, limit: u32) -> Result<Vec<JobRow>, HistoryError> {
+        self.job_rows(
+            "FROM jobs WHERE (CAST($1 AS TEXT) IS NULL OR state = $1) ORDER BY id DESC LIMIT $2",
+            args![state, limit],
+        )
+    }
+
+    /// One job, as `jobs` lists it.
+    pub fn job(&self, id: i64) -> Result<Option<JobRow>, HistoryError> {
+        Ok(self
+            .job_rows("FROM jobs WHERE id = $1", args![id])?
+            .into_iter()
+            .next())
+    }
+
+    fn job_rows(
+        &self,
+        from: &str,
+        args: &[super::backend::Value],
+    ) -> Result<Vec<JobRow>, HistoryError> {
         self.db()
             .query(
-                "SELECT id, state, suite, scenes, renderer, want_adapter, want_label, queued_at,
-                        claimed_at, finished_at, runner_id, run_id, attempts, detail
-                 FROM jobs WHERE (CAST($1 AS TEXT) IS NULL OR state = $1)
-                 ORDER BY id DESC LIMIT $2",
-                args![state, limit],
+                &format!(
+                    "SELECT id, state, suite, scenes, renderer, want_adapter, want_label, queued_at,
+                            claimed_at, finished_at, runner_id, run_id, attempts, detail {from}"
+                ),
+                args,
             )?
             .iter()
             .map(|r| {
+                let mut scenes = scenes_of(&r.text(3)?);
+                let scenes_total = scenes.len();
+                scenes.truncate(LISTED_SCENES);
+                let detail = r.opt_text(13)?.map(|mut d| {
+                    if let Some((cut, _)) = d.char_indices().nth(LISTED_DETAIL) {
+                        d.truncate(cut);
+                        d.push('…');
+                    }
+                    d
+                });
                 Ok(JobRow {
                     id: r.int(0)?,
                     state: r.text(1)?,
                     suite: r.text(2)?,
-                    scenes: scenes_of(&r.text(3)?),
+                    scenes,
+                    scenes_total,
                     cpu: r.text(4)? == "cpu",
                     want_adapter: r.opt_text(5)?,
                     want_label: r.opt_text(6)?,
@@ -457,7 +522,7 @@ impl History {
                     runner_id: r.opt_int(10)?,
                     run_id: r.opt_int(11)?,
                     attempts: r.int(12)?,
-                    detail: r.opt_text(13)?,
+                    detail,
                 })
             })
             .collect()

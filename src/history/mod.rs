@@ -23,7 +23,8 @@ mod stamps;
 
 pub use artifacts::{ArtifactStats, Pruned};
 pub use fleet::{
-    valid_label, ClaimedJob, Expired, JobRow, JobSpec, RunnerInfo, RunnerRow, MAX_ATTEMPTS,
+    valid_label, ClaimedJob, Expired, JobRow, JobSpec, RunnerInfo, RunnerRow, LISTED_SCENES,
+    MAX_ATTEMPTS, MAX_QUEUED_JOBS,
 };
 pub use postgres::{is_url, last_recovery, redacted, set_retry_budget};
 
@@ -76,6 +77,9 @@ pub enum HistoryError {
     /// A query asked for something that does not exist.
     #[error("{0}")]
     Invalid(String),
+    /// The fleet's queue already holds as many waiting jobs as allowed.
+    #[error("the queue is full: {queued} jobs are waiting (at most {limit}); try again when runners have taken some")]
+    QueueFull { queued: i64, limit: u64 },
 }
 
 impl HistoryError {

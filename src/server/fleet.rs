@@ -30,7 +30,14 @@ pub struct QueueQuery {
 pub struct Queue {
     pub counts: BTreeMap<String, i64>,
     pub jobs: Vec<JobRow>,
+    /// Fewer jobs than asked for: the listing reached its 1 MiB bound (ask
+    /// again with a smaller `limit`, or by `state` or `job`).
+    pub truncated: bool,
 }
+
+/// The most bytes of jobs one listing carries: each job shows at most
+/// `LISTED_SCENES` names of 200 characters, and the listing stops here.
+pub const MAX_LISTING_BYTES: usize = 1 << 20;
 
 /// The fleet's queue (a shared history's jobs; empty on a SQLite one).
 #[utoipa::path(get, path = "/api/v1/queue", tag = "fleet", params(QueueQuery),
@@ -53,17 +60,30 @@ pub async fn queue(
     }
     let (state, job) = (q.state, q.job);
     let out = read(st.as_ref(), move |h| {
-        let jobs = h.jobs(
-            state.as_deref(),
-            if job.is_some() { 1_000_000 } else { limit },
-        )?;
-        let jobs = jobs
-            .into_iter()
-            .filter(|j| job.is_none_or(|id| j.id == id))
-            .collect();
+        let jobs = match job {
+            Some(id) => h
+                .job(id)?
+                .into_iter()
+                .filter(|j| state.as_deref().is_none_or(|s| j.state == s))
+                .collect(),
+            None => h.jobs(state.as_deref(), limit)?,
+        };
+        // Newest first until the listing's bytes are spent.
+        let mut listed = Vec::with_capacity(jobs.len());
+        let mut bytes = 0;
+        let mut truncated = false;
+        for j in jobs {
+            bytes += serde_json::to_vec(&j).map_or(0, |v| v.len());
+            if bytes > MAX_LISTING_BYTES && !listed.is_empty() {
+                truncated = true;
+                break;
+            }
+            listed.push(j);
+        }
         Ok(Queue {
             counts: h.job_counts()?.into_iter().collect(),
-            jobs,
+            jobs: listed,
+            truncated,
         })
     })
     .await?;

@@ -45,6 +45,8 @@ pub struct Limits {
     pub queue: usize,
     /// Whole-request limit: upload, waiting and rendering.
     pub timeout: Duration,
+    /// A fleet's queue: jobs that may wait before `POST /runs` answers 503.
+    pub max_queued_jobs: u64,
 }
 
 impl Default for Limits {
@@ -57,6 +59,7 @@ impl Default for Limits {
             max_pixels: 8 << 20,
             queue: 1,
             timeout: Duration::from_secs(60),
+            max_queued_jobs: crate::history::MAX_QUEUED_JOBS,
         }
     }
 }

@@ -187,7 +187,7 @@ pub struct RunStarted {
     responses((status = 202, description = "Started", body = RunStarted), (status = 400, description = "Unknown or bad parameter", body = ErrorBody),
         (status = 401, description = "No bearer token", body = ErrorBody), (status = 403, description = "Wrong bearer token", body = ErrorBody),
         (status = 409, description = "A run is already going", body = ErrorBody),
-        (status = 503, description = "The history cannot be written (the detail names the file and folder)", body = ErrorBody)))]
+        (status = 503, description = "The history cannot be written (the detail names the file and folder), is unreachable, or the fleet's queue is full", body = ErrorBody)))]
 pub async fn post_run(
     State(st): State<Arc<AppState>>,
     req: axum::extract::Request,
@@ -237,12 +237,16 @@ async fn queue_run(st: &Arc<AppState>, body: &[u8]) -> Result<Response, ApiError
     let spec = job_request(body, &st.suite)?;
     let db = st.db.clone();
     let suite = st.suite.clone();
+    let most = st.limits.max_queued_jobs;
     let job = tokio::task::spawn_blocking(move || {
         check_queued_scenes(&spec, &suite)?;
         History::open(&db)
-            .and_then(|h| h.enqueue(&spec))
+            .and_then(|h| h.enqueue_within(&spec, most))
             .map_err(|e| match e {
                 HistoryError::Invalid(d) => ApiError::bad(d),
+                e @ HistoryError::QueueFull { .. } => {
+                    ApiError::unavailable("queue_full", e.to_string(), 30)
+                }
                 e => ApiError::of_history(&e),
             })
     })

@@ -529,3 +529,100 @@ fn sigterm_lets_a_runner_finish_its_job_and_stop() {
     assert_eq!(h.runners(true).unwrap()[0].state, "stopped");
     assert!(log.contains("asked to stop"), "{log}");
 }
+
+/// The queue is bounded: past `--max-queued-jobs` waiting jobs a submission
+/// is answered 503 `queue_full` (the CLI exits 2 in the same words), a
+/// listing shows at most 20 scene names a job and stops at 1 MiB, and one
+/// job is read by its id (it used to read the whole table and filter it).
+#[test]
+fn the_queue_and_its_listing_are_bounded() {
+    let dir = tempfile::tempdir().unwrap();
+    let (tiny, _) = suites(dir.path());
+    let url = pg::database();
+    let db = PathBuf::from(&url);
+    let h = History::open(&db).unwrap();
+    // 100 jobs stored with 1000 scene names of 200 four-byte characters
+    // each (0.8 MB a job), as a client could queue them before names were
+    // checked against the suite.
+    let long: Vec<String> = (0..1000).map(|_| "\u{1D11E}".repeat(200)).collect();
+    for _ in 0..100 {
+        h.enqueue(&JobSpec {
+            suite: tiny.display().to_string(),
+            scenes: long.clone(),
+            ..Default::default()
+        })
+        .unwrap();
+    }
+    let rt = tokio::runtime::Runtime::new().unwrap();
+    let seeded = common::Seeded {
+        db: db.clone(),
+        suite: tiny.clone(),
+        passed: 0,
+        failed: 0,
+        tradeoff: 0,
+    };
+    let srv = rt.block_on(server::start(&seeded, |o| o.limits.max_queued_jobs = 103));
+    let text = rt.block_on(async {
+        srv.get("/api/v1/queue?limit=100")
+            .await
+            .text()
+            .await
+            .unwrap()
+    });
+    assert!(text.len() <= (1 << 20) + 4096, "{} bytes", text.len());
+    let listing: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(listing["truncated"], true);
+    let jobs = listing["jobs"].as_array().unwrap();
+    assert!(!jobs.is_empty() && jobs.len() < 100, "{}", jobs.len());
+    for j in jobs {
+        assert_eq!(j["scenes"].as_array().unwrap().len(), 20);
+        assert_eq!(j["scenes_total"], 1000);
+    }
+    let (status, one) = rt.block_on(srv.json("/api/v1/queue?job=7"));
+    assert_eq!(status, 200);
+    assert_eq!(one["jobs"].as_array().unwrap().len(), 1);
+    assert_eq!(one["jobs"][0]["id"], 7);
+    assert_eq!(one["truncated"], false);
+    // Three more fit under the limit of 103; the next is refused.
+    let post = || {
+        rt.block_on(async {
+            let r = srv
+                .client
+                .post(format!("{}/api/v1/runs", srv.base))
+                .bearer_auth(server::TOKEN)
+                .body(r#"{"renderer": "cpu"}"#)
+                .send()
+                .await
+                .unwrap();
+            let retry = r.headers().get("retry-after").is_some();
+            (r.status().as_u16(), retry, r.text().await.unwrap())
+        })
+    };
+    for _ in 0..3 {
+        let (status, _, body) = post();
+        assert_eq!(status, 202, "{body}");
+    }
+    let (status, retry, body) = post();
+    assert_eq!(status, 503, "{body}");
+    assert!(retry, "no Retry-After");
+    assert!(
+        body.contains("\"queue_full\"") && body.contains("103 jobs are waiting (at most 103)"),
+        "{body}"
+    );
+    let o = tonegate(&[
+        "enqueue",
+        "--db",
+        &url,
+        "--suite",
+        tiny.to_str().unwrap(),
+        "--max-queued",
+        "103",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("the queue is full: 103 jobs are waiting (at most 103)"),
+        "{err}"
+    );
+    assert_eq!(h.jobs(Some("queued"), 1000).unwrap().len(), 103);
+}

@@ -176,7 +176,7 @@ async function fleetPage(params) {
     h("tr", { class: "job-row", "data-state": j.state },
       h("td", {}, `${j.id}`),
       h("td", {}, badge(j.state)),
-      h("td", {}, j.suite + (j.scenes.length ? ` (${j.scenes.join(", ")})` : "")),
+      h("td", {}, j.suite + (j.scenes.length ? ` (${j.scenes.join(", ")}${j.scenes_total > j.scenes.length ? `, … ${j.scenes_total} in all` : ""})` : "")),
       h("td", {}, [j.want_adapter && `adapter ~ ${j.want_adapter}`, j.want_label && `label ${j.want_label}`, j.cpu && "cpu"].filter(Boolean).join(", ") || "any runner"),
       h("td", {}, when(j.queued_at)),
       h("td", {}, j.claimed_at ? duration(j.queued_at, j.claimed_at) : "–"),
