@@ -98,6 +98,14 @@ pub fn write_problem(path: &Path) -> Option<String> {
             ))
         }
     };
+    // SQLite opens a file it may not write read-only without a word, and
+    // an empty transaction then succeeds: ask it.
+    if conn.is_readonly(rusqlite::MAIN_DB).unwrap_or(false) {
+        return Some(format!(
+            "history database {} is read-only for this user: {advice}",
+            path.display()
+        ));
+    }
     let _ = conn.busy_timeout(Duration::from_secs(5));
     match conn.execute_batch("BEGIN IMMEDIATE; ROLLBACK;") {
         Ok(()) => None,

@@ -382,6 +382,77 @@ fn a_read_only_history_is_reported_and_runs_are_refused_with_the_path() {
     chmod(dir.path(), 0o755);
 }
 
+/// A read-only history file in a folder the server may write: healthz said
+/// `history_writable: true` and `POST /runs` answered 500 (SQLite opens a
+/// file it may not write read-only, silently); with a leftover `running`
+/// row, serve exited 2 trying to mark it aborted. Now it is served
+/// read-only, says so, and refuses runs with the path.
+#[test]
+fn a_read_only_history_file_in_a_writable_folder_is_served_read_only() {
+    let root = running_as_root();
+    let dir = tempfile::tempdir().unwrap();
+    let seeded = common::seed_empty(dir.path());
+    let h = tonegate::history::History::open(&seeded.db).unwrap();
+    let run = h
+        .start_run(tonegate::history::RunKind::Check, &Default::default())
+        .unwrap();
+    drop(h);
+    // The run's process is gone: a crash left it `running`.
+    let mut gone = Command::new("true").spawn().unwrap();
+    let dead = gone.id();
+    gone.wait().unwrap();
+    let c = rusqlite::Connection::open(&seeded.db).unwrap();
+    c.execute("UPDATE runs SET pid = ?1 WHERE id = ?2", (dead, run))
+        .unwrap();
+    c.execute_batch("PRAGMA wal_checkpoint(TRUNCATE);").unwrap();
+    drop(c);
+    let token = dir.path().join("token");
+    std::fs::write(&token, TOKEN).unwrap();
+    chmod(&token, 0o644);
+    if root {
+        // Served as nobody: the file stays root's, the folder is anyone's.
+        chmod(&seeded.db, 0o644);
+        chmod(dir.path(), 0o777);
+    } else {
+        chmod(&seeded.db, 0o444);
+        chmod(dir.path(), 0o755);
+    }
+    let launch = Launch {
+        args: history_args(&seeded, &["--token-file", token.to_str().unwrap()]),
+        as_nobody: root,
+        ..Default::default()
+    };
+    let s = serve(&launch, dir.path()).unwrap_or_else(|e| panic!("serve stopped: {e:?}"));
+    let (status, _, body) = get(s.addr, "/api/v1/healthz").unwrap();
+    assert!(status.contains(" 200 "), "{status} {body}");
+    let health: serde_json::Value = serde_json::from_str(&body).unwrap();
+    assert_eq!(health["history_writable"], false, "{health}");
+    let db = seeded.db.display().to_string();
+    assert!(
+        health["history_problem"].as_str().unwrap().contains(&db),
+        "{health}"
+    );
+    let (status, _, body) = raw(
+        s.addr,
+        &format!(
+            "POST /api/v1/runs HTTP/1.1\r\nHost: t\r\nAuthorization: Bearer {TOKEN}\r\n\
+             Content-Type: application/json\r\nContent-Length: 2\r\nConnection: close\r\n\r\n{{}}"
+        ),
+    )
+    .unwrap();
+    assert!(status.contains(" 503 "), "{status} {body}");
+    assert!(
+        body.contains("history_read_only") && body.contains(&db),
+        "{body}"
+    );
+    // Reads work, the leftover run among them.
+    let (status, _, body) = get(s.addr, &format!("/api/v1/runs/{run}")).unwrap();
+    assert!(status.contains(" 200 "), "{status} {body}");
+    drop(s);
+    chmod(&seeded.db, 0o644);
+    chmod(dir.path(), 0o755);
+}
+
 /// Defect 4: under private reads, /metrics (which holds run results) and
 /// the health details were open. Now: /metrics needs the token; health
 /// answers everyone (a liveness probe) but its details only with the token;
