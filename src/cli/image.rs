@@ -134,6 +134,7 @@ pub fn tonemap(a: TonemapArgs) -> Result<ExitCode> {
     let opts = tonegate::io::LoadOptions {
         sanitize: a.sanitize,
         max_pixels: a.max_pixels,
+        device: None,
     };
     let (img, load_report) = tonegate::io::load_hdr(&a.input, &opts)?;
     let ctx = if a.gpu {

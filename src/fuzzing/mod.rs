@@ -48,6 +48,7 @@ pub fn hdr(data: &[u8]) {
         let opts = LoadOptions {
             sanitize,
             max_pixels: max_pixels(),
+            device: None,
         };
         match crate::io::decode_hdr(data, NAME, &opts) {
             Ok((img, _)) => {

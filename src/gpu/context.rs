@@ -236,6 +236,19 @@ impl GpuContext {
         Ok(())
     }
 
+    /// The largest frame `check_frame` lets through, for checking an image's
+    /// header before it is decoded.
+    pub fn frame_fit(&self) -> crate::io::DeviceFit {
+        let bytes = self
+            .limits
+            .max_storage_buffer_binding_size
+            .min(self.limits.max_buffer_size);
+        crate::io::DeviceFit {
+            max_side: self.limits.max_texture_dimension_2d,
+            max_pixels: bytes / MAX_BUFFER_BYTES_PER_PIXEL,
+        }
+    }
+
     /// Reads a mapped-readable buffer's bytes.
     pub fn read_buffer(&self, buffer: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
         let slice = buffer.slice(..);

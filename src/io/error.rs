@@ -53,6 +53,17 @@ pub enum HdrIoError {
         max_pixels: u64,
     },
 
+    /// The header declares more than the GPU that would tone-map it holds;
+    /// refused before decoding.
+    #[error("{file}: {width}×{height} pixels does not fit the GPU (at most {max_side} pixels a side and {max_pixels} pixels in all); tone-map it on the CPU (gpu=false) or make it smaller")]
+    TooLargeForDevice {
+        file: String,
+        width: u32,
+        height: u32,
+        max_side: u32,
+        max_pixels: u64,
+    },
+
     /// The file ends before the data its header promises.
     #[error("{file}: truncated {format} file: {detail}; the file is incomplete (interrupted copy or download?)")]
     Truncated {

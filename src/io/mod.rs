@@ -30,7 +30,9 @@ use serde::Serialize;
 
 pub use self::error::HdrIoError;
 pub use self::png::Rgb16Image;
-pub use self::validate::{LoadOptions, LoadReport, DEFAULT_MAX_PIXELS, LOG_AVERAGE_DELTA};
+pub use self::validate::{
+    DeviceFit, LoadOptions, LoadReport, DEFAULT_MAX_PIXELS, LOG_AVERAGE_DELTA,
+};
 
 use self::atomic::write_atomically;
 use self::error::{catch_decoder_panic, hex_prefix};

@@ -36,7 +36,7 @@ use exr::prelude::{f16, Vec2};
 
 use super::error::{from_exr, HdrIoError};
 use super::exr_guards::{check_block_sizes, check_dwa_counters, scan_headers, FORMAT};
-use super::validate::{check_dimensions, Decoded};
+use super::validate::{check_dimensions, check_fit, Decoded};
 use super::LoadOptions;
 use crate::image::{HdrImage, Image};
 
@@ -94,6 +94,7 @@ pub(crate) fn decode<R: BufRead + Seek>(
         data_window.size.y() as u64,
         opts.max_pixels,
     )?;
+    check_fit(file, w, h, opts)?;
 
     // Each part's offset table holds 8 bytes per block. A header that claims
     // more blocks than the file could hold is caught here, before `exr`

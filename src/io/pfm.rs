@@ -13,7 +13,7 @@
 use std::io::{BufRead, Write};
 
 use super::error::{io_or_truncated, HdrIoError};
-use super::validate::{check_dimensions, Decoded};
+use super::validate::{check_dimensions, check_fit, Decoded};
 use super::LoadOptions;
 use crate::image::{HdrImage, Image};
 
@@ -66,6 +66,7 @@ pub(crate) fn decode(
     let header_len = header.consumed;
 
     let (w, h, pixel_count) = check_dimensions(file, width, height, opts.max_pixels)?;
+    check_fit(file, w, h, opts)?;
     let row_bytes = w as usize * channels * 4;
     let payload = pixel_count as u64 * channels as u64 * 4;
     let available = len.saturating_sub(header_len);

@@ -23,7 +23,7 @@ use image::codecs::hdr::HdrDecoder;
 use image::ImageDecoder;
 
 use super::error::{from_image, HdrIoError};
-use super::validate::{check_dimensions, Decoded};
+use super::validate::{check_dimensions, check_fit, Decoded};
 use super::LoadOptions;
 use crate::image::{HdrImage, Image};
 
@@ -58,6 +58,7 @@ pub(crate) fn decode(
     let (width, height) = decoder.dimensions();
     let (w, h, pixel_count) =
         check_dimensions(file, u64::from(width), u64::from(height), opts.max_pixels)?;
+    check_fit(file, w, h, opts)?;
     let mut pixels = vec![[0.0f32; 3]; pixel_count];
     decoder
         .read_image(bytemuck::cast_slice_mut(&mut pixels))

@@ -43,6 +43,19 @@ pub struct LoadOptions {
     pub sanitize: bool,
     /// The most pixels (width × height) a header may declare.
     pub max_pixels: u64,
+    /// The image goes to a GPU that holds at most this much: checked from
+    /// the header too, so an image the device cannot take is refused
+    /// before it is decoded, not after.
+    pub device: Option<DeviceFit>,
+}
+
+/// The largest frame a GPU renderer takes (`GpuContext::frame_fit`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DeviceFit {
+    /// The longest side (the adapter's largest 2D texture).
+    pub max_side: u32,
+    /// The most pixels (its buffer and storage-binding limits).
+    pub max_pixels: u64,
 }
 
 impl Default for LoadOptions {
@@ -50,8 +63,34 @@ impl Default for LoadOptions {
         Self {
             sanitize: false,
             max_pixels: DEFAULT_MAX_PIXELS,
+            device: None,
         }
     }
+}
+
+/// Rule 1 for a GPU: a header's size against `opts.device`, if set.
+pub(crate) fn check_fit(
+    file: &str,
+    width: u32,
+    height: u32,
+    opts: &LoadOptions,
+) -> Result<(), HdrIoError> {
+    let Some(fit) = opts.device else {
+        return Ok(());
+    };
+    if width > fit.max_side
+        || height > fit.max_side
+        || u64::from(width) * u64::from(height) > fit.max_pixels
+    {
+        return Err(HdrIoError::TooLargeForDevice {
+            file: file.to_string(),
+            width,
+            height,
+            max_side: fit.max_side,
+            max_pixels: fit.max_pixels,
+        });
+    }
+    Ok(())
 }
 
 /// What was loaded and what the policy changed; serialised into run reports.

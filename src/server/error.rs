@@ -98,7 +98,9 @@ impl ApiError {
     pub fn of_image(e: &crate::io::HdrIoError) -> Self {
         use crate::io::HdrIoError as E;
         let (status, code) = match e {
-            E::TooLarge { .. } => (StatusCode::PAYLOAD_TOO_LARGE, "too_large"),
+            E::TooLarge { .. } | E::TooLargeForDevice { .. } => {
+                (StatusCode::PAYLOAD_TOO_LARGE, "too_large")
+            }
             E::UnknownFormat { .. } | E::UnsupportedExtension { .. } => {
                 (StatusCode::UNSUPPORTED_MEDIA_TYPE, "unsupported_media_type")
             }

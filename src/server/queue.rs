@@ -324,8 +324,14 @@ fn run_job(
 ) -> Result<Option<ToneOutput>, ApiError> {
     let ms = |since: Instant| since.elapsed().as_secs_f64() * 1e3;
     let start = Instant::now();
-    let (img, load_report) = crate::io::decode_hdr(bytes, &p.source_name, &p.load)
-        .map_err(|e| ApiError::of_image(&e))?;
+    // On the GPU, an image the device cannot hold is refused from its
+    // header, before seconds of decoding.
+    let mut load = p.load;
+    if let (Renderer::Gpu { .. }, Some(r)) = (engine, renderers.as_ref()) {
+        load.device = Some(r.ctx().frame_fit());
+    }
+    let (img, load_report) =
+        crate::io::decode_hdr(bytes, &p.source_name, &load).map_err(|e| ApiError::of_image(&e))?;
     let decode_ms = ms(start);
     if gone() {
         return Ok(None);

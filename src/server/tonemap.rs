@@ -192,6 +192,7 @@ pub async fn tonemap(
         load: crate::io::LoadOptions {
             sanitize: extra.sanitize,
             max_pixels: st.limits.max_pixels,
+            device: None,
         },
         source_name: "upload".into(),
     };

@@ -676,3 +676,34 @@ async fn runs_need_the_token_and_go_one_at_a_time() {
         .unwrap();
     assert_eq!(r.status(), StatusCode::OK);
 }
+
+/// An image the GPU cannot hold is refused from its header, before it is
+/// decoded: a 30 Mpx upload (over lavapipe's buffer limit) used to be
+/// decoded for 2.2 s and then refused. The files here are headers whose
+/// pixels never come, so an upload that was decoded would fail as truncated
+/// (422), not 413.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_image_the_gpu_cannot_hold_is_refused_before_decoding() {
+    let dir = tempfile::tempdir().unwrap();
+    let seeded = common::seed_empty(dir.path());
+    let s = start(&seeded, |o| o.limits.max_pixels = 64 << 20).await;
+    // The device opens with the first GPU job.
+    let small = common::hdr_bytes(dir.path(), 16, 8);
+    assert_eq!(s.tonemap("gpu=true", small).await.status(), StatusCode::OK);
+    let header = |w: u32, h: u32| {
+        format!("#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y {h} +X {w}\n").into_bytes()
+    };
+    for (w, h) in [(6000, 5000), (40_000, 1)] {
+        let r = s.tonemap("gpu=true", header(w, h)).await;
+        let status = r.status();
+        let text = r.text().await.unwrap();
+        assert_eq!(status, StatusCode::PAYLOAD_TOO_LARGE, "{w}x{h}: {text}");
+        assert!(
+            text.contains("\"too_large\"") && text.contains("does not fit the GPU"),
+            "{w}x{h}: {text}"
+        );
+        // On the CPU the same header is decoded, and found truncated.
+        let r = s.tonemap("gpu=false", header(w, h)).await;
+        assert_eq!(r.status(), StatusCode::UNPROCESSABLE_ENTITY, "{w}x{h}");
+    }
+}
