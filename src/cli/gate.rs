@@ -68,7 +68,9 @@ pub struct CheckArgs {
     #[arg(long)]
     pub json: Option<PathBuf>,
     /// Write the actual/golden/diff/ssim PNGs of failing frames (and of each scene's worst frame) here
-    /// (default: beside the database, artifacts/run-<id>).
+    /// (default: beside the database, artifacts/run-<id>); an object store,
+    /// s3://bucket/prefix, keeps them there instead of in the history's own
+    /// table (endpoint and keys from the AWS_* variables).
     #[arg(long)]
     pub artifacts: Option<PathBuf>,
     #[command(flatten)]
@@ -142,11 +144,12 @@ pub fn check(a: CheckArgs) -> Result<ExitCode> {
             config,
         }
     };
+    let artifacts = artifacts_to(a.artifacts.as_deref())?;
     let opts = CheckOptions {
         suite: a.suite.clone(),
         renderer,
         spp: a.spp,
-        artifacts: a.artifacts.clone(),
+        artifacts,
         db: (!a.no_history).then(|| a.db.db.clone()),
         started: None,
         scenes: a.scenes.clone(),
@@ -203,10 +206,26 @@ pub enum HistoryAction {
     Prune(PruneArgs),
 }
 
+/// `--artifacts`: an object store (`s3://…`) is made this process's store
+/// for kept images, and no folder is written; anything else is a folder.
+pub fn artifacts_to(given: Option<&std::path::Path>) -> Result<Option<PathBuf>> {
+    match given.map(|p| p.to_string_lossy().into_owned()) {
+        Some(url) if tonegate::history::is_store_url(&url) => {
+            tonegate::history::set_artifact_store(Some(&url))?;
+            Ok(None)
+        }
+        _ => Ok(given.map(PathBuf::from)),
+    }
+}
+
 #[derive(Args)]
 pub struct PruneArgs {
     #[command(flatten)]
     pub db: DbArgs,
+    /// Also look for images no run names in this object store
+    /// (s3://bucket/prefix); the stores the history names are searched anyway.
+    #[arg(long)]
+    pub artifacts: Option<String>,
     /// Keep the artifacts of runs started within this many days.
     #[arg(long)]
     pub keep_days: u32,
@@ -216,6 +235,14 @@ fn prune(a: PruneArgs) -> Result<ExitCode> {
     a.db.set_retry(10);
     if !a.db.is_url() && !a.db.db.exists() {
         return Err(invalid(format!("no history at {}", a.db.shown())));
+    }
+    if let Some(url) = &a.artifacts {
+        if !tonegate::history::is_store_url(url) {
+            return Err(invalid(format!(
+                "--artifacts: an object store, s3://bucket/prefix, got {url:?}"
+            )));
+        }
+        tonegate::history::set_artifact_store(Some(url))?;
     }
     let h = History::open(&a.db.db)?;
     let before = h.artifact_stats()?;
@@ -236,12 +263,14 @@ fn prune(a: PruneArgs) -> Result<ExitCode> {
     }
     let after = h.artifact_stats()?;
     println!(
-        "pruned the artifacts of {} run(s) started over {} day(s) ago: {} name(s), {} image(s) no kept run uses ({:.1} MiB), {} folder(s); the store now holds {} image(s), {:.1} MiB (was {}, {:.1} MiB)",
+        "pruned the artifacts of {} run(s) started over {} day(s) ago: {} name(s), {} image(s) no kept run uses ({:.1} MiB; {} of them from an object store), {} object(s) nothing named, {} folder(s); the store now holds {} image(s), {:.1} MiB (was {}, {:.1} MiB)",
         p.runs.len(),
         a.keep_days,
         p.names,
         p.blobs,
         p.bytes as f64 / 1048576.0,
+        p.objects,
+        p.stray_objects,
         folders,
         after.blobs,
         after.bytes as f64 / 1048576.0,

@@ -14,6 +14,7 @@ mod artifacts;
 pub(crate) mod backend;
 mod fleet;
 pub mod matrix;
+pub mod objects;
 mod postgres;
 pub mod query;
 mod record;
@@ -21,11 +22,12 @@ mod schema;
 mod sqlite;
 mod stamps;
 
-pub use artifacts::{ArtifactStats, Pruned};
+pub use artifacts::{ArtifactStats, Pruned, StoredArtifact, STRAY_GRACE};
 pub use fleet::{
     valid_label, ClaimedJob, Expired, JobRow, JobSpec, RunnerInfo, RunnerRow, LISTED_SCENES,
     MAX_ATTEMPTS, MAX_QUEUED_JOBS,
 };
+pub use objects::{artifact_store, is_store_url, set_artifact_store, Objects};
 pub use postgres::{is_url, last_recovery, redacted, set_retry_budget};
 
 pub use query::{RunRow, RunsFilter, TradeoffRow, TrendFilter, TrendPoint};
@@ -77,6 +79,9 @@ pub enum HistoryError {
     /// A query asked for something that does not exist.
     #[error("{0}")]
     Invalid(String),
+    /// The object store the artifacts are kept in failed.
+    #[error("artifact store {url}: {detail}")]
+    Objects { url: String, detail: String },
     /// The fleet's queue already holds as many waiting jobs as allowed.
     #[error("the queue is full: {queued} jobs are waiting (at most {limit}); try again when runners have taken some")]
     QueueFull { queued: i64, limit: u64 },

@@ -166,6 +166,12 @@ pub(super) const MIGRATIONS: &[&str] = &[
     -- sorting every run: runs_by_adapter serves only an adapter's own.
     CREATE INDEX runs_by_kind ON runs (kind, id);
     "#,
+    // 6: artifacts in an object store (docs/operations.md): an image kept
+    //    there has its store's address here, s3://bucket/prefix, and an
+    //    empty `data`; NULL keeps the image in `data`, as before.
+    r#"
+    ALTER TABLE blobs ADD COLUMN store TEXT;
+    "#,
 ];
 
 /// The schema version this build writes.

@@ -5,6 +5,7 @@ use super::error::{ApiError, ErrorBody};
 use super::params::{read, run_id};
 use super::AppState;
 use crate::gate::StoredArtifacts;
+use crate::history::{Objects, StoredArtifact};
 use axum::extract::State;
 use axum::http::{header, HeaderMap};
 use axum::response::{IntoResponse, Response};
@@ -56,8 +57,30 @@ pub async fn get_artifact(
             "run {id} has no artifact {name:?}"
         )));
     }
+    let headers = [
+        (header::CONTENT_TYPE, "image/png"),
+        (header::CACHE_CONTROL, "public, max-age=86400, immutable"),
+    ];
     let bytes = match stored {
-        Some(bytes) => bytes,
+        Some(StoredArtifact::Bytes(bytes)) => bytes,
+        Some(StoredArtifact::Object { store, sha256, .. }) => {
+            // Streamed from the store as it arrives: a large image is never
+            // held whole here.
+            let objects = Objects::open(&store).map_err(|e| ApiError::of_history(&e))?;
+            let (size, stream) = objects
+                .get(&sha256)
+                .await
+                .map_err(|e| ApiError::of_history(&e))?
+                .ok_or_else(|| {
+                    ApiError::not_found(format!(
+                        "artifact {name:?} of run {id}: the store {store} has no {sha256}.png"
+                    ))
+                })?;
+            let body = axum::body::Body::from_stream(stream);
+            return Ok(
+                (headers, [(header::CONTENT_LENGTH, size.to_string())], body).into_response(),
+            );
+        }
         None => {
             let dir = dir
                 .or_else(|| crate::gate::artifacts_dir_of(&st.db, id))
@@ -67,12 +90,5 @@ pub async fn get_artifact(
                 .map_err(|e| ApiError::not_found(format!("artifact {name:?} of run {id}: {e}")))?
         }
     };
-    Ok((
-        [
-            (header::CONTENT_TYPE, "image/png"),
-            (header::CACHE_CONTROL, "public, max-age=86400, immutable"),
-        ],
-        bytes,
-    )
-        .into_response())
+    Ok((headers, bytes).into_response())
 }

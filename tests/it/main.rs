@@ -28,6 +28,7 @@ mod io_roundtrip;
 mod io_validation;
 mod metrics_perceptual;
 mod metrics_skimage;
+mod objects;
 mod pfstmo;
 mod postgres;
 mod stress;

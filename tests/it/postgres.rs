@@ -16,7 +16,8 @@ use std::time::{Duration, Instant};
 use tonegate::check::{FrameResult, SceneResult, TestKind};
 use tonegate::gate::{find_regressions, scene_record};
 use tonegate::history::{
-    History, RunAdapter, RunKind, RunMeta, RunStatus, TradeoffRecord, TrendFilter, SCHEMA_VERSION,
+    History, RunAdapter, RunKind, RunMeta, RunStatus, StoredArtifact, TradeoffRecord, TrendFilter,
+    SCHEMA_VERSION,
 };
 use tonegate::metrics::Metrics;
 use tonegate::perf::TimingSummary;
@@ -686,7 +687,10 @@ fn artifacts_are_stored_once_and_pruning_keeps_what_kept_runs_name() {
         }
         let stats = h.artifact_stats().unwrap();
         assert_eq!((stats.names, stats.blobs, stats.bytes), (4, 3, 1005));
-        assert_eq!(h.artifact(new, "a.png").unwrap(), Some(a.clone()));
+        assert_eq!(
+            h.artifact(new, "a.png").unwrap(),
+            Some(StoredArtifact::Bytes(a.clone()))
+        );
         assert_eq!(h.artifact(new, "b.png").unwrap(), None);
         assert_eq!(h.artifact_names(old).unwrap(), ["a.png", "b.png"]);
         // Nothing is old yet.
@@ -718,8 +722,14 @@ fn artifacts_are_stored_once_and_pruning_keeps_what_kept_runs_name() {
         assert_eq!(p.runs, [old]);
         assert_eq!((p.names, p.blobs, p.bytes), (2, 1, 1000), "{db:?}");
         assert_eq!(h.artifact(old, "a.png").unwrap(), None);
-        assert_eq!(h.artifact(new, "a.png").unwrap(), Some(a.clone()));
-        assert_eq!(h.artifact(new, "c.png").unwrap(), Some(c.clone()));
+        assert_eq!(
+            h.artifact(new, "a.png").unwrap(),
+            Some(StoredArtifact::Bytes(a.clone()))
+        );
+        assert_eq!(
+            h.artifact(new, "c.png").unwrap(),
+            Some(StoredArtifact::Bytes(c.clone()))
+        );
         // The run itself, its metrics and report, stay.
         assert_eq!(h.status(old).unwrap(), Some(RunStatus::Passed));
     }

@@ -1,0 +1,222 @@
+//! Artifacts in an object store: `check --artifacts s3://bucket/prefix` on
+//! a PostgreSQL history keeps the images in a real S3 server (SeaweedFS,
+//! `common/seaweed.rs`), each distinct image once under its SHA-256, with
+//! the history holding only names, hashes, sizes and the store's address;
+//! `serve` streams them back from the store; `history prune` deletes the
+//! objects no kept run names, and objects nothing names at all.
+
+use crate::common::postgres as pg;
+use crate::common::seaweed::Weed;
+use crate::common::{repo, seed_empty};
+use sha2::{Digest, Sha256};
+use std::collections::BTreeSet;
+use std::process::{Command, Stdio};
+
+const BUCKET: &str = "tonegate";
+const STORE: &str = "s3://tonegate/fleet/artifacts";
+
+fn tonegate(weed: &Weed, args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_tonegate"))
+        .args(args)
+        .current_dir(repo())
+        .env_remove("TONEGATE_DB")
+        .envs(weed.env())
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn artifacts_go_to_an_object_store_once_and_are_served_and_pruned_from_it() {
+    let weed = Weed::start(BUCKET);
+    let dir = tempfile::tempdir().unwrap();
+    let seeded = seed_empty(dir.path());
+    let url = pg::database();
+    let suite = seeded.suite.to_str().unwrap();
+    // Two runs of a deterministic renderer: the same images.
+    for _ in 0..2 {
+        let o = tonegate(
+            &weed,
+            &[
+                "check",
+                "--cpu",
+                "--suite",
+                suite,
+                "--db",
+                &url,
+                "--artifacts",
+                STORE,
+            ],
+        );
+        assert!(
+            o.status.success(),
+            "{}{}",
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
+    let mut db = postgres::Client::connect(&url, postgres::NoTls).unwrap();
+    let blobs = db
+        .query("SELECT sha256, size, length(data), store FROM blobs", &[])
+        .unwrap();
+    assert!(!blobs.is_empty());
+    for b in &blobs {
+        let (sha, size, held, store): (String, i64, i32, Option<String>) =
+            (b.get(0), b.get(1), b.get(2), b.get(3));
+        assert_eq!(store.as_deref(), Some(STORE), "{sha}");
+        assert_eq!(held, 0, "{sha}: the history holds no image bytes");
+        let object = weed
+            .get(BUCKET, &format!("fleet/artifacts/{sha}.png"))
+            .unwrap_or_else(|| panic!("{sha}.png is not in the store"));
+        assert_eq!(object.len() as i64, size);
+        assert_eq!(hex::encode(Sha256::digest(&object)), sha);
+    }
+    // Each distinct image once: as many objects as images, and both runs
+    // name the same ones.
+    let keys = weed.keys(BUCKET, "fleet/artifacts/");
+    assert_eq!(keys.len(), blobs.len(), "{keys:?}");
+    let per_run: Vec<(i64, String)> = db
+        .query(
+            "SELECT run_id, sha256 FROM run_artifacts ORDER BY run_id",
+            &[],
+        )
+        .unwrap()
+        .iter()
+        .map(|r| (r.get(0), r.get(1)))
+        .collect();
+    let runs: BTreeSet<i64> = per_run.iter().map(|(r, _)| *r).collect();
+    assert_eq!(runs.len(), 2);
+    let names: Vec<(i64, String)> = db
+        .query(
+            "SELECT run_id, name FROM run_artifacts ORDER BY run_id, name",
+            &[],
+        )
+        .unwrap()
+        .iter()
+        .map(|r| (r.get(0), r.get(1)))
+        .collect();
+    let shas = |run: i64| -> BTreeSet<&String> {
+        per_run
+            .iter()
+            .filter(|(r, _)| *r == run)
+            .map(|(_, s)| s)
+            .collect()
+    };
+    let first = *runs.first().unwrap();
+    let second = *runs.last().unwrap();
+    assert_eq!(shas(first), shas(second), "{names:?}");
+    assert_eq!(shas(first).len(), blobs.len(), "{names:?}");
+    assert_eq!(names.len(), per_run.len());
+
+    // The server streams each image from the store.
+    let token = dir.path().join("token");
+    std::fs::write(&token, "objects-token-0123456789").unwrap();
+    let mut server = Command::new(env!("CARGO_BIN_EXE_tonegate"))
+        .args([
+            "serve",
+            "--bind",
+            "127.0.0.1:0",
+            "--db",
+            &url,
+            "--suite",
+            suite,
+        ])
+        .arg("--token-file")
+        .arg(&token)
+        .current_dir(repo())
+        .env_remove("TONEGATE_DB")
+        .envs(weed.env())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    std::io::BufRead::read_line(
+        &mut std::io::BufReader::new(server.stdout.take().unwrap()),
+        &mut line,
+    )
+    .unwrap();
+    let base = line
+        .split("http://")
+        .nth(1)
+        .and_then(|s| s.split('/').next())
+        .map(|a| format!("http://{a}"))
+        .unwrap_or_else(|| panic!("{line}"));
+    let rt = tokio::runtime::Runtime::new().unwrap();
+    let client = reqwest::Client::new();
+    let (run, name) = names.last().unwrap().clone();
+    let sha: String = db
+        .query_one(
+            "SELECT sha256 FROM run_artifacts WHERE run_id = $1 AND name = $2",
+            &[&run, &name],
+        )
+        .unwrap()
+        .get(0);
+    let (status, length, bytes) = rt.block_on(async {
+        let r = client
+            .get(format!("{base}/api/v1/runs/{run}/artifacts/{name}"))
+            .send()
+            .await
+            .unwrap();
+        let length = r.headers().get("content-length").cloned();
+        (r.status().as_u16(), length, r.bytes().await.unwrap())
+    });
+    assert_eq!(status, 200, "{}", String::from_utf8_lossy(&bytes));
+    assert_eq!(hex::encode(Sha256::digest(&bytes)), sha);
+    assert_eq!(
+        length.unwrap().to_str().unwrap(),
+        bytes.len().to_string(),
+        "streamed with its length"
+    );
+    // An image the store lost is a clear 404 naming the store.
+    let lost_key = format!("fleet/artifacts/{sha}.png");
+    let kept = weed.get(BUCKET, &lost_key).unwrap();
+    rt.block_on(async {
+        let r = client
+            .delete(format!("{}/{BUCKET}/{lost_key}", weed.base()))
+            .send()
+            .await
+            .unwrap();
+        assert!(r.status().is_success());
+        let r = client
+            .get(format!("{base}/api/v1/runs/{run}/artifacts/{name}"))
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status().as_u16(), 404);
+        let text = r.text().await.unwrap();
+        assert!(text.contains(STORE) && text.contains(&sha), "{text}");
+    });
+    weed.put(BUCKET, &lost_key, &kept);
+    // SAFETY: signals a child this test spawned.
+    unsafe { libc::kill(server.id() as i32, libc::SIGTERM) };
+    let _ = server.wait();
+
+    // Prune: the runs' names go, then the objects no run names, and an
+    // object nothing ever named (a write that did not finish).
+    let stray = format!("fleet/artifacts/{}.png", "ab".repeat(32));
+    weed.put(BUCKET, &stray, b"not an image of any run");
+    std::thread::sleep(tonegate::history::STRAY_GRACE + std::time::Duration::from_secs(1));
+    let o = tonegate(
+        &weed,
+        &["history", "prune", "--db", &url, "--keep-days", "0"],
+    );
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{out}{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(
+        out.contains(&format!(
+            "{} of them from an object store), 1 object(s) nothing named",
+            blobs.len()
+        )),
+        "{out}"
+    );
+    assert_eq!(weed.keys(BUCKET, "fleet/artifacts/"), Vec::<String>::new());
+    let left: i64 = db
+        .query_one("SELECT COUNT(*) FROM blobs", &[])
+        .unwrap()
+        .get(0);
+    assert_eq!(left, 0);
+}
