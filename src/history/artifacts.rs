@@ -4,7 +4,7 @@
 //! runner's images from the shared history, and repeated runs of a
 //! deterministic renderer cost no space for what did not change.
 
-use super::backend::args;
+use super::backend::{args, Value};
 use super::{ago, now, History, HistoryError};
 use serde::Serialize;
 use sha2::{Digest, Sha256};
@@ -72,13 +72,24 @@ impl History {
             .map(|(name, bytes)| (name, bytes, hex::encode(Sha256::digest(bytes))))
             .collect();
         let objects = super::artifact_store();
-        if let Some(o) = &objects {
+        if let Some(o) = objects.as_ref().filter(|_| !hashed.is_empty()) {
+            // The images the history does not know yet, in one query.
+            let marks: Vec<String> = (1..=hashed.len()).map(|i| format!("${i}")).collect();
+            let shas: Vec<Value> = hashed.iter().map(|(_, _, s)| Value::from(s)).collect();
+            let known: std::collections::HashSet<String> = self
+                .db()
+                .query(
+                    &format!(
+                        "SELECT sha256 FROM blobs WHERE sha256 IN ({})",
+                        marks.join(", ")
+                    ),
+                    &shas,
+                )?
+                .iter()
+                .map(|r| r.text(0))
+                .collect::<Result<_, _>>()?;
             for (_, bytes, sha) in &hashed {
-                let known = self
-                    .db()
-                    .query_opt("SELECT 1 FROM blobs WHERE sha256 = $1", args![sha])?
-                    .is_some();
-                if !known {
+                if !known.contains(sha) {
                     o.put(sha, bytes.to_vec())?;
                 }
             }

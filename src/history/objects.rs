@@ -23,7 +23,10 @@ use std::sync::{Arc, Mutex, OnceLock};
 /// An object store the history keeps images in.
 #[derive(Debug)]
 pub struct Objects {
-    store: Arc<dyn ObjectStore>,
+    /// The client, built on first use: a runner whose images the history
+    /// already holds never needs one (building it loads the TLS roots).
+    store: OnceLock<Arc<dyn ObjectStore>>,
+    bucket: String,
     prefix: String,
     /// `s3://bucket/prefix`, as given and as stored beside each image.
     pub url: String,
@@ -105,17 +108,25 @@ impl Objects {
                 "use s3://bucket/prefix with letters, digits, '-', '_', '.' and '/'",
             ));
         }
-        let store = object_store::aws::AmazonS3Builder::from_env()
-            .with_bucket_name(bucket)
-            .build()
-            .map_err(|e| failed(url, "configuring the S3 client (AWS_* variables)", e))?;
         let o = Arc::new(Objects {
-            store: Arc::new(store),
+            store: OnceLock::new(),
+            bucket: bucket.to_owned(),
             prefix: prefix.to_owned(),
             url: url.to_owned(),
         });
         opened.insert(url.to_owned(), o.clone());
         Ok(o)
+    }
+
+    fn client(&self) -> Result<Arc<dyn ObjectStore>, HistoryError> {
+        if let Some(c) = self.store.get() {
+            return Ok(c.clone());
+        }
+        let built = object_store::aws::AmazonS3Builder::from_env()
+            .with_bucket_name(&self.bucket)
+            .build()
+            .map_err(|e| failed(&self.url, "configuring the S3 client (AWS_* variables)", e))?;
+        Ok(self.store.get_or_init(|| Arc::new(built)).clone())
     }
 
     fn path(&self, sha256: &str) -> ObjectPath {
@@ -129,7 +140,7 @@ impl Objects {
     /// Stores an image under its hash, unless it is there already; true
     /// when it was written.
     pub fn put(&self, sha256: &str, bytes: Vec<u8>) -> Result<bool, HistoryError> {
-        let (store, path) = (self.store.clone(), self.path(sha256));
+        let (store, path) = (self.client()?, self.path(sha256));
         let written = wait(async move {
             match store.head(&path).await {
                 Ok(_) => Ok(false),
@@ -145,7 +156,7 @@ impl Objects {
 
     /// Deletes an image; one already gone is not an error.
     pub fn delete(&self, sha256: &str) -> Result<(), HistoryError> {
-        let (store, path) = (self.store.clone(), self.path(sha256));
+        let (store, path) = (self.client()?, self.path(sha256));
         match wait(async move { store.delete(&path).await }) {
             Ok(()) | Err(object_store::Error::NotFound { .. }) => Ok(()),
             Err(e) => Err(failed(&self.url, &format!("deleting {sha256}.png"), e)),
@@ -154,7 +165,7 @@ impl Objects {
 
     /// Every image under the prefix: its hash and when it was written.
     pub fn list(&self) -> Result<Vec<(String, chrono::DateTime<chrono::Utc>)>, HistoryError> {
-        let store = self.store.clone();
+        let store = self.client()?;
         let prefix = (!self.prefix.is_empty()).then(|| ObjectPath::from(self.prefix.as_str()));
         let listed = wait(async move {
             let mut out = Vec::new();
@@ -188,7 +199,7 @@ impl Objects {
         )>,
         HistoryError,
     > {
-        match self.store.get(&self.path(sha256)).await {
+        match self.client()?.get(&self.path(sha256)).await {
             Ok(got) => {
                 let size = got.meta.size;
                 Ok(Some((size, got.into_stream())))

@@ -220,3 +220,102 @@ fn artifacts_go_to_an_object_store_once_and_are_served_and_pruned_from_it() {
         .get(0);
     assert_eq!(left, 0);
 }
+
+/// Eight runners do 200 queued one-frame jobs twice, in one sitting: with
+/// the images in the history's own table, then in SeaweedFS. Each distinct
+/// image is stored once either way; the two wall times are printed (a
+/// benchmark's figure, not asserted: this machine is shared and noisy).
+#[test]
+fn a_fleet_keeps_each_distinct_image_once_in_an_object_store() {
+    let weed = Weed::start(BUCKET);
+    let dir = tempfile::tempdir().unwrap();
+    let (tiny, _) = crate::fleet::suites(dir.path());
+    let mut times = Vec::new();
+    // ABBA, so a drift of the machine's speed during the sitting falls on
+    // both alike; the second S3 round finds the first's images in the store.
+    let s3 = Some("s3://tonegate/fleet-200");
+    for (round, store) in [None, s3, s3, None].into_iter().enumerate() {
+        let url = pg::database();
+        let o = tonegate(
+            &weed,
+            &[
+                "enqueue",
+                "--db",
+                &url,
+                "--suite",
+                tiny.to_str().unwrap(),
+                "--cpu",
+                "--count",
+                "200",
+            ],
+        );
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let started = std::time::Instant::now();
+        let mut runners: Vec<std::process::Child> = (0..8)
+            .map(|i| {
+                let mut c = Command::new(env!("CARGO_BIN_EXE_tonegate"));
+                c.args(["runner", "--db", &url, "--cpu", "--name", &format!("s{i}")])
+                    .args(["--poll-ms", "50", "--exit-when-idle-s", "2"])
+                    .current_dir(repo())
+                    .env_remove("TONEGATE_DB")
+                    .envs(weed.env())
+                    .stdout(Stdio::null())
+                    .stderr(Stdio::null());
+                if let Some(s) = store {
+                    c.args(["--artifacts", s]);
+                }
+                c.spawn().unwrap()
+            })
+            .collect();
+        for r in &mut runners {
+            assert!(r.wait().unwrap().success());
+        }
+        let took = started.elapsed().as_secs_f64() - 2.0;
+        let mut db = postgres::Client::connect(&url, postgres::NoTls).unwrap();
+        let done: i64 = db
+            .query_one("SELECT COUNT(*) FROM jobs WHERE state = 'done'", &[])
+            .unwrap()
+            .get(0);
+        assert_eq!(done, 200);
+        let (names, blobs): (i64, i64) = {
+            let r = db
+                .query_one(
+                    "SELECT (SELECT COUNT(*) FROM run_artifacts), (SELECT COUNT(*) FROM blobs)",
+                    &[],
+                )
+                .unwrap();
+            (r.get(0), r.get(1))
+        };
+        assert!(
+            names >= 200 && blobs >= 1 && blobs < names,
+            "{names} names, {blobs} images"
+        );
+        if let Some(s) = store {
+            let prefix = s.trim_start_matches("s3://tonegate/");
+            let keys = weed.keys(BUCKET, &format!("{prefix}/"));
+            assert_eq!(
+                keys.len() as i64,
+                blobs,
+                "each distinct image once in the store"
+            );
+            let in_table: i64 = db
+                .query_one("SELECT COUNT(*) FROM blobs WHERE store IS NULL", &[])
+                .unwrap()
+                .get(0);
+            assert_eq!(in_table, 0);
+        }
+        times.push((
+            round + 1,
+            store.unwrap_or("the history's table"),
+            took,
+            names,
+            blobs,
+        ));
+    }
+    for (round, store, took, names, blobs) in &times {
+        eprintln!(
+            "fleet of 8, 200 one-frame jobs, round {round}, images in {store}: {took:.1} s \
+             ({names} names, {blobs} distinct images)"
+        );
+    }
+}
