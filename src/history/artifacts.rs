@@ -237,8 +237,11 @@ impl History {
         stores.extend(super::artifact_store().map(|o| o.url.clone()));
         stores.sort();
         stores.dedup();
-        let before = chrono::Utc::now()
-            - chrono::TimeDelta::from_std(keep.max(STRAY_GRACE)).unwrap_or(chrono::TimeDelta::MAX);
+        // A keep longer than the calendar reaches back spares every object.
+        let before = chrono::TimeDelta::from_std(keep.max(STRAY_GRACE))
+            .ok()
+            .and_then(|d| chrono::Utc::now().checked_sub_signed(d))
+            .unwrap_or(chrono::DateTime::<chrono::Utc>::MIN_UTC);
         for url in stores {
             let o = super::Objects::open(&url)?;
             for (sha, written) in o.list()? {

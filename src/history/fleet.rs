@@ -305,18 +305,24 @@ impl History {
             skip = self.db().dialect().skip_locked()
         );
         let mut claimed = None;
+        let mut tries = 0;
         self.db().transaction(&mut |tx| {
             claimed = None;
-            // A runner claims only when it holds no job, so a job it holds
-            // here was claimed by a try whose COMMIT went through but whose
-            // answer was lost with the connection: it is that claim's job,
-            // returned again rather than left held by nobody at work on it.
-            let held = tx.query_opt(
-                "SELECT id, suite, scenes, renderer, attempts FROM jobs
-                 WHERE runner_id = $1 AND state = 'claimed' AND run_id IS NULL
-                 ORDER BY id LIMIT 1",
-                args![runner],
-            )?;
+            tries += 1;
+            // Run again (the connection was lost): a job this runner holds
+            // and has not started was claimed by the try whose COMMIT went
+            // through but whose answer was lost; it is returned again rather
+            // than left held by nobody at work on it.
+            let held = if tries > 1 {
+                tx.query_opt(
+                    "SELECT id, suite, scenes, renderer, attempts FROM jobs
+                     WHERE runner_id = $1 AND state = 'claimed' AND run_id IS NULL
+                     ORDER BY id LIMIT 1",
+                    args![runner],
+                )?
+            } else {
+                None
+            };
             let row = match held {
                 Some(row) => row,
                 None => {
@@ -357,15 +363,19 @@ impl History {
     /// result is then not the job's.
     pub fn finish_job(&self, runner: i64, job: i64, detail: &str) -> Result<bool, HistoryError> {
         let mut held = false;
+        let mut tries = 0;
         self.db().transaction(&mut |tx| {
+            tries += 1;
             held = tx.execute(
                 "UPDATE jobs SET state = 'done', finished_at = $3, detail = $4
                  WHERE id = $1 AND runner_id = $2 AND state = 'claimed'",
                 args![job, runner, now(), detail],
             )? == 1
-                // Done by this runner already: a try whose COMMIT went
-                // through but whose answer was lost with the connection.
-                || tx
+                // Run again (the connection was lost) and done by this
+                // runner already: the try whose COMMIT went through but
+                // whose answer was lost.
+                || tries > 1
+                    && tx
                     .query_opt(
                         "SELECT 1 FROM jobs WHERE id = $1 AND runner_id = $2 AND state = 'done'",
                         args![job, runner],

@@ -70,6 +70,13 @@ impl Weed {
             .arg(format!("-s3.port={}", p[6]))
             .arg(format!("-s3.port.grpc={}", p[7]))
             .args(["-volume.max=16", "-master.volumeSizeLimitMB=64"])
+            // Its Iceberg and Lance catalogues listen on fixed ports (8181,
+            // 9101), which two servers at once would fight over.
+            .args([
+                "-s3.port.iceberg=0",
+                "-s3.port.lance=0",
+                "-master.telemetry=false",
+            ])
             .stdin(Stdio::null())
             .stdout(log.try_clone().unwrap())
             .stderr(log)
