@@ -112,7 +112,7 @@ pub async fn read_body(
     let out = tokio::select! {
         r = read => match r {
             Ok(Ok(bytes)) => Ok(bytes),
-            Ok(Err(e)) => Err(body_error(&e, limit)),
+            Ok(Err(e)) => Err(body_error(&e, limit, "")),
             Err(_) => Err(ApiError::new(
                 StatusCode::REQUEST_TIMEOUT,
                 "timeout",
@@ -150,14 +150,15 @@ pub fn declared_too_large(headers: &axum::http::HeaderMap, limit: usize) -> Resu
     }
 }
 
-/// How reading a body failed: over the limit is 413, anything else 400.
-pub fn body_error(e: &axum::Error, limit: usize) -> ApiError {
+/// How reading a body failed: over the limit is 413 (`flag` says how to
+/// raise it, if one does), anything else 400.
+pub fn body_error(e: &axum::Error, limit: usize, flag: &str) -> ApiError {
     let text = e.to_string();
     if text.contains("length limit") {
         ApiError::new(
             StatusCode::PAYLOAD_TOO_LARGE,
             "too_large",
-            format!("the body is over the limit of {limit} bytes"),
+            format!("the body is over the limit of {limit} bytes{flag}"),
         )
     } else {
         ApiError::bad(format!("reading the body: {text}"))

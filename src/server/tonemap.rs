@@ -160,7 +160,7 @@ pub async fn tonemap(
         } else {
             axum::body::to_bytes(req.into_body(), limit)
                 .await
-                .map_err(|e| body_error(&e, limit))
+                .map_err(|e| super::edge::body_error(&e, limit, " (serve --max-body-mib)"))
         }
     });
     // An upload still arriving when the server starts stopping is cut off.
@@ -211,19 +211,6 @@ fn too_large_body(len: u64, limit: usize) -> ApiError {
         "too_large",
         format!("the body is {len} bytes; the limit is {limit} bytes (serve --max-body-mib)"),
     )
-}
-
-fn body_error(e: &axum::Error, limit: usize) -> ApiError {
-    let text = e.to_string();
-    if text.contains("length limit") {
-        ApiError::new(
-            StatusCode::PAYLOAD_TOO_LARGE,
-            "too_large",
-            format!("the body is over the limit of {limit} bytes (serve --max-body-mib)"),
-        )
-    } else {
-        ApiError::bad(format!("reading the body: {text}"))
-    }
 }
 
 fn timed_out(t: std::time::Duration) -> ApiError {

@@ -307,6 +307,33 @@ async fn made_up_methods_and_paths_do_not_grow_the_metrics() {
     );
 }
 
+/// healthz says the history at `db` is not writable, naming it, and
+/// `POST /runs` is refused with 503 `history_read_only`, naming it too.
+fn assert_served_read_only(addr: SocketAddr, db: &Path) {
+    let (status, _, body) = get(addr, "/api/v1/healthz").unwrap();
+    assert!(status.contains(" 200 "), "{status} {body}");
+    let health: serde_json::Value = serde_json::from_str(&body).unwrap();
+    assert_eq!(health["history_writable"], false, "{health}");
+    let db = db.display().to_string();
+    assert!(
+        health["history_problem"].as_str().unwrap().contains(&db),
+        "{health}"
+    );
+    let (status, _, body) = raw(
+        addr,
+        &format!(
+            "POST /api/v1/runs HTTP/1.1\r\nHost: t\r\nAuthorization: Bearer {TOKEN}\r\n\
+             Content-Type: application/json\r\nContent-Length: 2\r\nConnection: close\r\n\r\n{{}}"
+        ),
+    )
+    .unwrap();
+    assert!(status.contains(" 503 "), "{status} {body}");
+    assert!(
+        body.contains("history_read_only") && body.contains(&db),
+        "{body}"
+    );
+}
+
 /// Defect 3: a read-only history file was only found when a run failed
 /// with a 500; a read-only folder gave an error not naming it.
 #[test]
@@ -332,28 +359,7 @@ fn a_read_only_history_is_reported_and_runs_are_refused_with_the_path() {
         ..Default::default()
     };
     let s = serve(&launch, dir.path()).unwrap_or_else(|e| panic!("{e:?}"));
-    let (status, _, body) = get(s.addr, "/api/v1/healthz").unwrap();
-    assert!(status.contains(" 200 "), "{status} {body}");
-    let health: serde_json::Value = serde_json::from_str(&body).unwrap();
-    assert_eq!(health["history_writable"], false, "{health}");
-    let db = seeded.db.display().to_string();
-    assert!(
-        health["history_problem"].as_str().unwrap().contains(&db),
-        "{health}"
-    );
-    let (status, _, body) = raw(
-        s.addr,
-        &format!(
-            "POST /api/v1/runs HTTP/1.1\r\nHost: t\r\nAuthorization: Bearer {TOKEN}\r\n\
-             Content-Type: application/json\r\nContent-Length: 2\r\nConnection: close\r\n\r\n{{}}"
-        ),
-    )
-    .unwrap();
-    assert!(status.contains(" 503 "), "{status} {body}");
-    assert!(
-        body.contains("history_read_only") && body.contains(&db),
-        "{body}"
-    );
+    assert_served_read_only(s.addr, &seeded.db);
     drop(s);
 
     // A folder the history cannot be created in: the message names it.
@@ -423,28 +429,7 @@ fn a_read_only_history_file_in_a_writable_folder_is_served_read_only() {
         ..Default::default()
     };
     let s = serve(&launch, dir.path()).unwrap_or_else(|e| panic!("serve stopped: {e:?}"));
-    let (status, _, body) = get(s.addr, "/api/v1/healthz").unwrap();
-    assert!(status.contains(" 200 "), "{status} {body}");
-    let health: serde_json::Value = serde_json::from_str(&body).unwrap();
-    assert_eq!(health["history_writable"], false, "{health}");
-    let db = seeded.db.display().to_string();
-    assert!(
-        health["history_problem"].as_str().unwrap().contains(&db),
-        "{health}"
-    );
-    let (status, _, body) = raw(
-        s.addr,
-        &format!(
-            "POST /api/v1/runs HTTP/1.1\r\nHost: t\r\nAuthorization: Bearer {TOKEN}\r\n\
-             Content-Type: application/json\r\nContent-Length: 2\r\nConnection: close\r\n\r\n{{}}"
-        ),
-    )
-    .unwrap();
-    assert!(status.contains(" 503 "), "{status} {body}");
-    assert!(
-        body.contains("history_read_only") && body.contains(&db),
-        "{body}"
-    );
+    assert_served_read_only(s.addr, &seeded.db);
     // Reads work, the leftover run among them.
     let (status, _, body) = get(s.addr, &format!("/api/v1/runs/{run}")).unwrap();
     assert!(status.contains(" 200 "), "{status} {body}");
