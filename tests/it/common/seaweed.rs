@@ -95,7 +95,7 @@ impl Weed {
                 break;
             }
             assert!(
-                start.elapsed() < Duration::from_secs(90),
+                start.elapsed() < Duration::from_secs(180),
                 "SeaweedFS did not start: {}",
                 std::fs::read_to_string(weed._dir.path().join("weed.log")).unwrap_or_default()
             );
