@@ -13,22 +13,23 @@
 mod artifacts;
 pub(crate) mod backend;
 mod fleet;
+mod jobs;
 pub mod matrix;
 pub mod objects;
 mod postgres;
 pub mod query;
+mod reconnect;
 mod record;
 mod schema;
 mod sqlite;
 mod stamps;
 
 pub use artifacts::{ArtifactStats, Pruned, StoredArtifact, STRAY_GRACE};
-pub use fleet::{
-    valid_label, ClaimedJob, Expired, JobRow, JobSpec, RunnerInfo, RunnerRow, LISTED_SCENES,
-    MAX_ATTEMPTS, MAX_QUEUED_JOBS,
-};
+pub use fleet::{ClaimedJob, Expired, RunnerInfo, RunnerRow, MAX_ATTEMPTS};
+pub use jobs::{valid_label, JobRow, JobSpec, LISTED_SCENES, MAX_QUEUED_JOBS};
 pub use objects::{artifact_store, is_store_url, set_artifact_store, Objects};
-pub use postgres::{is_url, last_recovery, redacted, set_retry_budget};
+pub use postgres::{is_url, redacted};
+pub use reconnect::{last_recovery, set_retry_budget};
 
 pub use query::{RunRow, RunsFilter, TradeoffRow, TrendFilter, TrendPoint};
 pub use record::{CheckRecord, FrameRecord, Regression, SceneRecord, TradeoffRecord};
@@ -93,7 +94,7 @@ impl HistoryError {
     /// out, not a fault of the request.
     pub fn unavailable(&self) -> bool {
         match self {
-            HistoryError::Postgres { source, .. } => postgres::connection_lost(source),
+            HistoryError::Postgres { source, .. } => reconnect::connection_lost(source),
             _ => false,
         }
     }
