@@ -90,6 +90,16 @@ pub(crate) fn wait_for(what: &str, limit: Duration, mut done: impl FnMut() -> bo
     }
 }
 
+/// `tonegate enqueue` of `suite` with `more` exits 2 saying `says`.
+fn enqueue_refused(url: &str, suite: &Path, more: &[&str], says: &str) {
+    let mut args = vec!["enqueue", "--db", url, "--suite", suite.to_str().unwrap()];
+    args.extend_from_slice(more);
+    let o = tonegate(&args);
+    assert_eq!(o.status.code(), Some(2), "{args:?}");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains(says), "{args:?}: {err}");
+}
+
 fn millis_between(a: &str, b: &str) -> f64 {
     let a = chrono::DateTime::parse_from_rfc3339(a).unwrap();
     let b = chrono::DateTime::parse_from_rfc3339(b).unwrap();
@@ -204,49 +214,23 @@ fn eight_runners_do_every_queued_run_exactly_once_and_a_killed_runners_run_is_fi
         let text = rt.block_on(r.text()).unwrap();
         assert!(text.contains(says), "{body}: {text}");
     }
-    let o = tonegate(&[
-        "enqueue",
-        "--db",
+    enqueue_refused(
         &url,
-        "--suite",
-        tiny.to_str().unwrap(),
-        "--want-adapter",
-        "",
-    ]);
-    assert_eq!(o.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(
-        err.contains("adapter: a name substring of 1 to 200 characters, no control characters"),
-        "{err}"
+        &tiny,
+        &["--want-adapter", ""],
+        "adapter: a name substring of 1 to 200 characters, no control characters",
     );
     // Scenes are checked against the suite when queued, in the API's words;
     // a file that is not a suite is refused before anything is queued.
-    let o = tonegate(&[
-        "enqueue",
-        "--db",
+    enqueue_refused(
         &url,
-        "--suite",
-        tiny.to_str().unwrap(),
-        "--scene",
-        "no-such-scene",
-    ]);
-    assert_eq!(o.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(
-        err.contains("scenes: no scene \"no-such-scene\" in the suite; it has: "),
-        "{err}"
+        &tiny,
+        &["--scene", "no-such-scene"],
+        "scenes: no scene \"no-such-scene\" in the suite; it has: ",
     );
     let not_a_suite = dir.path().join("passwd");
     std::fs::write(&not_a_suite, "root:x:0:0:root:/root:/bin/bash\n").unwrap();
-    let o = tonegate(&[
-        "enqueue",
-        "--db",
-        &url,
-        "--suite",
-        not_a_suite.to_str().unwrap(),
-    ]);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("--suite: "));
+    enqueue_refused(&url, &not_a_suite, &[], "--suite: ");
     let started = Instant::now();
     let mut others: Vec<Child> = (1..8)
         .map(|i| {
@@ -609,20 +593,11 @@ fn the_queue_and_its_listing_are_bounded() {
         body.contains("\"queue_full\"") && body.contains("103 jobs are waiting (at most 103)"),
         "{body}"
     );
-    let o = tonegate(&[
-        "enqueue",
-        "--db",
+    enqueue_refused(
         &url,
-        "--suite",
-        tiny.to_str().unwrap(),
-        "--max-queued",
-        "103",
-    ]);
-    assert_eq!(o.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(
-        err.contains("the queue is full: 103 jobs are waiting (at most 103)"),
-        "{err}"
+        &tiny,
+        &["--max-queued", "103"],
+        "the queue is full: 103 jobs are waiting (at most 103)",
     );
     assert_eq!(h.jobs(Some("queued"), 1000).unwrap().len(), 103);
 }
