@@ -107,10 +107,8 @@ pub async fn read_body(
     limit: usize,
     timeout: std::time::Duration,
 ) -> Result<axum::body::Bytes, ApiError> {
-    let mut closing = st.closing.subscribe();
-    let read = tokio::time::timeout(timeout, axum::body::to_bytes(body, limit));
-    let out = tokio::select! {
-        r = read => match r {
+    let read = async {
+        match tokio::time::timeout(timeout, axum::body::to_bytes(body, limit)).await {
             Ok(Ok(bytes)) => Ok(bytes),
             Ok(Err(e)) => Err(body_error(&e, limit, "")),
             Err(_) => Err(ApiError::new(
@@ -118,7 +116,21 @@ pub async fn read_body(
                 "timeout",
                 format!("the body did not arrive within {} s", timeout.as_secs_f64()),
             )),
-        },
+        }
+    };
+    unless_stopping(st, read).await
+}
+
+/// Reads a body with `read`, cut off (503 `shutting_down`) when the server
+/// starts stopping; any refusal closes the connection, as the rest of the
+/// body may still be coming.
+pub async fn unless_stopping<T>(
+    st: &super::AppState,
+    read: impl std::future::Future<Output = Result<T, ApiError>>,
+) -> Result<T, ApiError> {
+    let mut closing = st.closing.subscribe();
+    let out = tokio::select! {
+        r = read => r,
         _ = closing.wait_for(|c| *c) => Err(stopping()),
     };
     out.map_err(ApiError::closing)

@@ -153,7 +153,6 @@ pub async fn tonemap(
     .map_err(ApiError::closing)?;
     let queue = if extra.gpu { &st.gpu } else { &st.cpu };
     let timeout = st.limits.timeout;
-    let mut closing = st.closing.subscribe();
     let read = tokio::time::timeout(timeout, async {
         if is_multipart {
             read_multipart(req, &mut pairs).await
@@ -164,11 +163,8 @@ pub async fn tonemap(
         }
     });
     // An upload still arriving when the server starts stopping is cut off.
-    let body = tokio::select! {
-        r = read => r.map_err(|_| timed_out(timeout)).and_then(|r| r),
-        _ = closing.wait_for(|c| *c) => Err(super::edge::stopping()),
-    }
-    .map_err(ApiError::closing)?;
+    let read = async { read.await.map_err(|_| timed_out(timeout)).and_then(|r| r) };
+    let body = super::edge::unless_stopping(&st, read).await?;
     if body.is_empty() {
         return Err(ApiError::bad(
             "the body is empty: POST the .hdr, .exr or .pfm file, raw or as a multipart file field",
