@@ -6,6 +6,7 @@
 // kernel are timed together and their outputs cannot be read back.
 //#include shared/colour.wgsl
 //#include shared/stats.wgsl
+//#include operator
 //#include shared/tone.wgsl
 //#include shared/bright.wgsl
 //#include shared/upsample.wgsl
@@ -20,7 +21,7 @@ override BRIGHT_FROM_TONED: bool = false;
 override BLOOM: bool = false;
 override STRENGTH: f32 = 0.5;
 
-@group(0) @binding(0) var<uniform> config: ToneConfig;
+@group(0) @binding(0) var<uniform> config: OperatorConfig;
 // The statistics and resolved curve (luminance_stats, tonemap's resolve).
 @group(0) @binding(1) var<uniform> resolved: Stats;
 @group(0) @binding(2) var hdr: texture_2d<f32>;
@@ -43,7 +44,7 @@ fn bright_low(@builtin(global_invocation_id) id: vec3<u32>) {
         for (var x = b.x; x < b.z; x = x + 1u) {
             var c = textureLoad(hdr, vec2<u32>(x, y), 0).rgb;
             if (BRIGHT_FROM_TONED) {
-                c = toned(c, resolved.scale, resolved.white);
+                c = toned(c, resolved.tone);
             }
             acc = acc + bright_pixel(c, resolved.max_y);
         }
@@ -59,7 +60,7 @@ fn tail(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x >= dims.x || id.y >= dims.y) {
         return;
     }
-    var c = toned(textureLoad(hdr, id.xy, 0).rgb, resolved.scale, resolved.white);
+    var c = toned(textureLoad(hdr, id.xy, 0).rgb, resolved.tone);
     if (BLOOM) {
         c = c + STRENGTH * upsample_at(bloom, id.x, id.y, dims, extent.low);
     }

@@ -19,6 +19,7 @@ pub mod history;
 pub mod image;
 pub mod io;
 pub mod metrics;
+pub mod operators;
 pub mod perf;
 pub mod plan;
 pub mod progress;

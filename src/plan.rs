@@ -3,9 +3,7 @@
 //! Both renderers execute a plan; a stage that is not in it is neither built,
 //! dispatched nor timed. `tonegate plan scene.toml` prints it.
 
-use crate::scene::{
-    BrightPass, ColourPath, Encoding, Grade, Key, Operator, Scene, TaaParams, TaaVariant,
-};
+use crate::scene::{BrightPass, Encoding, Grade, Operator, Scene, TaaParams, TaaVariant};
 use serde::Serialize;
 use std::fmt;
 
@@ -61,8 +59,9 @@ pub enum Stage {
     Taa(TaaParams),
     /// Reduces the HDR frame to the statistics the operator needs.
     LuminanceStats(StatsNeeds),
+    /// The operator, by name (its module is the pipeline's key).
     Tonemap {
-        colour: ColourPath,
+        operator: &'static str,
     },
     BloomBright {
         source: BloomSource,
@@ -160,30 +159,10 @@ impl PlanError {
     }
 }
 
-/// What the operator needs measured; fixed parameters need nothing.
+/// What the operator needs measured (fixed parameters need nothing), and
+/// what the bloom's bright pass needs.
 pub fn stats_needs(op: &Operator, bloom: Option<&crate::scene::Bloom>) -> StatsNeeds {
-    let mut needs = StatsNeeds::default();
-    match op {
-        Operator::ReinhardGlobal {
-            log_average,
-            max_luminance,
-            ..
-        } => {
-            needs.log_average = log_average.is_none();
-            needs.max = max_luminance.is_none();
-        }
-        Operator::ReinhardAutoKey { key, .. } => {
-            needs.weighted_log_average = true;
-            needs.max = true;
-            needs.min = matches!(key, Key::Auto);
-        }
-        Operator::Reinhard02 {
-            white, log_average, ..
-        } => {
-            needs.log_average = log_average.is_none();
-            needs.max = white.is_none();
-        }
-    }
+    let mut needs = op.needs();
     if let Some(b) = bloom {
         if b.bright_pass == BrightPass::Scaled {
             needs.max = true;
@@ -210,7 +189,7 @@ impl StagePlan {
             stages.push(Stage::LuminanceStats(needs));
         }
         stages.push(Stage::Tonemap {
-            colour: operator.colour(),
+            operator: operator.name(),
         });
         if let Some(b) = bloom.filter(|b| b.strength.get() > 0.0) {
             let source = match b.bright_pass {
@@ -320,7 +299,7 @@ impl fmt::Display for StagePlan {
                     }
                     parts.join(", ")
                 }
-                Stage::Tonemap { colour } => format!("colour {colour:?}").to_lowercase(),
+                Stage::Tonemap { operator } => (*operator).to_owned(),
                 Stage::BloomBright { source } => format!("from {source:?}").to_lowercase(),
                 Stage::BloomDownsample { factor } => format!("1/{factor}"),
                 Stage::BloomBlur { radius } => format!("radius {radius}, 2 passes"),
@@ -350,6 +329,7 @@ pub fn encoding_label(e: &Encoding) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::operators::Value;
     use crate::scene::{Bloom, Factor, NonNegative, Positive, Radius};
 
     fn bloom(bright_pass: BrightPass, strength: f64) -> Bloom {
@@ -364,13 +344,14 @@ mod tests {
     }
 
     fn reinhard02(white: Option<f64>, log_average: Option<f64>) -> Operator {
-        Operator::Reinhard02 {
-            key: Positive::try_from(0.18).unwrap(),
-            white: white.map(|w| Positive::try_from(w).unwrap()),
-            log_average: log_average.map(|w| Positive::try_from(w).unwrap()),
-            colour: ColourPath::Ratio,
-            pfs_compatible: false,
+        let mut given = Vec::new();
+        if let Some(w) = white {
+            given.push(("white", Value::Number(w)));
         }
+        if let Some(l) = log_average {
+            given.push(("log_average", Value::Number(l)));
+        }
+        Operator::named("reinhard02", &given).unwrap()
     }
 
     #[test]
@@ -412,16 +393,10 @@ mod tests {
     fn weighted_sums_and_min_only_when_the_auto_key_needs_them() {
         let needs = stats_needs(&Operator::default(), None);
         assert!(needs.log_average && needs.max && !needs.weighted_log_average && !needs.min);
-        let auto = Operator::ReinhardAutoKey {
-            key: Key::Auto,
-            colour: ColourPath::Ratio,
-        };
+        let auto = Operator::named("reinhard-auto-key", &[]).unwrap();
         let needs = stats_needs(&auto, None);
         assert!(needs.weighted_log_average && needs.min && needs.max && !needs.log_average);
-        let fixed = Operator::ReinhardAutoKey {
-            key: Key::Fixed(Positive::try_from(0.2).unwrap()),
-            colour: ColourPath::Ratio,
-        };
+        let fixed = Operator::named("reinhard-auto-key", &[("key", Value::Number(0.2))]).unwrap();
         assert!(!stats_needs(&fixed, None).min);
         // Lwhite unset needs the max; an absolute one does not.
         assert!(stats_needs(&reinhard02(None, None), None).max);

@@ -120,12 +120,11 @@ impl RenderedFrame {
         }
     }
 
-    /// The adaptation luminance the operator used (the log-average, or the
-    /// fixed value that replaced it).
-    pub fn adaptation(&self) -> f64 {
+    /// The operator's resolved values for this frame (`op` reads the GPU's).
+    pub fn tone(&self, op: &crate::scene::Operator) -> crate::operators::ToneParams {
         match &self.detail {
-            FrameDetail::Cpu(s) => s.tone.log_average,
-            FrameDetail::Gpu { stats, .. } => f64::from(stats.adaptation),
+            FrameDetail::Cpu(s) => s.tone.clone(),
+            FrameDetail::Gpu { stats, .. } => op.gpu_resolved(stats.tone),
         }
     }
 }

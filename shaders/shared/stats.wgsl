@@ -1,18 +1,14 @@
-// Statistics and resolved tone parameters, written by luminance_stats and
-// tonemap's resolve step. Mirrors `gpu::StatsOut`.
+// Statistics and the operator's resolved values, written by luminance_stats
+// and tonemap's resolve step. Mirrors `gpu::GpuStats`.
 struct Stats {
     log_average: f32,
     weighted_log_average: f32,
     min_y: f32,
     max_y: f32,
     weight_sum: f32,
-    // Resolved by tonemap: the key, the adaptation luminance it is relative
-    // to (measured or fixed), key/adaptation, and Lwhite (<= 0 or +Inf = no burn).
-    key: f32,
-    adaptation: f32,
-    scale: f32,
-    // Lwhite in the curve's sense (white² = the reference's white_sq).
-    white: f32,
+    // The operator's resolved values (its `operator_resolve`, run by
+    // tonemap's resolve step), at offset 32: vec4 alignment.
+    tone: vec4<f32>,
 }
 
 // A partial reduction: min, max and three compensated (Kahan) sums.

@@ -168,15 +168,20 @@ pub fn tonemap(a: TonemapArgs) -> Result<ExitCode> {
         write_json(Path::new("-"), "the tone-map report", &written)?;
     } else {
         eprintln!(
-            "{}: {}x{}, Y {:.4e} .. {:.4e} ({:.1} stops), key {:.4}, log-average {:.4e} -> {}",
+            "{}: {}x{}, Y {:.4e} .. {:.4e} ({:.1} stops), {}{} -> {}",
             a.input.display(),
             load_report.width,
             load_report.height,
             load_report.min_luminance,
             load_report.max_luminance,
             load_report.dynamic_range_stops,
-            report.tone.key,
-            report.tone.log_average,
+            report.tone.operator,
+            report
+                .tone
+                .values
+                .iter()
+                .map(|(n, v)| format!(", {n} {v:.4e}"))
+                .collect::<String>(),
             a.output.display()
         );
     }

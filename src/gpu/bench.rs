@@ -14,8 +14,7 @@ use crate::perf::{quantile, summarise, StageTiming};
 use crate::plan::StagePlan;
 use crate::reference::Pipeline;
 use crate::scene::{
-    Bloom, BrightPass, ColourPath, Encoding, Factor, Key, NonNegative, Operator, Positive, Radius,
-    TaaParams,
+    Bloom, BrightPass, Encoding, Factor, NonNegative, Operator, Positive, Radius, TaaParams,
 };
 use serde::Serialize;
 
@@ -108,10 +107,7 @@ pub struct BenchReport {
 /// (`reinhard-auto-key`'s: weighted log-average, min, max) + tonemap + bloom
 /// at ½ + encode.
 pub fn bench_operator() -> (Operator, Bloom) {
-    let op = Operator::ReinhardAutoKey {
-        key: Key::Auto,
-        colour: ColourPath::Ratio,
-    };
+    let op = Operator::named("reinhard-auto-key", &[]).unwrap_or_else(|_| unreachable!());
     let bloom = Bloom {
         bright_pass: BrightPass::Scaled,
         threshold: NonNegative::try_from(50.0).unwrap_or_else(|_| unreachable!()),

@@ -241,10 +241,7 @@ mod tests {
         }
         let plan = StagePlan::build(
             crate::plan::Input::Flat,
-            &crate::scene::Operator::ReinhardAutoKey {
-                key: crate::scene::Key::Auto,
-                colour: crate::scene::ColourPath::Ratio,
-            },
+            &crate::scene::Operator::named("reinhard-auto-key", &[]).unwrap(),
             None,
             None,
         );

@@ -35,8 +35,15 @@ pub struct GpuContext {
 /// `luminance_stats` asserts at compile time that it stays within this.
 pub(crate) const MAX_BUFFER_BYTES_PER_PIXEL: u64 = 8;
 
-/// Stage, entry point, format and override constants (values as f64 bits).
-pub(crate) type PipelineKey = (String, String, super::HdrFormat, Vec<(String, u64)>);
+/// Stage, entry point, format, override constants (values as f64 bits) and
+/// the operator's module, if the stage includes one.
+pub(crate) type PipelineKey = (
+    String,
+    String,
+    super::HdrFormat,
+    Vec<(String, u64)>,
+    Option<(usize, usize)>,
+);
 
 /// Distinct pipeline variants a context keeps; beyond it the cache starts
 /// over (override constants include image sizes, so a server seeing many

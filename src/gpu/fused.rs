@@ -4,7 +4,7 @@
 
 use super::bloom_bright::bright_constants;
 use super::encode::encode_constants;
-use super::stages::{bind_group, dispatch_2d, hdr_texture, pipeline, Bind, Dispatch};
+use super::stages::{bind_group, dispatch_2d, hdr_texture, Bind, Dispatch};
 use super::tonemap::ToneParams;
 use super::wiring::{Pass, Wiring};
 use super::{GpuContext, GpuError, HdrFormat};
@@ -107,13 +107,11 @@ pub fn bright_low(
     extent: &wgpu::Buffer,
 ) -> Dispatch {
     let mut constants = vec![
-        ("COLOUR", tone.colour),
-        ("FAULT_GAIN", tone.fault_gain),
         ("FACTOR", bloom.downsample.get() as f64),
         ("BRIGHT_FROM_TONED", from_toned as u32 as f64),
     ];
     constants.extend(bright_constants(bloom, lum));
-    let p = pipeline(ctx, "fused", "bright_low", format, &constants);
+    let p = tone.pipeline(ctx, "fused", "bright_low", format, &constants);
     let bg = bind_group(
         ctx,
         &p,
@@ -143,13 +141,11 @@ pub fn tail(
     extent: &wgpu::Buffer,
 ) -> Dispatch {
     let mut constants = vec![
-        ("COLOUR", tone.colour),
-        ("FAULT_GAIN", tone.fault_gain),
         ("BLOOM", bloom.is_some() as u32 as f64),
         ("STRENGTH", bloom.map(|(_, k)| k).unwrap_or(0.0)),
     ];
     constants.extend(encode_constants(encoding));
-    let p = pipeline(ctx, "fused", "tail", format, &constants);
+    let p = tone.pipeline(ctx, "fused", "tail", format, &constants);
     // Without bloom the kernel never reads binding 3; it still needs a texture.
     let placeholder;
     let bloom_texture = match bloom {

@@ -23,11 +23,11 @@ pub struct GpuStats {
     pub min: f32,
     pub max: f32,
     pub weight_sum: f32,
-    pub key: f32,
-    pub adaptation: f32,
-    pub scale: f32,
-    /// Lwhite (white² is the reference's `white_sq`); <= 0 or +Inf: never burn.
-    pub white: f32,
+    /// Padding: `tone` is a vec4, 16-byte aligned.
+    pub _pad: [f32; 3],
+    /// The operator's resolved values (`operator_resolve`), read through
+    /// [`crate::operators::Operator::gpu_resolved`].
+    pub tone: [f32; 4],
 }
 
 impl GpuStats {

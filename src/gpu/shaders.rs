@@ -29,6 +29,10 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../shaders/shared/tone.wgsl"),
     ),
     (
+        "shared/reinhard.wgsl",
+        include_str!("../../shaders/shared/reinhard.wgsl"),
+    ),
+    (
         "shared/bright.wgsl",
         include_str!("../../shaders/shared/bright.wgsl"),
     ),
@@ -93,6 +97,12 @@ const SOURCES: &[(&str, &str)] = &[
     ),
 ];
 
+/// Whether stage `name` includes an operator's module.
+pub fn takes_operator(name: &str) -> bool {
+    raw(&format!("{name}.wgsl"))
+        .is_some_and(|t| t.lines().any(|l| l.trim() == "//#include operator"))
+}
+
 /// The stage shaders (not the shared files).
 pub fn stage_names() -> impl Iterator<Item = &'static str> {
     SOURCES
@@ -112,47 +122,80 @@ fn raw(path: &str) -> Option<&'static str> {
 /// Panics only on a missing file or an unclosed section, which the shader
 /// tests catch at `cargo test` time.
 pub fn compose(name: &str, format: HdrFormat, subgroups: bool) -> String {
+    compose_with(name, format, subgroups, None)
+}
+
+/// [`compose`] with an operator's module (`ToneOperator::wgsl`) in place of
+/// the stage's `//#include operator` line; its own includes are expanded
+/// like the stage's.
+pub fn compose_with(
+    name: &str,
+    format: HdrFormat,
+    subgroups: bool,
+    operator: Option<&str>,
+) -> String {
     let mut out = String::new();
-    let mut included: Vec<&str> = Vec::new();
-    expand(&format!("{name}.wgsl"), &mut out, &mut included, subgroups);
+    let mut included: Vec<&'static str> = Vec::new();
+    let path = format!("{name}.wgsl");
+    let text = raw(&path).unwrap_or_else(|| panic!("shader {path} is not embedded"));
+    let ctx = Expand {
+        subgroups,
+        operator,
+    };
+    ctx.expand(&path, text, &mut out, &mut included);
     out.replace("HDR_FORMAT", format.wgsl_name())
 }
 
-fn expand<'a>(path: &'a str, out: &mut String, included: &mut Vec<&'a str>, subgroups: bool) {
-    let text = raw(path).unwrap_or_else(|| panic!("shader {path} is not embedded"));
-    let mut skipping = false;
-    let mut open = false;
-    for line in text.lines() {
-        match line.trim() {
-            "//#if subgroups" => {
-                assert!(!open, "{path}: nested //#if");
-                open = true;
-                skipping = !subgroups;
-                continue;
+struct Expand<'o> {
+    subgroups: bool,
+    operator: Option<&'o str>,
+}
+
+impl Expand<'_> {
+    fn expand(&self, path: &str, text: &str, out: &mut String, included: &mut Vec<&'static str>) {
+        let mut skipping = false;
+        let mut open = false;
+        for line in text.lines() {
+            match line.trim() {
+                "//#if subgroups" => {
+                    assert!(!open, "{path}: nested //#if");
+                    open = true;
+                    skipping = !self.subgroups;
+                    continue;
+                }
+                "//#endif" => {
+                    assert!(open, "{path}: //#endif without //#if");
+                    open = false;
+                    skipping = false;
+                    continue;
+                }
+                _ if skipping => continue,
+                _ => {}
             }
-            "//#endif" => {
-                assert!(open, "{path}: //#endif without //#if");
-                open = false;
-                skipping = false;
-                continue;
+            match line.trim().strip_prefix("//#include ").map(str::trim) {
+                Some("operator") => {
+                    let op = self.operator.unwrap_or_else(|| {
+                        panic!("{path} includes the operator, and none was given")
+                    });
+                    self.expand("operator", op, out, included);
+                }
+                Some(inc) => {
+                    let known = SOURCES.iter().find(|(p, _)| *p == inc);
+                    let (inc, body) =
+                        *known.unwrap_or_else(|| panic!("{path}: unknown include {inc}"));
+                    if !included.contains(&inc) {
+                        included.push(inc);
+                        self.expand(inc, body, out, included);
+                    }
+                }
+                None => {
+                    out.push_str(line);
+                    out.push('\n');
+                }
             }
-            _ if skipping => continue,
-            _ => {}
         }
-        if let Some(inc) = line.trim().strip_prefix("//#include ") {
-            let inc = inc.trim();
-            let known = SOURCES.iter().find(|(p, _)| *p == inc).map(|(p, _)| *p);
-            let inc = known.unwrap_or_else(|| panic!("{path}: unknown include {inc}"));
-            if !included.contains(&inc) {
-                included.push(inc);
-                expand(inc, out, included, subgroups);
-            }
-        } else {
-            out.push_str(line);
-            out.push('\n');
-        }
+        assert!(!open, "{path}: //#if without //#endif");
     }
-    assert!(!open, "{path}: //#if without //#endif");
 }
 
 #[cfg(test)]
@@ -166,8 +209,19 @@ mod tests {
             (HdrFormat::Rgba32Float, false),
             (HdrFormat::Rgba32Float, true),
         ] {
-            for name in stage_names() {
-                let src = compose(name, format, subgroups);
+            let stages = stage_names().flat_map(|name| {
+                let ops: Vec<Option<&'static str>> = if takes_operator(name) {
+                    crate::operators::builtin()
+                        .iter()
+                        .map(|o| Some(o.wgsl()))
+                        .collect()
+                } else {
+                    vec![None]
+                };
+                ops.into_iter().map(move |op| (name, op))
+            });
+            for (name, op) in stages {
+                let src = compose_with(name, format, subgroups, op);
                 let module = naga::front::wgsl::parse_str(&src).unwrap_or_else(|e| {
                     panic!("{name}.wgsl: {}", e.emit_to_string_with_path(&src, name))
                 });

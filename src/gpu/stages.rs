@@ -12,6 +12,19 @@ pub fn pipeline(
     format: HdrFormat,
     constants: &[(&str, f64)],
 ) -> wgpu::ComputePipeline {
+    pipeline_with(ctx, stage, entry, format, constants, None)
+}
+
+/// [`pipeline`] for a stage that includes an operator's module (its
+/// `ToneOperator::wgsl`): the operator is part of the pipeline's key.
+pub fn pipeline_with(
+    ctx: &GpuContext,
+    stage: &str,
+    entry: &str,
+    format: HdrFormat,
+    constants: &[(&str, f64)],
+    operator: Option<&'static str>,
+) -> wgpu::ComputePipeline {
     let key: super::context::PipelineKey = (
         stage.to_owned(),
         entry.to_owned(),
@@ -20,6 +33,8 @@ pub fn pipeline(
             .iter()
             .map(|(k, v)| ((*k).to_owned(), v.to_bits()))
             .collect(),
+        // A module is 'static text: its address and length name it.
+        operator.map(|w| (w.as_ptr() as usize, w.len())),
     );
     ctx.cached_pipeline(key, || {
         let label = if entry == "main" {
@@ -32,7 +47,7 @@ pub fn pipeline(
             .create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some(&label),
                 source: wgpu::ShaderSource::Wgsl(
-                    super::shaders::compose(stage, format, ctx.subgroups).into(),
+                    super::shaders::compose_with(stage, format, ctx.subgroups, operator).into(),
                 ),
             });
         ctx.device

@@ -1,127 +1,67 @@
-//! `tonemap` pass: resolve the curve's parameters from the statistics (one
-//! invocation), then tone-map every pixel.
+//! `tonemap` pass: the operator's resolve step (one invocation: the
+//! statistics into the curve's values), then its curve on every pixel. The
+//! operator's module is part of the pipeline (src/operators/mod.rs).
 
-use super::stages::{bind_group, dispatch_2d, pipeline, uniform_buffer, Bind, Dispatch};
+use super::stages::{bind_group, dispatch_2d, pipeline_with, uniform_buffer, Bind, Dispatch};
 use super::{GpuContext, HdrFormat};
-use crate::reference::tonemap::{invert3, operator_constants, rgb_to_xyz};
-use crate::scene::{ColourPath, Key, Operator};
+use crate::operators::Operator;
 
-/// The operator's constants as the shader's `ToneConfig` (36 f32: the weights
-/// and six matrix rows as vec4s, then five scalars and three pads).
-pub fn tone_config(op: &Operator) -> [f32; 36] {
-    let (weights, _) = operator_constants(op);
-    let to_xyz = rgb_to_xyz(weights);
-    let to_rgb = invert3(to_xyz);
-    let mut c = [0f32; 36];
-    let row = |c: &mut [f32; 36], at: usize, v: [f64; 3]| {
-        c[at] = v[0] as f32;
-        c[at + 1] = v[1] as f32;
-        c[at + 2] = v[2] as f32;
-    };
-    row(&mut c, 0, weights);
-    for i in 0..3 {
-        row(&mut c, 4 + 4 * i, to_xyz[i]);
-        row(&mut c, 16 + 4 * i, to_rgb[i]);
-    }
-    let (key, white_fraction, white, fixed_lavg, fixed_max) = match op {
-        Operator::ReinhardGlobal {
-            key,
-            white_fraction,
-            log_average,
-            max_luminance,
-            ..
-        } => (
-            key.get(),
-            white_fraction.get(),
-            0.0,
-            log_average.map(|v| v.get()).unwrap_or(0.0),
-            max_luminance.map(|v| v.get()).unwrap_or(0.0),
-        ),
-        Operator::ReinhardAutoKey { key, .. } => (
-            match key {
-                Key::Fixed(k) => k.get(),
-                Key::Auto => 0.18,
-            },
-            1.0,
-            0.0,
-            0.0,
-            0.0,
-        ),
-        Operator::Reinhard02 {
-            key,
-            white,
-            log_average,
-            ..
-        } => (
-            key.get(),
-            1.0,
-            white.map(|v| v.get()).unwrap_or(0.0),
-            log_average.map(|v| v.get()).unwrap_or(0.0),
-            0.0,
-        ),
-    };
-    c[28] = key as f32;
-    c[29] = white_fraction as f32;
-    c[30] = white as f32;
-    c[31] = fixed_lavg as f32;
-    c[32] = fixed_max as f32;
-    c
-}
-
-/// The shader's `OPERATOR` override constant: 0 `reinhard-global`, 1
-/// `reinhard-auto-key`, 2 `reinhard02`.
-pub fn operator_code(op: &Operator) -> u32 {
-    match op {
-        Operator::ReinhardGlobal { .. } => 0,
-        Operator::ReinhardAutoKey { .. } => 1,
-        Operator::Reinhard02 { .. } => 2,
-    }
-}
-
-/// The operator's override constants and its `ToneConfig` uniform, shared by
-/// the `tonemap` stage and the fused kernels.
+/// The operator's module, override constants and `OperatorConfig` uniform,
+/// shared by the `tonemap` stage and the fused kernels.
 pub struct ToneParams {
+    /// The operator's `OperatorConfig`.
     pub config: wgpu::Buffer,
-    pub operator: f64,
-    pub colour: f64,
-    pub auto_key: f64,
-    pub fault_gain: f64,
+    /// The operator's WGSL module.
+    pub module: &'static str,
+    /// The operator's override constants, then `FAULT_GAIN`.
+    pub constants: Vec<(&'static str, f64)>,
 }
 
 impl ToneParams {
     pub fn new(ctx: &GpuContext, op: &Operator, fault_gain: Option<f32>) -> ToneParams {
+        let def = op.definition();
+        let mut config = def.gpu_config(op.values());
+        // A uniform's size is a multiple of 16 bytes; an empty one still
+        // binds.
+        config.resize(config.len().div_ceil(4).max(1) * 4, 0.0);
+        let mut constants = def.gpu_constants(op.values());
+        constants.push(("FAULT_GAIN", fault_gain.unwrap_or(1.0) as f64));
         ToneParams {
             config: uniform_buffer(
                 ctx,
                 "tonegate.tonemap.config",
-                bytemuck::cast_slice(&tone_config(op)),
+                bytemuck::cast_slice(&config),
             ),
-            operator: operator_code(op) as f64,
-            colour: (op.colour() == ColourPath::Xyy) as u32 as f64,
-            auto_key: matches!(op, Operator::ReinhardAutoKey { key: Key::Auto, .. }) as u32 as f64,
-            fault_gain: fault_gain.unwrap_or(1.0) as f64,
+            module: def.wgsl(),
+            constants,
         }
     }
 
-    fn constants(&self) -> [(&'static str, f64); 4] {
-        [
-            ("OPERATOR", self.operator),
-            ("COLOUR", self.colour),
-            ("AUTO_KEY", self.auto_key),
-            ("FAULT_GAIN", self.fault_gain),
-        ]
+    /// The pipeline for `entry` of `stage` (`tonemap` or `fused`) with this
+    /// operator, and `extra` constants of the stage's own.
+    pub fn pipeline(
+        &self,
+        ctx: &GpuContext,
+        stage: &str,
+        entry: &str,
+        format: HdrFormat,
+        extra: &[(&str, f64)],
+    ) -> wgpu::ComputePipeline {
+        let mut constants: Vec<(&str, f64)> = self.constants.clone();
+        constants.extend_from_slice(extra);
+        pipeline_with(ctx, stage, entry, format, &constants, Some(self.module))
     }
 }
 
-/// The one-invocation step that turns the statistics into the curve's
-/// parameters (scale, white) in `stats`.
+/// The one-invocation step that turns the statistics into the operator's
+/// resolved values (`stats.tone`).
 pub fn resolve(
     ctx: &GpuContext,
     format: HdrFormat,
     params: &ToneParams,
     stats: &wgpu::Buffer,
 ) -> Dispatch {
-    let p = pipeline(ctx, "tonemap", "resolve", format, &params.constants());
+    let p = params.pipeline(ctx, "tonemap", "resolve", format, &[]);
     let bg = bind_group(
         ctx,
         &p,
@@ -140,7 +80,7 @@ pub fn tonemap(
     toned_out: &wgpu::Texture,
     extent: &wgpu::Buffer,
 ) -> Vec<Dispatch> {
-    let main = pipeline(ctx, "tonemap", "main", format, &params.constants());
+    let main = params.pipeline(ctx, "tonemap", "main", format, &[]);
     let bg = bind_group(
         ctx,
         &main,

@@ -12,7 +12,6 @@ use crate::conventions::Camera;
 use crate::image::HdrImage;
 use crate::plan::{BloomSource, PlanError, Stage};
 use crate::reference::bloom_downsample::downsampled_size;
-use crate::reference::tonemap::operator_constants;
 use crate::reference::Pipeline;
 use crate::scene::Bloom;
 
@@ -138,7 +137,8 @@ impl<'a, 'p> Wiring<'a, 'p> {
         extent: wgpu::Buffer,
     ) -> Result<Wiring<'a, 'p>, GpuError> {
         let format = config.hdr_format;
-        let (weights, delta) = operator_constants(pipeline.operator);
+        let lum = pipeline.operator.luminance();
+        let (weights, delta) = (lum.weights, lum.delta);
         let (hdr, environment) = match input {
             GpuInput::Sphere { env, .. } => {
                 let environment = Environment::upload(ctx, env, config.env_filter)?;

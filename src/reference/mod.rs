@@ -17,6 +17,7 @@ pub mod tonemap;
 
 use crate::conventions::{rotation_matrix, Camera};
 use crate::image::{HdrImage, LinearImage, Rgb8Image};
+use crate::operators::Tone;
 use crate::plan::{BloomSource, PlanError, Stage, StagePlan};
 use crate::scene::{Bloom, Encoding, Grade, Operator, Scene};
 use luminance_stats::LuminanceStats;
@@ -146,7 +147,8 @@ fn run_stages_until(
     });
     let mut hdr = Some(hdr);
     let hdr_gone = || PlanError::Incomplete { missing: "sphere" };
-    let (weights, delta) = tonemap::operator_constants(p.operator);
+    let lum = p.operator.luminance();
+    let (weights, delta) = (lum.weights, lum.delta);
     let bloom_of = |stage| {
         p.bloom.ok_or(PlanError::NoParameters {
             stage,
@@ -177,13 +179,13 @@ fn run_stages_until(
                 stats = luminance_stats::luminance_stats(hdr, *needs, weights, delta);
             }
             Stage::Tonemap { .. } => {
-                let params = tonemap::resolve(p.operator, &stats)?;
+                let resolved = p.operator.resolve(&stats)?;
                 toned = Some(if keep_hdr || hdr_read_after_tonemap {
-                    tonemap::tonemap(hdr.as_ref().ok_or_else(hdr_gone)?, &params)
+                    tonemap::tonemap(hdr.as_ref().ok_or_else(hdr_gone)?, &resolved)
                 } else {
-                    tonemap::tonemap_into(hdr.take().ok_or_else(hdr_gone)?, &params)
+                    tonemap::tonemap_into(hdr.take().ok_or_else(hdr_gone)?, &resolved)
                 });
-                tone = Some(params);
+                tone = Some(resolved.params);
                 // The display image is `toned` until a stage replaces it.
                 display = None;
             }
@@ -368,7 +370,7 @@ pub fn render_flat_display_until(
         return Ok(Some(FlatDisplay {
             plan: t.plan,
             stats: t.stats,
-            tone: t.tone,
+            tone: t.tone.params,
             display,
         }));
     }
@@ -391,9 +393,8 @@ pub struct PixelwiseTone {
     /// [`render_flat`]'s plan without `encode`.
     pub plan: StagePlan,
     pub stats: LuminanceStats,
-    pub tone: ToneParams,
-    to_xyz: [[f64; 3]; 3],
-    to_rgb: [[f64; 3]; 3],
+    /// The resolved operator, with its curve.
+    pub tone: Tone,
 }
 
 impl PixelwiseTone {
@@ -401,7 +402,7 @@ impl PixelwiseTone {
     /// takes).
     #[inline]
     pub fn display(&self, c: [f32; 3]) -> [f64; 3] {
-        tonemap::tonemap_pixel(c.map(f64::from), &self.tone, &self.to_xyz, &self.to_rgb)
+        self.tone.pixel(c.map(f64::from))
     }
 
     /// [`PixelwiseTone::display`] narrowed to f32, as an HDR file stores it.
@@ -431,7 +432,7 @@ pub fn pixelwise_tone(img: &HdrImage, p: &Pipeline) -> Option<Result<PixelwiseTo
     if !pixelwise {
         return None;
     }
-    let (weights, delta) = tonemap::operator_constants(p.operator);
+    let lum = p.operator.luminance();
     let mut stats = LuminanceStats::default();
     for stage in plan.stages() {
         if let Stage::LuminanceStats(needs) = stage {
@@ -440,21 +441,16 @@ pub fn pixelwise_tone(img: &HdrImage, p: &Pipeline) -> Option<Result<PixelwiseTo
                 img.width,
                 |c: [f32; 3]| c.map(f64::from),
                 *needs,
-                weights,
-                delta,
+                lum.weights,
+                lum.delta,
             );
         }
     }
-    Some(tonemap::resolve(p.operator, &stats).map(|tone| {
-        let to_xyz = tonemap::rgb_to_xyz(tone.weights);
-        PixelwiseTone {
-            plan,
-            stats,
-            tone,
-            to_xyz,
-            to_rgb: tonemap::invert3(to_xyz),
-        }
-    }))
+    Some(
+        p.operator
+            .resolve(&stats)
+            .map(|tone| PixelwiseTone { plan, stats, tone }),
+    )
 }
 
 /// [`render_flat`], stopping between stages when `stop` says so (`None`).

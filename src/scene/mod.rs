@@ -9,16 +9,14 @@ use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
 
 mod display;
-mod operator;
 mod sequence;
 mod taa;
 mod units;
 
 pub use crate::conventions::MAX_SPP;
+pub use crate::operators::reinhard::{ColourPath, DEFAULT_KEY, DEFAULT_WHITE_FRACTION};
+pub use crate::operators::Operator;
 pub use display::{Bloom, BrightPass, Encoding, Grade};
-pub use operator::{
-    ColourPath, Key, Operator, OperatorKind, OperatorParams, DEFAULT_KEY, DEFAULT_WHITE_FRACTION,
-};
 pub use sequence::{Environment, Rotation, MAX_FRAMES};
 pub use taa::{BlendSpace, FeedbackRule, HistoryFilter, Taa, TaaParams, TaaVariant};
 pub use units::{

@@ -1,5 +1,6 @@
 use super::*;
 use crate::check::Check;
+use crate::operators::Value;
 
 const MINIMAL: &str = r#"
 name = "t"
@@ -92,16 +93,16 @@ fn operator_variants_and_auto_key_parse() {
     let s = parse(&text).unwrap();
     assert_eq!(
         s.operator,
-        Operator::ReinhardAutoKey {
-            key: Key::Auto,
-            colour: ColourPath::Xyy
-        }
+        Operator::named(
+            "reinhard-auto-key",
+            &[("key", Value::Auto), ("colour", Value::Word("xyy"))]
+        )
+        .unwrap()
     );
     let text = format!("{MINIMAL}\n[operator]\nkind = \"seed001\"\nkey = 0.3\n");
     let s = parse(&text).unwrap();
-    assert!(
-        matches!(s.operator, Operator::ReinhardAutoKey { key: Key::Fixed(k), .. } if k.get() == 0.3)
-    );
+    assert_eq!(s.operator.name(), "reinhard-auto-key");
+    assert_eq!(s.operator.values().number("key"), Some(0.3));
 }
 
 /// Scene files written with the operators' and the bright pass's first

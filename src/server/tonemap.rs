@@ -45,6 +45,8 @@ pub(crate) fn parse_params(
     };
     let mut seen = std::collections::BTreeSet::new();
     let mut rest = Vec::new();
+    // The operator's parameters, from the operators' definitions.
+    let mut operator_params = crate::toning::OperatorParams::default();
     for (k, v) in pairs {
         if !seen.insert(k.clone()) {
             return Err(ApiError::bad(format!(
@@ -67,11 +69,13 @@ pub(crate) fn parse_params(
                     }
                 }
             }
+            name if crate::toning::OperatorParams::takes(name) => operator_params.set(name, v),
             _ => rest.push((k, v)),
         }
     }
     let encoded = serde_urlencoded::to_string(&rest).map_err(|e| ApiError::bad(e.to_string()))?;
-    let settings: ToneSettings = super::params::from_pairs(encoded.as_bytes())?;
+    let mut settings: ToneSettings = super::params::from_pairs(encoded.as_bytes())?;
+    settings.params = operator_params;
     Ok((extra, settings))
 }
 
@@ -294,7 +298,7 @@ fn respond(out: ToneOutput, json: bool, settings: &ToneSettings) -> Response {
         return axum::Json(body).into_response();
     }
     let mut headers = Vec::new();
-    let mut put = |name: &'static str, v: String| headers.push((name, v));
+    let mut put = |name: &str, v: String| headers.push((name.to_owned(), v));
     // JSON's rendering of a number, "none" where JSON has none (an infinite
     // white point: nothing burns).
     let num = |v: f64| match serde_json::Value::from(v) {
@@ -305,10 +309,12 @@ fn respond(out: ToneOutput, json: bool, settings: &ToneSettings) -> Response {
     put("x-tonegate-adapter", report.adapter.clone());
     put("x-tonegate-size", format!("{}x{}", out.width, out.height));
     put("x-tonegate-plan", report.plan.join(","));
-    put("x-tonegate-key", num(tone.key));
-    put("x-tonegate-log-average", num(tone.log_average));
-    put("x-tonegate-scale", num(tone.scale));
-    put("x-tonegate-white-sq", num(tone.white_sq));
+    // The operator and what it resolved for this image, one header each
+    // (`x-tonegate-log-average` for `log_average`).
+    put("x-tonegate-operator", tone.operator.to_owned());
+    for (name, v) in &tone.values {
+        put(&format!("x-tonegate-{}", name.replace('_', "-")), num(*v));
+    }
     put("x-tonegate-min-luminance", num(input.min_luminance));
     put("x-tonegate-max-luminance", num(input.max_luminance));
     put(
@@ -326,7 +332,10 @@ fn respond(out: ToneOutput, json: bool, settings: &ToneSettings) -> Response {
     )
         .into_response();
     for (name, v) in headers {
-        if let Ok(v) = HeaderValue::from_str(&v) {
+        if let (Ok(name), Ok(v)) = (
+            axum::http::HeaderName::try_from(name),
+            HeaderValue::from_str(&v),
+        ) {
             r.headers_mut().insert(name, v);
         }
     }

@@ -18,7 +18,6 @@ use crate::image::{HdrImage, LinearImage};
 use crate::io::LoadOptions;
 use crate::plan::{Input, StagePlan};
 use crate::reference::luminance_stats::LuminanceStats;
-use crate::reference::tonemap::operator_constants;
 use crate::reference::{render_flat, Pipeline};
 use crate::scene::Scene;
 use serde::Serialize;
@@ -254,20 +253,18 @@ pub fn run(cases: &[Case], ctx: Option<&GpuContext>, reduction: ReductionMethod)
                         // Plans are built valid: a fault is a tonegate bug, shown as a failed row.
                         Err(e) => cpu.observed = format!("error: {e}"),
                         Ok((_, out)) => {
-                            let (weights, delta) = operator_constants(pipeline.operator);
-                            let independent = independent_stats(&out.hdr, weights, delta);
+                            let lum = pipeline.operator.luminance();
+                            let independent = independent_stats(&out.hdr, lum.weights, lum.delta);
                             let err = stats_error(&out.stats, &independent);
                             cpu.finite = all_finite(&out.hdr)
                                 && all_finite(&out.toned)
                                 && all_finite(&out.display)
                                 && out.bloom.as_ref().is_none_or(all_finite)
-                                && out.tone.scale.is_finite()
-                                && out.tone.key.is_finite();
+                                && out.tone.sane();
                             cpu.max_rel_error = Some(err);
                             cpu.observed = format!(
-                                "key {:.4}, adaptation {:.4e}{}{}",
-                                out.tone.key,
-                                out.tone.log_average,
+                                "{}{}{}",
+                                resolved_text(&out.tone),
                                 if note.is_empty() { "" } else { "; " },
                                 note
                             );
@@ -320,23 +317,21 @@ pub fn run(cases: &[Case], ctx: Option<&GpuContext>, reduction: ReductionMethod)
                         Ok((notes, out, toned, display)) => {
                             let s = out.stats;
                             let got = s.luminance_stats();
+                            let tone = pipeline.operator.gpu_resolved(s.tone);
                             // Only what the plan measured is compared.
                             let want = reference.stats;
                             let mut err = stats_error(&got, &want);
                             if want.log_average.is_some() || want.weighted_log_average.is_some() {
-                                err = err.max(rel(s.adaptation as f64, reference.tone.log_average));
+                                if let (Some(g), Some(w)) =
+                                    (tone.get("log_average"), reference.tone.get("log_average"))
+                                {
+                                    err = err.max(rel(g, w));
+                                }
                             }
-                            gpu.finite = [
-                                s.log_average,
-                                s.weighted_log_average,
-                                s.min,
-                                s.max,
-                                s.key,
-                                s.adaptation,
-                                s.scale,
-                            ]
-                            .iter()
-                            .all(|v| v.is_finite())
+                            gpu.finite = [s.log_average, s.weighted_log_average, s.min, s.max]
+                                .iter()
+                                .all(|v| v.is_finite())
+                                && tone.sane()
                                 && toned.as_ref().is_none_or(all_finite)
                                 && display.as_ref().is_none_or(all_finite);
                             gpu.max_rel_error = Some(err);
@@ -346,9 +341,8 @@ pub fn run(cases: &[Case], ctx: Option<&GpuContext>, reduction: ReductionMethod)
                                     .ok()
                             });
                             gpu.observed = format!(
-                                "key {:.4}, adaptation {:.4e}{}{}",
-                                s.key,
-                                s.adaptation,
+                                "{}{}{}",
+                                resolved_text(&tone),
                                 if notes.is_empty() { "" } else { "; " },
                                 notes.join("; ")
                             );
@@ -403,4 +397,18 @@ pub fn table(r: &StressReport) -> String {
         r.adapter.as_deref().unwrap_or("none (CPU only)")
     );
     out
+}
+
+/// A row's resolved values: "key 0.1800, log_average 1.2346e-1, …".
+fn resolved_text(tone: &crate::operators::ToneParams) -> String {
+    let parts: Vec<String> = tone
+        .values
+        .iter()
+        .map(|(n, v)| match *n {
+            "key" => format!("key {v:.4}"),
+            "log_average" => format!("adaptation {v:.4e}"),
+            _ => format!("{n} {v:.4e}"),
+        })
+        .collect();
+    parts.join(", ")
 }

@@ -7,7 +7,7 @@
 
 pub mod settings;
 
-pub use settings::{Preset, Resolved, ToneSettings};
+pub use settings::{OperatorParams, Preset, Resolved, ToneSettings};
 
 use crate::error::{Error, Result};
 use crate::gpu::{GpuConfig, GpuContext, RendererPool};
@@ -224,12 +224,24 @@ pub fn tone_map_until<'i>(
                         );
                         let frame = t.frame(img, pipeline.encoding);
                         Toned {
-                            report: report(cpu, TonePath::Pixelwise, &plan, t.stats, t.tone),
+                            report: report(
+                                cpu,
+                                TonePath::Pixelwise,
+                                &plan,
+                                t.stats,
+                                t.tone.params.clone(),
+                            ),
                             image: TonedImage::Encoded(frame),
                         }
                     }
                     OutputKind::Linear => Toned {
-                        report: report(cpu, TonePath::Pixelwise, &t.plan, t.stats, t.tone),
+                        report: report(
+                            cpu,
+                            TonePath::Pixelwise,
+                            &t.plan,
+                            t.stats,
+                            t.tone.params.clone(),
+                        ),
                         image: TonedImage::Mapped {
                             tone: Box::new(t),
                             input: img,
@@ -302,19 +314,8 @@ fn gpu_flat<'i>(
     renderers.release_oversize();
     let (out, display) = rendered?;
     let s = out.stats;
-    let (weights, _) = crate::reference::tonemap::operator_constants(pipeline.operator);
-    let tone = ToneParams {
-        key: s.key as f64,
-        log_average: s.adaptation as f64,
-        scale: s.scale as f64,
-        white_sq: if s.white > 0.0 && s.white.is_finite() {
-            (s.white as f64).powi(2)
-        } else {
-            f64::INFINITY
-        },
-        weights,
-        colour: pipeline.operator.colour(),
-    };
+    let tone = pipeline.operator.gpu_resolved(s.tone);
+
     let image = match (display, out.frame) {
         (Some(display), _) => TonedImage::Linear(display),
         (None, Some(frame)) => TonedImage::Encoded(frame),

@@ -3,10 +3,11 @@
 //! and their resolution into an operator, bloom, grade and encoding.
 
 use crate::error::{Error, Result};
+use crate::operators;
 use crate::reference::Pipeline;
 use crate::scene::{
-    Bloom, BrightPass, ColourPath, Encoding, Factor, Grade, Key, NonNegative, Operator,
-    OperatorKind, OperatorParams, Positive, Radius, DEFAULT_KEY,
+    Bloom, BrightPass, Encoding, Factor, Grade, NonNegative, Operator, Positive, Radius,
+    DEFAULT_KEY,
 };
 use serde::{Deserialize, Serialize};
 
@@ -37,28 +38,18 @@ impl Preset {
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 #[serde(default, deny_unknown_fields)]
 pub struct ToneSettings {
-    /// A preset that fixes the operator (overrides --operator and --colour).
+    /// A preset that fixes the operator (overrides --operator and its parameters but key).
     #[cfg_attr(feature = "cli", arg(long, value_enum))]
     pub preset: Option<Preset>,
-    #[cfg_attr(
-        feature = "cli",
-        arg(long, value_enum, default_value = "reinhard-global")
-    )]
-    pub operator: OperatorKind,
-    /// Key a (a number, or "auto": reinhard-auto-key's automatic key, its default).
-    #[cfg_attr(feature = "cli", arg(long))]
-    pub key: Option<String>,
-    /// ReinhardGlobal: fraction of the scene maximum that maps to white, (0, 1].
-    #[cfg_attr(feature = "cli", arg(long))]
-    pub white_fraction: Option<f64>,
-    /// reinhard02: absolute Lwhite (default: the maximum scaled luminance).
-    #[cfg_attr(feature = "cli", arg(long))]
-    pub white: Option<f64>,
-    /// Fixed adaptation luminance instead of the measured log-average.
-    #[cfg_attr(feature = "cli", arg(long))]
-    pub log_average: Option<f64>,
-    #[cfg_attr(feature = "cli", arg(long, value_enum, default_value = "ratio"))]
-    pub colour: ColourPath,
+    /// The operator (`tonegate operators` lists them with their parameters).
+    #[cfg_attr(feature = "cli", arg(long, default_value = "reinhard-global"))]
+    pub operator: String,
+    /// The operator's parameters as given, by name, as text: one flag per
+    /// parameter any operator takes (`--white-fraction`), one API parameter
+    /// each (`white_fraction`); made from the operators' definitions.
+    #[cfg_attr(feature = "cli", command(flatten))]
+    #[serde(skip_deserializing, flatten)]
+    pub params: OperatorParams,
     /// Bloom strength k (0 = no bloom).
     #[cfg_attr(feature = "cli", arg(long, default_value_t = 0.0))]
     pub bloom: f64,
@@ -93,12 +84,8 @@ impl Default for ToneSettings {
     fn default() -> Self {
         ToneSettings {
             preset: None,
-            operator: OperatorKind::ReinhardGlobal,
-            key: None,
-            white_fraction: None,
-            white: None,
-            log_average: None,
-            colour: ColourPath::Ratio,
+            operator: "reinhard-global".to_owned(),
+            params: OperatorParams::default(),
             bloom: 0.0,
             bloom_pass: None,
             bloom_threshold: None,
@@ -133,6 +120,85 @@ impl Resolved {
     }
 }
 
+/// An operator's parameters as text, by name, in the order given.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct OperatorParams(pub Vec<(String, String)>);
+
+impl OperatorParams {
+    /// Parameter `name` set to `value` (as a flag or query would give it).
+    pub fn set(&mut self, name: &str, value: impl ToString) {
+        self.0.retain(|(n, _)| n != name);
+        self.0.push((name.to_owned(), value.to_string()));
+    }
+
+    /// Whether `name` is the name of some operator's parameter.
+    pub fn takes(name: &str) -> bool {
+        operators::all_params().iter().any(|(p, _)| p.name == name)
+    }
+}
+
+impl Serialize for OperatorParams {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        let mut m = s.serialize_map(Some(self.0.len()))?;
+        for (n, v) in &self.0 {
+            m.serialize_entry(n, v)?;
+        }
+        m.end()
+    }
+}
+
+/// One flag per parameter any operator takes, from the operators'
+/// definitions (`--white-fraction` for `white_fraction`), with the
+/// operators that take it and its range in the help.
+#[cfg(feature = "cli")]
+impl clap::FromArgMatches for OperatorParams {
+    fn from_arg_matches(m: &clap::ArgMatches) -> std::result::Result<Self, clap::Error> {
+        let mut out = OperatorParams::default();
+        for (p, _) in operators::all_params() {
+            if let Ok(Some(v)) = m.try_get_one::<String>(p.name) {
+                out.0.push((p.name.to_owned(), v.clone()));
+            }
+        }
+        Ok(out)
+    }
+    fn update_from_arg_matches(
+        &mut self,
+        m: &clap::ArgMatches,
+    ) -> std::result::Result<(), clap::Error> {
+        *self = Self::from_arg_matches(m)?;
+        Ok(())
+    }
+}
+
+#[cfg(feature = "cli")]
+impl clap::Args for OperatorParams {
+    fn augment_args(cmd: clap::Command) -> clap::Command {
+        let mut cmd = cmd;
+        for (p, by) in operators::all_params() {
+            let long: &'static str = Box::leak(p.name.replace('_', "-").into_boxed_str());
+            let help = format!(
+                "{} ({}; {}): {}",
+                p.name,
+                by.join(", "),
+                p.expected(),
+                p.doc
+            );
+            cmd = cmd.arg(
+                clap::Arg::new(p.name)
+                    .long(long)
+                    .value_name("VALUE")
+                    .help(help)
+                    .help_heading("Operator parameters"),
+            );
+        }
+        cmd
+    }
+    fn augment_args_for_update(cmd: clap::Command) -> clap::Command {
+        Self::augment_args(cmd)
+    }
+}
+
 fn invalid(msg: impl Into<String>) -> Error {
     Error::Invalid(msg.into())
 }
@@ -146,6 +212,19 @@ fn non_negative(name: &str, v: f64) -> Result<NonNegative> {
 }
 
 impl ToneSettings {
+    /// The default settings with operator `name` and its parameters as
+    /// text (as flags or query parameters give them).
+    pub fn for_operator(name: &str, params: &[(&str, &str)]) -> ToneSettings {
+        let mut s = ToneSettings {
+            operator: name.to_owned(),
+            ..Default::default()
+        };
+        for (n, v) in params {
+            s.params.set(n, v);
+        }
+        s
+    }
+
     /// Checks every value and builds the operator, bloom, grade and encoding;
     /// the error names the parameter and what it must be.
     pub fn resolve(&self) -> Result<Resolved> {
@@ -165,57 +244,41 @@ impl ToneSettings {
     }
 
     /// The operator: each value checked (and named in the error) whether
-    /// or not it applies, then [`Operator::try_from`] decides what applies
+    /// or not it applies, then [`Operator::from_text`] decides what applies
     /// to which operator, the defaults and the ranges.
     fn operator(&self) -> Result<Operator> {
-        let key = match self.key.as_deref() {
-            None => None,
-            Some("auto") => Some(Key::Auto),
-            Some(s) => {
-                let v: f64 = s.parse().map_err(|_| {
-                    invalid(format!("key: expected a number or \"auto\", got {s:?}"))
-                })?;
-                Some(Key::Fixed(positive("key", v)?))
-            }
+        let def = operators::find(&self.operator).ok_or_else(|| {
+            invalid(format!(
+                "operator: unknown operator {:?}; expected one of {}",
+                self.operator,
+                operators::names().join(", ")
+            ))
+        })?;
+        let Some(preset) = self.preset else {
+            return Operator::from_text(def, &self.params.0).map_err(invalid);
         };
-        let optional = |name: &str, v: Option<f64>| v.map(|v| positive(name, v)).transpose();
-        let params = OperatorParams {
-            kind: self.operator,
-            key,
-            white_fraction: optional("white_fraction", self.white_fraction)?,
-            white: optional("white", self.white)?,
-            log_average: optional("log_average", self.log_average)?,
-            max_luminance: None,
-            colour: self.colour,
-            pfs_compatible: None,
-        };
-        if let Some(preset) = self.preset {
-            let fixed = [
-                ("white", params.white.is_some()),
-                ("white_fraction", params.white_fraction.is_some()),
-                ("log_average", params.log_average.is_some()),
-            ];
-            if let Some((name, _)) = fixed.iter().find(|(_, given)| *given) {
-                return Err(invalid(format!(
-                    "{name}: the preset {} fixes the operator's parameters; give only key",
-                    preset.as_str()
-                )));
-            }
-            let key = match params.key {
-                None => DEFAULT_KEY,
-                Some(Key::Fixed(v)) => v.get(),
-                Some(Key::Auto) => {
-                    return Err(invalid(format!(
-                        "key: the preset {} needs a number",
-                        preset.as_str()
-                    )))
-                }
-            };
-            return match preset {
-                Preset::Reinhard02 => Operator::reinhard02_preset(key).map_err(invalid),
-            };
+        if let Some((name, _)) = self.params.0.iter().find(|(n, _)| n != "key") {
+            return Err(invalid(format!(
+                "{name}: the preset {} fixes the operator's parameters; give only key",
+                preset.as_str()
+            )));
         }
-        Operator::try_from(params).map_err(invalid)
+        let key = match self.params.0.iter().find(|(n, _)| n == "key") {
+            None => DEFAULT_KEY,
+            Some((_, text)) if text.trim() == "auto" => {
+                return Err(invalid(format!(
+                    "key: the preset {} needs a number",
+                    preset.as_str()
+                )))
+            }
+            Some((_, text)) => text
+                .trim()
+                .parse::<f64>()
+                .map_err(|_| invalid(format!("key: expected a number, got {text:?}")))?,
+        };
+        match preset {
+            Preset::Reinhard02 => operators::reinhard02_preset(key).map_err(invalid),
+        }
     }
 
     /// These settings with the bloom's refinements filled in with the values
@@ -289,17 +352,26 @@ mod tests {
     fn unknown_and_bad_parameters_are_refused_by_name() {
         let e = serde_json::from_str::<ToneSettings>(r#"{"kee": 0.2}"#).unwrap_err();
         assert!(e.to_string().contains("unknown field `kee`"), "{e}");
+        let mut s = ToneSettings::default();
+        s.params.set("white_fraction", 1.5);
+        let e = s.resolve().unwrap_err().to_string();
+        assert!(e.contains("white_fraction") && e.contains("1.5"), "{e}");
+        let mut s = ToneSettings::default();
+        s.params.set("key", "bright");
+        assert!(s.resolve().unwrap_err().to_string().contains("key"));
         let s = ToneSettings {
-            white_fraction: Some(1.5),
+            operator: "reinhard-glob".into(),
             ..Default::default()
         };
         let e = s.resolve().unwrap_err().to_string();
-        assert!(e.contains("white_fraction") && e.contains("1.5"), "{e}");
-        let s = ToneSettings {
-            key: Some("bright".into()),
-            ..Default::default()
-        };
-        assert!(s.resolve().unwrap_err().to_string().contains("key"));
+        assert!(
+            e.contains("unknown operator") && e.contains("reinhard02"),
+            "{e}"
+        );
+        let mut s = ToneSettings::default();
+        s.params.set("kee", 0.2);
+        let e = s.resolve().unwrap_err().to_string();
+        assert!(e.contains("unknown parameter \"kee\""), "{e}");
         let s = ToneSettings {
             gamma: Some(f64::NAN),
             ..Default::default()
@@ -340,58 +412,68 @@ mod tests {
     #[test]
     fn a_value_is_checked_and_applies_to_its_operator_whatever_the_operator() {
         fn with(
-            op: OperatorKind,
-            f: impl FnOnce(&mut ToneSettings),
+            op: &str,
+            given: &[(&str, &str)],
+            preset: Option<Preset>,
         ) -> std::result::Result<(), String> {
             let mut s = ToneSettings {
-                operator: op,
+                operator: op.to_owned(),
+                preset,
                 ..Default::default()
             };
-            f(&mut s);
+            for (n, v) in given {
+                s.params.set(n, v);
+            }
             s.resolve().map(|_| ()).map_err(|e| e.to_string())
         }
-        for op in [
-            OperatorKind::ReinhardGlobal,
-            OperatorKind::ReinhardAutoKey,
-            OperatorKind::Reinhard02,
-        ] {
-            for bad in [-1.0, 0.0, f64::INFINITY, f64::NAN] {
-                let e = with(op, |s| s.white = Some(bad)).unwrap_err();
-                assert!(e.starts_with("white:"), "{op:?} {bad}: {e}");
-                let e = with(op, |s| s.log_average = Some(bad)).unwrap_err();
-                assert!(e.starts_with("log_average:"), "{op:?} {bad}: {e}");
-                let e = with(op, |s| s.white_fraction = Some(bad)).unwrap_err();
-                assert!(e.starts_with("white_fraction:"), "{op:?} {bad}: {e}");
+        for op in ["reinhard-global", "reinhard-auto-key", "reinhard02"] {
+            for bad in ["-1", "0", "inf", "NaN"] {
+                for name in ["white", "log_average", "white_fraction"] {
+                    let e = with(op, &[(name, bad)], None).unwrap_err();
+                    assert!(e.starts_with(&format!("{name}:")), "{op} {bad}: {e}");
+                }
             }
         }
-        let e = with(OperatorKind::ReinhardGlobal, |s| s.white = Some(4.0)).unwrap_err();
+        let e = with("reinhard-global", &[("white", "4")], None).unwrap_err();
         assert!(
             e.contains("white: applies to operator reinhard02 only, not reinhard-global"),
             "{e}"
         );
-        let e = with(OperatorKind::Reinhard02, |s| s.white_fraction = Some(0.5)).unwrap_err();
+        let e = with("reinhard02", &[("white_fraction", "0.5")], None).unwrap_err();
         assert!(
             e.contains("applies to operator reinhard-global only"),
             "{e}"
         );
-        let e = with(OperatorKind::ReinhardAutoKey, |s| s.log_average = Some(0.2)).unwrap_err();
+        let e = with("reinhard-auto-key", &[("log_average", "0.2")], None).unwrap_err();
         assert!(e.contains("reinhard-global and reinhard02"), "{e}");
-        let e = with(OperatorKind::ReinhardGlobal, |s| {
-            s.key = Some("auto".into())
-        })
-        .unwrap_err();
+        let e = with("reinhard-global", &[("key", "auto")], None).unwrap_err();
         assert!(e.contains("reinhard-auto-key only"), "{e}");
-        let e = with(OperatorKind::ReinhardGlobal, |s| {
-            s.preset = Some(Preset::Reinhard02);
-            s.white = Some(4.0);
-        })
+        let e = with(
+            "reinhard-global",
+            &[("white", "4")],
+            Some(Preset::Reinhard02),
+        )
         .unwrap_err();
         assert!(e.contains("preset reinhard02"), "{e}");
-        with(OperatorKind::Reinhard02, |s| s.white = Some(4.0)).unwrap();
-        with(OperatorKind::ReinhardGlobal, |s| {
-            s.white_fraction = Some(0.5)
-        })
-        .unwrap();
-        with(OperatorKind::ReinhardGlobal, |s| s.log_average = Some(0.2)).unwrap();
+        with("reinhard02", &[("white", "4")], None).unwrap();
+        with("reinhard-global", &[("white_fraction", "0.5")], None).unwrap();
+        with("reinhard-global", &[("log_average", "0.2")], None).unwrap();
+    }
+
+    /// The preset is pfstmo_reinhard02's operator with the key given, and
+    /// the key alone.
+    #[test]
+    fn the_preset_takes_a_key_and_nothing_else() {
+        let mut s = ToneSettings {
+            preset: Some(Preset::Reinhard02),
+            ..Default::default()
+        };
+        s.params.set("key", 0.3);
+        let op = s.resolve().unwrap().operator;
+        assert_eq!(op, crate::operators::reinhard02_preset(0.3).unwrap());
+        assert!(op.values().flag("pfs_compatible"));
+        s.params.set("key", "auto");
+        let e = s.resolve().unwrap_err().to_string();
+        assert!(e.contains("preset reinhard02 needs a number"), "{e}");
     }
 }

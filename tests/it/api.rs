@@ -319,9 +319,8 @@ async fn tonemap_returns_the_reference_image_and_refuses_bad_input() {
     );
     let cpu_png = r.bytes().await.unwrap();
     let settings = tonegate::toning::ToneSettings {
-        key: Some("0.25".into()),
         bloom: 0.2,
-        ..Default::default()
+        ..tonegate::toning::ToneSettings::for_operator("reinhard-global", &[("key", "0.25")])
     };
     let (img, _) = tonegate::io::decode_hdr(&hdr, "x", &Default::default()).unwrap();
     let resolved = settings.resolve().unwrap();
@@ -403,12 +402,13 @@ async fn tonemap_returns_the_reference_image_and_refuses_bad_input() {
         .await
         .unwrap();
     assert_eq!(r.status(), StatusCode::OK);
-    let white_sq: f64 = r.headers()["x-tonegate-white-sq"]
+    let white: f64 = r.headers()["x-tonegate-white"]
         .to_str()
         .unwrap()
         .parse()
         .unwrap();
-    assert_eq!(white_sq, 16.0);
+    assert_eq!(white, 4.0);
+    assert_eq!(r.headers()["x-tonegate-operator"], "reinhard02");
 
     // OpenEXR bodies too (ZIP-compressed f32).
     let img =

@@ -213,7 +213,8 @@ fn each_stage_matches_its_reference_on_the_same_input() {
                 "{name} sphere: an error {worst:.2}x its bound"
             );
             // luminance_stats: f32 compensated sums vs the f64 reference, 1e-5 relative.
-            let (weights, delta) = tonemap::operator_constants(pipeline.operator);
+            let lum = pipeline.operator.luminance();
+            let (weights, delta) = (lum.weights, lum.delta);
             let mut cpu_stats = Default::default();
             if let Some(Stage::LuminanceStats(needs)) =
                 plan.stages().iter().find(|s| s.name() == "luminance_stats")
@@ -242,13 +243,14 @@ fn each_stage_matches_its_reference_on_the_same_input() {
                 }
             }
             // tonemap: the curve in f32 against f64 with the same statistics.
-            let params = tonemap::resolve(pipeline.operator, &cpu_stats).unwrap();
-            assert!(
-                rel(gpu.stats.scale as f64, params.scale) <= 2e-5,
-                "{name} scale {} vs {}",
-                gpu.stats.scale,
-                params.scale
-            );
+            // Every value the operator resolves, GPU (f32) against f64: the
+            // statistics' 1e-5 doubled.
+            let params = pipeline.operator.resolve(&cpu_stats).unwrap();
+            let gpu_params = pipeline.operator.gpu_resolved(gpu.stats.tone);
+            for (n, want) in &params.params.values {
+                let got = gpu_params.get(n).unwrap_or(f64::NAN);
+                assert!(rel(got, *want) <= 2e-5, "{name} {n} {got} vs {want}");
+            }
             let cpu_toned = tonemap::tonemap(&hdr, &params);
             let toned = r.read_output("tonemap").unwrap().unwrap();
             let (out, worst) = fraction_outside(&toned, &cpu_toned, 1e-4, 1e-6);
@@ -332,10 +334,7 @@ fn each_stage_matches_its_reference_on_the_same_input() {
 #[test]
 fn every_reduction_agrees_with_f64_on_odd_and_prime_sizes() {
     let ctx = context();
-    let op = tonegate::scene::Operator::ReinhardAutoKey {
-        key: tonegate::scene::Key::Auto,
-        colour: tonegate::scene::ColourPath::Ratio,
-    };
+    let op = tonegate::scene::Operator::named("reinhard-auto-key", &[]).unwrap();
     let pipeline = Pipeline {
         operator: &op,
         bloom: None,
@@ -359,8 +358,8 @@ fn every_reduction_agrees_with_f64_on_odd_and_prime_sizes() {
         let Some(Stage::LuminanceStats(needs)) = plan.stages().first().cloned() else {
             panic!("seed001 needs statistics");
         };
-        let (weights, delta) = tonemap::operator_constants(&op);
-        let cpu = luminance_stats::luminance_stats(&img.to_linear(), needs, weights, delta);
+        let lum = op.luminance();
+        let cpu = luminance_stats::luminance_stats(&img.to_linear(), needs, lum.weights, lum.delta);
         for reduction in [
             ReductionMethod::BlockPartials,
             ReductionMethod::PingPong,
@@ -435,9 +434,12 @@ fn a_wrong_gpu_render_fails_the_comparison() {
         .unwrap();
     let env = scene_environment(&scene).unwrap();
     let cpu = reference::render_frame(&scene, &env, 3, 1).unwrap();
-    if let tonegate::scene::Operator::ReinhardGlobal { key, .. } = &mut scene.operator {
-        *key = tonegate::scene::Positive::try_from(key.get() * 1.02).unwrap();
-    }
+    let key = scene.operator.values().number("key").unwrap();
+    scene.operator = tonegate::scene::Operator::with(
+        scene.operator.definition_arc(),
+        &[("key", tonegate::operators::Value::Number(key * 1.02))],
+    )
+    .unwrap();
     let r = common::scene_renderer(&ctx, &scene, &env, GpuConfig::default());
     r.set_rotation(&rotation_matrix(scene.rotation.axis, scene.angle(3)));
     let frame = r.render(true).unwrap().frame.unwrap();
@@ -633,7 +635,7 @@ fn bloom_blur_matches_at_odd_sizes_and_every_radius() {
         r.render(false).unwrap();
         let toned = r.read_output("tonemap").unwrap().unwrap();
         let blurred = r.read_output("bloom_blur").unwrap().unwrap();
-        let (weights, _) = tonemap::operator_constants(pipeline.operator);
+        let weights = pipeline.operator.luminance().weights;
         let bright = reference::bloom_bright::bloom_bright(
             &toned,
             bloom.bright_pass,
@@ -767,7 +769,6 @@ fn fused_execution_renders_the_staged_frames() {
 fn subnormal_luminance_is_toned_to_zero_on_both_renderers() {
     use tonegate::color::{luminance_with, SMALLEST_NORMAL};
     use tonegate::image::HdrImage;
-    use tonegate::scene::{ColourPath, OperatorKind};
     use tonegate::toning::ToneSettings;
 
     let ctx = context();
@@ -785,24 +786,21 @@ fn subnormal_luminance_is_toned_to_zero_on_both_renderers() {
             [v, v * 0.5, v * 0.25]
         }
     });
-    for (operator, colour) in [
-        (OperatorKind::ReinhardAutoKey, ColourPath::Ratio),
-        (OperatorKind::ReinhardGlobal, ColourPath::Xyy),
-    ] {
-        let settings = ToneSettings {
-            operator,
-            colour,
+    for (operator, colour) in [("reinhard-auto-key", "ratio"), ("reinhard-global", "xyy")] {
+        let mut settings = ToneSettings {
+            operator: operator.into(),
             bloom: 0.3,
             contrast: 1.1,
             ..Default::default()
         };
+        settings.params.set("colour", colour);
         let resolved = settings.resolve().unwrap();
         let pipeline = resolved.pipeline();
         let r = flat_renderer(&ctx, &img, &pipeline);
         let gpu = r.render(true).unwrap();
         let toned = r.read_output("tonemap").unwrap().unwrap();
         let (_, cpu) = reference::render_flat(&img, &pipeline).unwrap();
-        let (weights, _) = tonemap::operator_constants(pipeline.operator);
+        let weights = pipeline.operator.luminance().weights;
         let mut zeroed = 0;
         for (i, p) in img.pixels.iter().enumerate() {
             let c = [f64::from(p[0]), f64::from(p[1]), f64::from(p[2])];
@@ -974,13 +972,13 @@ fn kept_renderers_render_what_fresh_ones_do() {
     let ctx = context();
     // reinhard-auto-key's automatic key reads the minimum, the maximum and the
     // weighted log-average; the bloom and the grade's mean read the frame.
-    let settings = ToneSettings {
-        operator: tonegate::scene::OperatorKind::ReinhardAutoKey,
-        key: Some("auto".into()),
+    let mut settings = ToneSettings {
+        operator: "reinhard-auto-key".into(),
         bloom: 0.04,
         contrast: 1.2,
         ..Default::default()
     };
+    settings.params.set("key", "auto");
     let resolved = settings.resolve().unwrap();
     let pipeline = resolved.pipeline();
     let (w, h) = (129, 67);

@@ -1,0 +1,521 @@
+//! Tone-mapping operators: one public type, [`ToneOperator`], that each
+//! operator implements once (docs/operators.md).
+//!
+//! An operator's definition holds everything the rest of tonegate derives:
+//! its name and parameters (with their ranges and defaults), from which come
+//! the scene keys, the `tonemap` flags, the API's parameters and its schema;
+//! the statistics it needs and how it resolves them ([`ToneOperator::resolve`],
+//! the f64 reference); its WGSL, which the `tonemap` stage and the fused
+//! kernels include; and its documentation line. Nothing else in tonegate
+//! matches on which operator it is: the operator is a pipeline key that
+//! selects the WGSL, and everything else goes through this trait.
+//!
+//! Built-in operators are in [`builtin`]; a caller's own operator (in its
+//! own crate, `examples/own_operator.rs`) is added with [`register`] and then
+//! gets the whole harness: scene files, goldens from its f64 reference, the
+//! GPU held to it, stress rows and `tradeoff`.
+
+mod params;
+pub mod reinhard;
+mod reinhard02;
+mod reinhard_auto_key;
+mod reinhard_global;
+
+pub use params::{Kind, Param, Range, Value, Values};
+pub use reinhard02::preset as reinhard02_preset;
+
+use crate::plan::{PlanError, StatsNeeds};
+use crate::reference::luminance_stats::LuminanceStats;
+use serde::ser::SerializeMap;
+use serde::{Deserialize, Serialize};
+use std::sync::{Arc, OnceLock, RwLock};
+
+/// The luminance an operator's statistics are measured in: the weights of
+/// Y = w·RGB and the offset δ of the log-averages (ln(δ + Y)).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Luminance {
+    /// Y = weights · (R, G, B).
+    pub weights: [f64; 3],
+    /// δ in ln(δ + Y).
+    pub delta: f64,
+}
+
+impl Luminance {
+    /// BT.709 weights and δ = 1e-4 (the image-processing lecture,
+    /// docs/bibliography.md): what every operator measures in unless it says
+    /// otherwise.
+    pub const BT709: Luminance = Luminance {
+        weights: crate::color::BT709,
+        delta: reinhard::DELTA,
+    };
+}
+
+/// The f64 per-pixel function an operator resolves to for one frame: from
+/// linear scene RGB to linear display RGB (1 = the display's white for an
+/// SDR operator).
+pub trait Curve: Send + Sync {
+    /// The display colour of scene colour `c`. Must not return NaN for any
+    /// finite or infinite input, and must map black to black.
+    fn pixel(&self, c: [f64; 3]) -> [f64; 3];
+}
+
+/// What [`ToneOperator::resolve`] makes of one frame: the numbers it resolved
+/// (for reports and for comparing with the GPU's) and the curve itself.
+pub struct Resolution {
+    /// Named resolved values, in the order of
+    /// [`ToneOperator::resolved_names`].
+    pub values: Vec<(&'static str, f64)>,
+    /// The per-pixel function.
+    pub curve: Box<dyn Curve>,
+}
+
+/// A tone-mapping operator: the one type every operator implements,
+/// built-in or a caller's own.
+///
+/// The WGSL ([`ToneOperator::wgsl`]) must define
+/// - `struct OperatorConfig`, the uniform the host writes from
+///   [`ToneOperator::gpu_config`] (as many f32 as the struct holds, in
+///   WGSL's uniform layout);
+/// - `fn operator_resolve(s: Stats) -> vec4<f32>`, run once per frame on
+///   the measured statistics (`Stats` is shaders/shared/stats.wgsl's), whose
+///   result reaches every pixel;
+/// - `fn operator_pixel(c: vec3<f32>, r: vec4<f32>) -> vec3<f32>`, the curve
+///   for linear colour `c` and the resolved `r`.
+///
+/// Both functions may read the uniform `config: OperatorConfig`. The source
+/// may `//#include shared/<file>.wgsl` (colour.wgsl has `SMALLEST_NORMAL`
+/// and `luminance_with`) and declare `override` constants, which
+/// [`ToneOperator::gpu_constants`] sets.
+pub trait ToneOperator: Send + Sync + 'static {
+    /// The name scene files, flags and the API use (`kind = "…"`).
+    fn name(&self) -> &'static str;
+    /// Other names accepted for it (earlier names of the same operator).
+    fn aliases(&self) -> &'static [&'static str] {
+        &[]
+    }
+    /// One line for documentation, `--help` and the API schema.
+    fn summary(&self) -> &'static str;
+    /// Its parameters, in the order a scene file is written back in.
+    fn params(&self) -> &'static [Param];
+    /// Checks between parameters, beyond each one's own range.
+    fn check(&self, _values: &Values) -> Result<(), String> {
+        Ok(())
+    }
+    /// The luminance its statistics are measured in.
+    fn luminance(&self, _values: &Values) -> Luminance {
+        Luminance::BT709
+    }
+    /// The statistics it needs measured (none for a fixed curve).
+    fn needs(&self, values: &Values) -> StatsNeeds;
+    /// The names of the (at most four) values it resolves per frame, in the
+    /// order of `operator_resolve`'s vec4.
+    fn resolved_names(&self) -> &'static [&'static str];
+    /// The f64 reference: the frame's resolved values and curve. A statistic
+    /// the operator needs but `stats` lacks is a [`PlanError`].
+    fn resolve(&self, values: &Values, stats: &LuminanceStats) -> Result<Resolution, PlanError>;
+    /// The GPU's resolved vec4 as reported values (by default the
+    /// [`ToneOperator::resolved_names`] in order).
+    fn gpu_resolved(&self, _values: &Values, slots: [f32; 4]) -> Vec<(&'static str, f64)> {
+        self.resolved_names()
+            .iter()
+            .zip(slots)
+            .map(|(n, v)| (*n, v as f64))
+            .collect()
+    }
+    /// The WGSL module (see the trait's documentation).
+    fn wgsl(&self) -> &'static str;
+    /// The `OperatorConfig` uniform's contents for these values.
+    fn gpu_config(&self, values: &Values) -> Vec<f32>;
+    /// The module's override constants for these values.
+    fn gpu_constants(&self, _values: &Values) -> Vec<(&'static str, f64)> {
+        Vec::new()
+    }
+}
+
+impl std::fmt::Debug for dyn ToneOperator {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// The built-in operators, the default first.
+pub fn builtin() -> Vec<Arc<dyn ToneOperator>> {
+    vec![
+        Arc::new(reinhard_global::ReinhardGlobal),
+        Arc::new(reinhard_auto_key::ReinhardAutoKey),
+        Arc::new(reinhard02::Reinhard02),
+    ]
+}
+
+fn registry() -> &'static RwLock<Vec<Arc<dyn ToneOperator>>> {
+    static REGISTRY: OnceLock<RwLock<Vec<Arc<dyn ToneOperator>>>> = OnceLock::new();
+    REGISTRY.get_or_init(|| RwLock::new(builtin()))
+}
+
+/// Every operator known: the built-in ones, then the registered ones.
+pub fn all() -> Vec<Arc<dyn ToneOperator>> {
+    registry().read().unwrap_or_else(|e| e.into_inner()).clone()
+}
+
+/// The operator called `name` (or one of its aliases).
+pub fn find(name: &str) -> Option<Arc<dyn ToneOperator>> {
+    all()
+        .into_iter()
+        .find(|o| o.name() == name || o.aliases().contains(&name))
+}
+
+/// The names of every operator, for messages and help.
+pub fn names() -> Vec<&'static str> {
+    all().iter().map(|o| o.name()).collect()
+}
+
+/// Adds a caller's operator, so that scene files, flags and the API know
+/// it. Refused when its name (or an alias) is taken, when a parameter
+/// shares a name with another operator's parameter of another kind (a
+/// `--flag` means one thing), or when its defaults are out of its ranges.
+pub fn register(op: Arc<dyn ToneOperator>) -> Result<(), String> {
+    let mut ops = registry().write().unwrap_or_else(|e| e.into_inner());
+    admissible(&ops, op.as_ref())?;
+    ops.push(op);
+    Ok(())
+}
+
+fn admissible(known: &[Arc<dyn ToneOperator>], op: &dyn ToneOperator) -> Result<(), String> {
+    let new_names = std::iter::once(op.name()).chain(op.aliases().iter().copied());
+    for name in new_names {
+        if params::RESERVED.contains(&name) || name.is_empty() {
+            return Err(format!("operator name {name:?} is not allowed"));
+        }
+        if let Some(o) = known
+            .iter()
+            .find(|o| o.name() == name || o.aliases().contains(&name))
+        {
+            return Err(format!("operator {name:?} is taken (by {})", o.name()));
+        }
+    }
+    if op.resolved_names().len() > 4 {
+        return Err(format!(
+            "operator {}: at most 4 resolved values, got {}",
+            op.name(),
+            op.resolved_names().len()
+        ));
+    }
+    for p in op.params() {
+        params::check_name(p.name).map_err(|e| format!("operator {}: {e}", op.name()))?;
+        if p.default != Value::Unset {
+            p.accept(p.default)
+                .map_err(|e| format!("operator {}: default of {e}", op.name()))?;
+        }
+        for o in known {
+            if let Some(q) = o.params().iter().find(|q| q.name == p.name) {
+                if !q.kind.same_type(&p.kind) {
+                    return Err(format!(
+                        "operator {}: parameter {} is a {} in operator {}, not a {}",
+                        op.name(),
+                        p.name,
+                        q.kind.type_name(),
+                        o.name(),
+                        p.kind.type_name()
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Every parameter name any operator takes, once, with the operators that
+/// take it: what the flags and the API's parameters are made of.
+pub fn all_params() -> Vec<(Param, Vec<&'static str>)> {
+    let mut out: Vec<(Param, Vec<&'static str>)> = Vec::new();
+    for op in all() {
+        for p in op.params() {
+            match out.iter_mut().find(|(q, _)| q.name == p.name) {
+                Some((_, by)) => by.push(op.name()),
+                None => out.push((*p, vec![op.name()])),
+            }
+        }
+    }
+    out
+}
+
+/// An operator with its parameters' values: what a scene's `[operator]`
+/// table, the `tonemap` flags and the API's parameters become.
+#[derive(Clone)]
+pub struct Operator {
+    def: Arc<dyn ToneOperator>,
+    values: Values,
+}
+
+impl Operator {
+    /// Operator `def` with the `given` values (by parameter name), the rest
+    /// at their defaults; each value checked against its range, then the
+    /// operator's own checks.
+    pub fn with(def: Arc<dyn ToneOperator>, given: &[(&str, Value)]) -> Result<Operator, String> {
+        for (name, _) in given {
+            if !def.params().iter().any(|p| p.name == *name) {
+                return Err(not_taken(def.as_ref(), name));
+            }
+        }
+        let mut values = Vec::with_capacity(def.params().len());
+        for p in def.params() {
+            let v = given
+                .iter()
+                .rev()
+                .find(|(n, _)| *n == p.name)
+                .map(|(_, v)| *v)
+                .unwrap_or(p.default);
+            let v = if v == Value::Unset {
+                v
+            } else {
+                p.accept(v)
+                    .map_err(|e| params::auto_hint(def.as_ref(), p.name, v, e))?
+            };
+            values.push((p.name, v));
+        }
+        let values = Values::new(values);
+        def.check(&values)?;
+        Ok(Operator { def, values })
+    }
+
+    /// The operator called `name` with the `given` values.
+    pub fn named(name: &str, given: &[(&str, Value)]) -> Result<Operator, String> {
+        let def = find(name).ok_or_else(|| unknown_operator(name))?;
+        Operator::with(def, given)
+    }
+
+    /// Operator `def` with values given as text (flags, query parameters):
+    /// each value is read as any operator's parameter of that name would
+    /// read it (so a bad value is named as bad whatever the operator), then
+    /// held to `def`'s own.
+    pub fn from_text(
+        def: Arc<dyn ToneOperator>,
+        given: &[(String, String)],
+    ) -> Result<Operator, String> {
+        let mut values: Vec<(&str, Value)> = Vec::with_capacity(given.len());
+        for (name, text) in given {
+            let takers: Vec<Param> = all()
+                .iter()
+                .filter_map(|o| o.params().iter().find(|p| p.name == name).copied())
+                .collect();
+            if takers.is_empty() {
+                return Err(not_taken(def.as_ref(), name));
+            }
+            let own = def.params().iter().find(|p| p.name == name).copied();
+            let mut first_error = None;
+            let mut read = None;
+            for p in own.iter().chain(takers.iter()) {
+                match p.parse(text) {
+                    Ok(v) => {
+                        read = Some(v);
+                        break;
+                    }
+                    Err(e) => {
+                        first_error.get_or_insert(e);
+                    }
+                }
+            }
+            match read {
+                Some(v) => values.push((name, v)),
+                None => return Err(first_error.unwrap_or_default()),
+            }
+        }
+        Operator::with(def, &values)
+    }
+
+    /// Its definition.
+    pub fn definition(&self) -> &dyn ToneOperator {
+        self.def.as_ref()
+    }
+
+    /// Its definition, shared.
+    pub fn definition_arc(&self) -> Arc<dyn ToneOperator> {
+        self.def.clone()
+    }
+
+    /// Its name.
+    pub fn name(&self) -> &'static str {
+        self.def.name()
+    }
+
+    /// Its parameters' values (every parameter, defaults filled in).
+    pub fn values(&self) -> &Values {
+        &self.values
+    }
+
+    /// What it needs measured.
+    pub fn needs(&self) -> StatsNeeds {
+        self.def.needs(&self.values)
+    }
+
+    /// The luminance its statistics are measured in.
+    pub fn luminance(&self) -> Luminance {
+        self.def.luminance(&self.values)
+    }
+
+    /// The f64 reference for a frame with statistics `stats`.
+    pub fn resolve(&self, stats: &LuminanceStats) -> Result<Tone, PlanError> {
+        let r = self.def.resolve(&self.values, stats)?;
+        Ok(Tone {
+            params: ToneParams {
+                operator: self.name(),
+                values: r.values,
+            },
+            curve: Arc::from(r.curve),
+        })
+    }
+
+    /// The GPU's resolved vec4 as a report.
+    pub fn gpu_resolved(&self, slots: [f32; 4]) -> ToneParams {
+        ToneParams {
+            operator: self.name(),
+            values: self.def.gpu_resolved(&self.values, slots),
+        }
+    }
+}
+
+fn unknown_operator(name: &str) -> String {
+    format!(
+        "operator: unknown operator {name:?}; expected one of {}",
+        names().join(", ")
+    )
+}
+
+/// The error for a parameter `def` does not take: which operators do, or
+/// that none does.
+fn not_taken(def: &dyn ToneOperator, name: &str) -> String {
+    let by: Vec<&str> = all()
+        .iter()
+        .filter(|o| o.params().iter().any(|p| p.name == name))
+        .map(|o| o.name())
+        .collect();
+    if by.is_empty() {
+        let takes: Vec<&str> = def.params().iter().map(|p| p.name).collect();
+        format!(
+            "unknown parameter {name:?} for operator {}; it takes {}",
+            def.name(),
+            if takes.is_empty() {
+                "none".to_owned()
+            } else {
+                takes.join(", ")
+            }
+        )
+    } else {
+        format!(
+            "{name}: applies to operator {} only, not {}",
+            by.join(" and "),
+            def.name()
+        )
+    }
+}
+
+impl Default for Operator {
+    /// `reinhard-global` with its defaults.
+    fn default() -> Self {
+        Operator::with(Arc::new(reinhard_global::ReinhardGlobal), &[])
+            .expect("the default operator's defaults are in range")
+    }
+}
+
+impl PartialEq for Operator {
+    fn eq(&self, other: &Self) -> bool {
+        self.name() == other.name() && self.values == other.values
+    }
+}
+
+impl std::fmt::Debug for Operator {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} {:?}", self.name(), self.values)
+    }
+}
+
+impl Serialize for Operator {
+    /// `kind` then every parameter with a value, in the definition's order;
+    /// an unset optional parameter (measured instead) is left out.
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let set: Vec<_> = self
+            .values
+            .iter()
+            .filter(|(_, v)| *v != Value::Unset)
+            .collect();
+        let mut m = s.serialize_map(Some(set.len() + 1))?;
+        m.serialize_entry("kind", self.name())?;
+        for (name, v) in set {
+            m.serialize_entry(name, &v)?;
+        }
+        m.end()
+    }
+}
+
+impl<'de> Deserialize<'de> for Operator {
+    /// A table with `kind` and the operator's parameters. Each value is
+    /// checked where it stands (so a TOML error names its line) against
+    /// every operator taking a parameter of that name, then against the
+    /// chosen operator once `kind` is known.
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        d.deserialize_map(params::OperatorVisitor)
+    }
+}
+
+/// The resolved values of one frame, named: what reports show and what the
+/// GPU's are compared with.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ToneParams {
+    /// The operator's name.
+    pub operator: &'static str,
+    /// Named values, in the operator's order.
+    pub values: Vec<(&'static str, f64)>,
+}
+
+impl ToneParams {
+    /// The value called `name`, if the operator resolves one.
+    pub fn get(&self, name: &str) -> Option<f64> {
+        self.values
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|(_, v)| *v)
+    }
+
+    /// Whether every resolved value is finite (a value that does not apply,
+    /// such as the white point of a curve that never burns, is left out
+    /// rather than reported as +∞).
+    pub fn sane(&self) -> bool {
+        self.values.iter().all(|(_, v)| v.is_finite())
+    }
+}
+
+impl Serialize for ToneParams {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut m = s.serialize_map(Some(self.values.len() + 1))?;
+        m.serialize_entry("operator", self.operator)?;
+        for (n, v) in &self.values {
+            m.serialize_entry(n, v)?;
+        }
+        m.end()
+    }
+}
+
+/// A frame's resolved operator: its values and its f64 curve.
+#[derive(Clone)]
+pub struct Tone {
+    /// The resolved values.
+    pub params: ToneParams,
+    curve: Arc<dyn Curve>,
+}
+
+impl Tone {
+    /// The display colour of scene colour `c` (f64 reference).
+    #[inline]
+    pub fn pixel(&self, c: [f64; 3]) -> [f64; 3] {
+        self.curve.pixel(c)
+    }
+}
+
+impl std::fmt::Debug for Tone {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.params.fmt(f)
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,512 @@
+//! An operator's parameters: their kinds, ranges, defaults and values, and
+//! the reading of an `[operator]` table.
+
+use super::{all, find, Operator, ToneOperator};
+use serde::de::{DeserializeSeed, MapAccess, Visitor};
+use serde::Serialize;
+
+/// The names the tone-map settings and the API use for themselves, which no
+/// operator (nor parameter) may take.
+pub(super) const RESERVED: &[&str] = &[
+    "kind",
+    "operator",
+    "preset",
+    "colour_space",
+    "display",
+    "bloom",
+    "bloom_pass",
+    "bloom_threshold",
+    "bloom_downsample",
+    "bloom_radius",
+    "bloom_sigma",
+    "brightness",
+    "contrast",
+    "saturation",
+    "gamma",
+    "gpu",
+    "format",
+    "sanitize",
+    // The `tonemap` command's own flags.
+    "input",
+    "output",
+    "json",
+    "max_pixels",
+    "adapter",
+    "backend",
+    "hdr_format",
+    "reduction",
+    "env_filter",
+    "execution",
+    "help",
+];
+
+/// A parameter name: lower-case words joined by `_` (a flag replaces them
+/// with `-`), not one of the settings' own.
+pub(super) fn check_name(name: &str) -> Result<(), String> {
+    let ok = name.starts_with(|c: char| c.is_ascii_lowercase())
+        && name
+            .chars()
+            .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_');
+    if !ok {
+        return Err(format!(
+            "parameter name {name:?}: lower-case letters, digits and _ only, starting with a letter"
+        ));
+    }
+    if RESERVED.contains(&name) {
+        return Err(format!("parameter name {name:?} is the settings' own"));
+    }
+    Ok(())
+}
+
+/// An interval of allowed numbers; every number must also be finite.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Range {
+    /// The lower bound.
+    pub min: f64,
+    /// Whether the lower bound itself is excluded.
+    pub min_open: bool,
+    /// The upper bound (+∞ for none).
+    pub max: f64,
+    /// Whether the upper bound itself is excluded.
+    pub max_open: bool,
+}
+
+impl Range {
+    /// (0, ∞): any finite number > 0.
+    pub const POSITIVE: Range = Range {
+        min: 0.0,
+        min_open: true,
+        max: f64::INFINITY,
+        max_open: true,
+    };
+    /// [0, ∞): any finite number ≥ 0.
+    pub const NON_NEGATIVE: Range = Range {
+        min: 0.0,
+        min_open: false,
+        max: f64::INFINITY,
+        max_open: true,
+    };
+
+    /// [min, max].
+    pub const fn closed(min: f64, max: f64) -> Range {
+        Range {
+            min,
+            min_open: false,
+            max,
+            max_open: false,
+        }
+    }
+
+    /// Whether `v` is in the range (and finite).
+    pub fn contains(&self, v: f64) -> bool {
+        v.is_finite()
+            && if self.min_open {
+                v > self.min
+            } else {
+                v >= self.min
+            }
+            && if self.max_open {
+                v < self.max
+            } else {
+                v <= self.max
+            }
+    }
+
+    /// "a finite number > 0", "in (0, 1]".
+    pub fn describe(&self) -> String {
+        let lo = if self.min_open { ">" } else { ">=" };
+        if self.max == f64::INFINITY {
+            if self.min == 0.0 && self.min_open {
+                return "a finite number > 0".to_owned();
+            }
+            return format!("a finite number {lo} {}", self.min);
+        }
+        format!(
+            "in {}{}, {}{}",
+            if self.min_open { "(" } else { "[" },
+            self.min,
+            self.max,
+            if self.max_open { ")" } else { "]" }
+        )
+    }
+}
+
+/// What a parameter holds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Kind {
+    /// A number in a range.
+    Number(Range),
+    /// A number in a range, or `"auto"` (the operator works it out).
+    NumberOrAuto(Range),
+    /// true or false.
+    Flag,
+    /// One of these words.
+    Word(&'static [&'static str]),
+}
+
+impl Kind {
+    /// Numbers (with or without "auto"), flags and words are three types; a
+    /// parameter name means one of them across all operators.
+    pub(super) fn same_type(&self, other: &Kind) -> bool {
+        self.type_name() == other.type_name()
+    }
+
+    pub(super) fn type_name(&self) -> &'static str {
+        match self {
+            Kind::Number(_) | Kind::NumberOrAuto(_) => "number",
+            Kind::Flag => "flag",
+            Kind::Word(_) => "word",
+        }
+    }
+
+    /// The JSON-schema type of the parameter as a query string carries it.
+    pub fn schema_type(&self) -> &'static str {
+        match self {
+            Kind::Number(_) => "number",
+            Kind::NumberOrAuto(_) | Kind::Word(_) => "string",
+            Kind::Flag => "boolean",
+        }
+    }
+}
+
+/// A parameter's value.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Value {
+    /// Not given and with no default: the operator measures it instead.
+    Unset,
+    /// A number.
+    Number(f64),
+    /// `"auto"`.
+    Auto,
+    /// true or false.
+    Flag(bool),
+    /// One of a [`Kind::Word`]'s words.
+    Word(&'static str),
+}
+
+impl Serialize for Value {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            Value::Unset => s.serialize_none(),
+            Value::Number(v) => s.serialize_f64(*v),
+            Value::Auto => s.serialize_str("auto"),
+            Value::Flag(b) => s.serialize_bool(*b),
+            Value::Word(w) => s.serialize_str(w),
+        }
+    }
+}
+
+impl std::fmt::Display for Value {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Value::Unset => f.write_str("(measured)"),
+            Value::Number(v) => write!(f, "{v}"),
+            Value::Auto => f.write_str("auto"),
+            Value::Flag(b) => write!(f, "{b}"),
+            Value::Word(w) => f.write_str(w),
+        }
+    }
+}
+
+/// One parameter of an operator.
+#[derive(Clone, Copy, Debug)]
+pub struct Param {
+    /// Its name (a scene key and API parameter; the flag is `--name` with
+    /// `-` for `_`).
+    pub name: &'static str,
+    /// One line for documentation and `--help`.
+    pub doc: &'static str,
+    /// What it holds.
+    pub kind: Kind,
+    /// Its default; [`Value::Unset`] for one the operator measures when not
+    /// given.
+    pub default: Value,
+}
+
+impl Param {
+    /// `v` checked against the kind and range; the error names the
+    /// parameter.
+    pub fn accept(&self, v: Value) -> Result<Value, String> {
+        let name = self.name;
+        match (self.kind, v) {
+            (Kind::Number(r) | Kind::NumberOrAuto(r), Value::Number(x)) => {
+                if r.contains(x) {
+                    Ok(v)
+                } else {
+                    Err(format!("{name}: must be {}, got {x}", r.describe()))
+                }
+            }
+            (Kind::NumberOrAuto(_), Value::Auto) => Ok(v),
+            (Kind::Flag, Value::Flag(_)) => Ok(v),
+            (Kind::Word(words), Value::Word(w)) if words.contains(&w) => Ok(v),
+            _ => Err(format!("{name}: expected {}, got {v}", self.expected())),
+        }
+    }
+
+    /// What the parameter takes, in words.
+    pub fn expected(&self) -> String {
+        match self.kind {
+            Kind::Number(r) => r.describe(),
+            Kind::NumberOrAuto(r) => format!("{} or \"auto\"", r.describe()),
+            Kind::Flag => "true or false".to_owned(),
+            Kind::Word(words) => format!("one of {}", words.join(", ")),
+        }
+    }
+
+    /// The value a flag's or a query's text gives, checked.
+    pub fn parse(&self, text: &str) -> Result<Value, String> {
+        let t = text.trim();
+        let v = match self.kind {
+            Kind::NumberOrAuto(_) if t == "auto" => Value::Auto,
+            Kind::Number(_) | Kind::NumberOrAuto(_) => match t.parse::<f64>() {
+                Ok(x) => Value::Number(x),
+                Err(_) => {
+                    return Err(format!(
+                        "{}: expected {}, got {text:?}",
+                        self.name,
+                        self.expected()
+                    ))
+                }
+            },
+            Kind::Flag => match t {
+                "true" | "1" => Value::Flag(true),
+                "false" | "0" => Value::Flag(false),
+                _ => {
+                    return Err(format!(
+                        "{}: expected true or false, got {text:?}",
+                        self.name
+                    ))
+                }
+            },
+            Kind::Word(words) => match words.iter().find(|w| **w == t) {
+                Some(w) => Value::Word(w),
+                None => {
+                    return Err(format!(
+                        "{}: expected {}, got {text:?}",
+                        self.name,
+                        self.expected()
+                    ))
+                }
+            },
+        };
+        self.accept(v)
+    }
+
+    fn from_raw(&self, raw: &Raw) -> Result<Value, String> {
+        match raw {
+            Raw::Number(x) => self.accept(Value::Number(*x)),
+            Raw::Bool(b) => self.accept(Value::Flag(*b)),
+            Raw::Text(t) => self.parse_text_value(t),
+        }
+    }
+
+    /// A string in a scene file: "auto" or a word (a number must be written
+    /// as a number).
+    fn parse_text_value(&self, t: &str) -> Result<Value, String> {
+        match self.kind {
+            Kind::NumberOrAuto(_) if t == "auto" => Ok(Value::Auto),
+            Kind::Word(_) => self.parse(t),
+            _ => Err(format!(
+                "{}: expected {}, got {t:?}",
+                self.name,
+                self.expected()
+            )),
+        }
+    }
+}
+
+/// Every parameter of an operator with its value, in the definition's
+/// order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Values(Vec<(&'static str, Value)>);
+
+impl Values {
+    pub(super) fn new(v: Vec<(&'static str, Value)>) -> Values {
+        Values(v)
+    }
+
+    /// The parameters and their values.
+    pub fn iter(&self) -> impl Iterator<Item = &(&'static str, Value)> {
+        self.0.iter()
+    }
+
+    /// The value of parameter `name` ([`Value::Unset`] for a name the
+    /// operator lacks).
+    pub fn get(&self, name: &str) -> Value {
+        self.0
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|(_, v)| *v)
+            .unwrap_or(Value::Unset)
+    }
+
+    /// A number's value, `None` when unset or "auto".
+    pub fn number(&self, name: &str) -> Option<f64> {
+        match self.get(name) {
+            Value::Number(v) => Some(v),
+            _ => None,
+        }
+    }
+
+    /// A number that has a default, so is always set (0 if the definition
+    /// lacks it).
+    pub fn num(&self, name: &str) -> f64 {
+        self.number(name).unwrap_or(0.0)
+    }
+
+    /// Whether the parameter is "auto".
+    pub fn is_auto(&self, name: &str) -> bool {
+        self.get(name) == Value::Auto
+    }
+
+    /// A flag's value (false when unset).
+    pub fn flag(&self, name: &str) -> bool {
+        self.get(name) == Value::Flag(true)
+    }
+
+    /// A word's value ("" when unset).
+    pub fn word(&self, name: &str) -> &'static str {
+        match self.get(name) {
+            Value::Word(w) => w,
+            _ => "",
+        }
+    }
+}
+
+/// A value as a scene file (TOML or JSON) holds it, before it is checked.
+enum Raw {
+    Number(f64),
+    Bool(bool),
+    Text(String),
+}
+
+/// Reads one parameter's value where it stands, checked against every
+/// operator that takes a parameter of that name: a value no operator could
+/// take is an error at its own line.
+struct ParamSeed {
+    name: String,
+}
+
+impl<'de> DeserializeSeed<'de> for ParamSeed {
+    type Value = (Raw, Value);
+    fn deserialize<D: serde::Deserializer<'de>>(self, d: D) -> Result<Self::Value, D::Error> {
+        let raw = d.deserialize_any(RawVisitor)?;
+        let mut first_error = None;
+        for op in all() {
+            if let Some(p) = op.params().iter().find(|p| p.name == self.name) {
+                match p.from_raw(&raw) {
+                    Ok(v) => return Ok((raw, v)),
+                    Err(e) => {
+                        first_error.get_or_insert(e);
+                    }
+                }
+            }
+        }
+        Err(serde::de::Error::custom(first_error.unwrap_or_else(|| {
+            format!("unknown field `{}`", self.name)
+        })))
+    }
+}
+
+struct RawVisitor;
+
+impl Visitor<'_> for RawVisitor {
+    type Value = Raw;
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str("a number, true or false, or a word")
+    }
+    fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<Raw, E> {
+        Ok(Raw::Number(v))
+    }
+    fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<Raw, E> {
+        Ok(Raw::Number(v as f64))
+    }
+    fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<Raw, E> {
+        Ok(Raw::Number(v as f64))
+    }
+    fn visit_bool<E: serde::de::Error>(self, v: bool) -> Result<Raw, E> {
+        Ok(Raw::Bool(v))
+    }
+    fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<Raw, E> {
+        Ok(Raw::Text(v.to_owned()))
+    }
+}
+
+/// Reads an `[operator]` table.
+pub(super) struct OperatorVisitor;
+
+impl<'de> Visitor<'de> for OperatorVisitor {
+    type Value = Operator;
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str("an operator table with kind and its parameters")
+    }
+
+    fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Operator, A::Error> {
+        use serde::de::Error;
+        let mut def: Option<std::sync::Arc<dyn ToneOperator>> = None;
+        let mut given: Vec<(String, Raw, Value)> = Vec::new();
+        while let Some(key) = map.next_key::<String>()? {
+            if key == "kind" {
+                let name: String = map.next_value()?;
+                def = Some(
+                    find(&name).ok_or_else(|| A::Error::custom(super::unknown_operator(&name)))?,
+                );
+                continue;
+            }
+            if !all()
+                .iter()
+                .any(|o| o.params().iter().any(|p| p.name == key))
+            {
+                let mut known: Vec<&str> =
+                    super::all_params().iter().map(|(p, _)| p.name).collect();
+                known.insert(0, "kind");
+                return Err(A::Error::custom(format!(
+                    "unknown field `{key}`, expected one of {}",
+                    known.join(", ")
+                )));
+            }
+            let (raw, v) = map.next_value_seed(ParamSeed { name: key.clone() })?;
+            given.push((key, raw, v));
+        }
+        let def = match def {
+            Some(d) => d,
+            None => find(super::builtin()[0].name()).expect("the default operator is built in"),
+        };
+        // The values again, now against the chosen operator's own ranges.
+        let mut values: Vec<(&str, Value)> = Vec::with_capacity(given.len());
+        for (name, raw, v) in &given {
+            match def.params().iter().find(|p| p.name == *name) {
+                Some(p) => values.push((
+                    name,
+                    p.from_raw(raw)
+                        .map_err(|e| auto_hint(def.as_ref(), name, *v, e))
+                        .map_err(A::Error::custom)?,
+                )),
+                None => values.push((name, *v)),
+            }
+        }
+        Operator::with(def, &values).map_err(A::Error::custom)
+    }
+}
+
+/// A value another operator's parameter of that name takes ("auto") says
+/// which operator that is.
+pub(super) fn auto_hint(def: &dyn ToneOperator, name: &str, v: Value, error: String) -> String {
+    if v != Value::Auto {
+        return error;
+    }
+    let by: Vec<&str> = all()
+        .iter()
+        .filter(|o| {
+            o.params()
+                .iter()
+                .any(|p| p.name == name && matches!(p.kind, Kind::NumberOrAuto(_)))
+        })
+        .map(|o| o.name())
+        .collect();
+    format!(
+        "{name}: \"auto\" applies to operator {} only; {} needs a number",
+        by.join(" and "),
+        def.name()
+    )
+}
