@@ -8,6 +8,7 @@
 #   postgresql         - the real server the shared-history tests (tests/it/postgres.rs) start
 #   vulkan-validationlayers - the Khronos layer the adapter tests (tests/it/adapters.rs) run the gate under
 #   libegl1, libegl-mesa0, libgl1-mesa-dri - Mesa's EGL and llvmpipe for wgpu's GL backend
+#   nodejs, npm        - run three.js's and glsl-tone-map's shader text for tests/operators/vectors.json
 #   (chromium also ships SwiftShader, the second Vulkan implementation the gate runs on)
 set -euo pipefail
 
@@ -20,6 +21,10 @@ ls /usr/lib/postgresql/*/bin/initdb >/dev/null 2>&1 || need+=(postgresql)
 ls /usr/share/vulkan/explicit_layer.d/VkLayer_khronos_validation.json >/dev/null 2>&1 || need+=(vulkan-validationlayers)
 ls /usr/lib/*/libEGL.so.1 /usr/lib/*/libEGL_mesa.so.0 >/dev/null 2>&1 || need+=(libegl1 libegl-mesa0)
 ls /usr/lib/*/dri/swrast_dri.so >/dev/null 2>&1 || need+=(libgl1-mesa-dri)
+# By command, not package: a machine with another node (and its own npm)
+# keeps it.
+command -v node >/dev/null 2>&1 || need+=(nodejs)
+command -v npm >/dev/null 2>&1 || need+=(npm)
 if [ "${#need[@]}" -gt 0 ]; then
   sudo=""
   [ "$(id -u)" -eq 0 ] || sudo="sudo"

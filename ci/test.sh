@@ -12,7 +12,10 @@ cargo fmt --all -- --check
 # ci/same_vectors.py allows (and says why).
 #   tests/skimage     MSE, PSNR, SNR, SSIM, mean |diff| against numpy and scikit-image
 #   tests/perceptual  FLIP, HDR-FLIP (flip-evaluator), PU21, delta E ITP (colour-science)
-for lock in skimage perceptual; do
+#   tests/operators   Hable (colour-hdri), ACES Narkowicz (his formula), three.js's
+#                     ACES fitted, AgX and PBR Neutral, AgX punchy (glsl-tone-map),
+#                     Khronos PBR Neutral (its reference GLSL)
+for lock in skimage perceptual operators; do
   committed=$(mktemp)
   cp "tests/$lock/vectors.json" "$committed"
   same=yes

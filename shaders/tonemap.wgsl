@@ -19,7 +19,7 @@
 
 @compute @workgroup_size(1)
 fn resolve() {
-    stats.tone = operator_resolve(stats);
+    stats.tone = operator_resolve(stats, config);
 }
 
 @compute @workgroup_size(64, 1)

@@ -2,10 +2,10 @@
 // maximum scaled luminance when none is given.
 //#include shared/reinhard.wgsl
 
-fn operator_resolve(s: Stats) -> vec4<f32> {
-    let lavg = reinhard_adaptation(s.log_average);
-    let key = config.key;
-    var white = config.white;
+fn operator_resolve(s: Stats, k: OperatorConfig) -> vec4<f32> {
+    let lavg = reinhard_adaptation(s.log_average, k);
+    let key = k.key;
+    var white = k.white;
     if (white <= 0.0) {
         white = key * s.max_y / lavg;
     }

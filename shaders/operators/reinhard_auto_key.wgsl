@@ -2,7 +2,7 @@
 // log-average, an automatic or fixed key, white = the scaled maximum.
 //#include shared/reinhard.wgsl
 
-// The key from min, average and max instead of config.key.
+// The key from min, average and max instead of k.key.
 override AUTO_KEY: bool = false;
 
 // a = 0.18·2^(2(B − A)/(A + B)); A + B = Lmax − Lmin, 0 for a uniform frame.
@@ -15,9 +15,9 @@ fn automatic_key(lmin: f32, lavg: f32, lmax: f32) -> f32 {
     return 0.18 * exp2(2.0 * ratio);
 }
 
-fn operator_resolve(s: Stats) -> vec4<f32> {
+fn operator_resolve(s: Stats, k: OperatorConfig) -> vec4<f32> {
     let lavg = s.weighted_log_average;
-    var key = config.key;
+    var key = k.key;
     if (AUTO_KEY) {
         key = automatic_key(s.min_y, lavg, s.max_y);
     }

@@ -45,22 +45,22 @@ fn reinhard_curve(l: f32, white: f32) -> f32 {
 }
 
 // The adaptation luminance: fixed, or `measured`.
-fn reinhard_adaptation(measured: f32) -> f32 {
-    if (config.fixed_log_average > 0.0) {
-        return config.fixed_log_average;
+fn reinhard_adaptation(measured: f32, k: OperatorConfig) -> f32 {
+    if (k.fixed_log_average > 0.0) {
+        return k.fixed_log_average;
     }
     return measured;
 }
 
-fn reinhard_pixel(c: vec3<f32>, scale: f32, white: f32) -> vec3<f32> {
+fn reinhard_pixel(c: vec3<f32>, scale: f32, white: f32, k: OperatorConfig) -> vec3<f32> {
     if (COLOUR == 0u) {
-        let y = luminance_with(c, config.weights.xyz);
+        let y = luminance_with(c, k.weights.xyz);
         if (!(y >= SMALLEST_NORMAL)) {
             return vec3<f32>(0.0);
         }
         return c * (reinhard_curve(scale * y, white) / y);
     }
-    let xyz = vec3<f32>(dot(config.to_xyz0.xyz, c), dot(config.to_xyz1.xyz, c), dot(config.to_xyz2.xyz, c));
+    let xyz = vec3<f32>(dot(k.to_xyz0.xyz, c), dot(k.to_xyz1.xyz, c), dot(k.to_xyz2.xyz, c));
     let sum = xyz.x + xyz.y + xyz.z;
     if (!(xyz.y >= SMALLEST_NORMAL) || !(sum >= SMALLEST_NORMAL)) {
         return vec3<f32>(0.0);
@@ -69,9 +69,9 @@ fn reinhard_pixel(c: vec3<f32>, scale: f32, white: f32) -> vec3<f32> {
     let y = xyz.y / sum;
     let ld = reinhard_curve(scale * xyz.y, white);
     let out = vec3<f32>(x * ld / y, ld, (1.0 - x - y) * ld / y);
-    return vec3<f32>(dot(config.to_rgb0.xyz, out), dot(config.to_rgb1.xyz, out), dot(config.to_rgb2.xyz, out));
+    return vec3<f32>(dot(k.to_rgb0.xyz, out), dot(k.to_rgb1.xyz, out), dot(k.to_rgb2.xyz, out));
 }
 
-fn operator_pixel(c: vec3<f32>, r: vec4<f32>) -> vec3<f32> {
-    return reinhard_pixel(c, r.z, r.w);
+fn operator_pixel(c: vec3<f32>, r: vec4<f32>, k: OperatorConfig) -> vec3<f32> {
+    return reinhard_pixel(c, r.z, r.w, k);
 }

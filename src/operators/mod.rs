@@ -15,7 +15,13 @@
 //! gets the whole harness: scene files, goldens from its f64 reference, the
 //! GPU held to it, stress rows and `tradeoff`.
 
+mod aces_hill;
+mod aces_narkowicz;
+mod agx;
+mod fixed;
+mod hable;
 mod params;
+mod pbr_neutral;
 pub mod reinhard;
 mod reinhard02;
 mod reinhard_auto_key;
@@ -76,16 +82,15 @@ pub struct Resolution {
 /// - `struct OperatorConfig`, the uniform the host writes from
 ///   [`ToneOperator::gpu_config`] (as many f32 as the struct holds, in
 ///   WGSL's uniform layout);
-/// - `fn operator_resolve(s: Stats) -> vec4<f32>`, run once per frame on
-///   the measured statistics (`Stats` is shaders/shared/stats.wgsl's), whose
-///   result reaches every pixel;
-/// - `fn operator_pixel(c: vec3<f32>, r: vec4<f32>) -> vec3<f32>`, the curve
-///   for linear colour `c` and the resolved `r`.
+/// - `fn operator_resolve(s: Stats, k: OperatorConfig) -> vec4<f32>`, run
+///   once per frame on the measured statistics (`Stats` is
+///   shaders/shared/stats.wgsl's), whose result reaches every pixel;
+/// - `fn operator_pixel(c: vec3<f32>, r: vec4<f32>, k: OperatorConfig) ->
+///   vec3<f32>`, the curve for linear colour `c` and the resolved `r`.
 ///
-/// Both functions may read the uniform `config: OperatorConfig`. The source
-/// may `//#include shared/<file>.wgsl` (colour.wgsl has `SMALLEST_NORMAL`
-/// and `luminance_with`) and declare `override` constants, which
-/// [`ToneOperator::gpu_constants`] sets.
+/// The source may `//#include shared/<file>.wgsl` (colour.wgsl has
+/// `SMALLEST_NORMAL` and `luminance_with`) and declare `override`
+/// constants, which [`ToneOperator::gpu_constants`] sets.
 pub trait ToneOperator: Send + Sync + 'static {
     /// The name scene files, flags and the API use (`kind = "…"`).
     fn name(&self) -> &'static str;
@@ -144,6 +149,11 @@ pub fn builtin() -> Vec<Arc<dyn ToneOperator>> {
         Arc::new(reinhard_global::ReinhardGlobal),
         Arc::new(reinhard_auto_key::ReinhardAutoKey),
         Arc::new(reinhard02::Reinhard02),
+        Arc::new(aces_narkowicz::AcesNarkowicz),
+        Arc::new(aces_hill::AcesHill),
+        Arc::new(agx::Agx),
+        Arc::new(pbr_neutral::PbrNeutral),
+        Arc::new(hable::Hable),
     ]
 }
 

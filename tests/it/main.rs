@@ -29,6 +29,7 @@ mod io_validation;
 mod metrics_perceptual;
 mod metrics_skimage;
 mod objects;
+mod operators;
 mod pfstmo;
 mod postgres;
 mod stress;

@@ -1,0 +1,150 @@
+//! `hable`: John Hable's filmic curve from Uncharted 2 (GDC 2010;
+//! docs/operators.md), per channel, with the constants and defaults of
+//! colour-hdri's `tonemapping_operator_filmic`:
+//! f(x) = (x(Ax + CB) + DE)/(x(Ax + B) + DF) − E/F, out = f(bias·x)/f(W).
+//! Not clamped: above x = W/bias the output exceeds 1 (toward 1.1146 at the
+//! defaults) and the display encoding clips it.
+
+use super::fixed::{self, EXPOSURE};
+use super::{Curve, Kind, Param, Range, Resolution, ToneOperator, Value, Values};
+use crate::plan::{PlanError, StatsNeeds};
+use crate::reference::luminance_stats::LuminanceStats;
+
+/// `hable`.
+pub struct Hable;
+
+const fn number(name: &'static str, doc: &'static str, default: f64) -> Param {
+    Param {
+        name,
+        doc,
+        kind: Kind::Number(Range::POSITIVE),
+        default: Value::Number(default),
+    }
+}
+
+const PARAMS: &[Param] = &[
+    EXPOSURE,
+    number("shoulder_strength", "Hable's A (shoulder strength)", 0.22),
+    number("linear_strength", "Hable's B (linear strength)", 0.3),
+    number("linear_angle", "Hable's C (linear angle)", 0.1),
+    number("toe_strength", "Hable's D (toe strength)", 0.2),
+    number("toe_numerator", "Hable's E (toe numerator)", 0.01),
+    number("toe_denominator", "Hable's F (toe denominator)", 0.3),
+    number(
+        "exposure_bias",
+        "Gain before the curve, after the exposure",
+        2.0,
+    ),
+    number(
+        "white_point",
+        "Linear white W: the input mapped to 1 is W/exposure_bias",
+        11.2,
+    ),
+];
+
+/// The curve's six constants.
+#[derive(Clone, Copy)]
+struct Constants {
+    a: f64,
+    b: f64,
+    c: f64,
+    d: f64,
+    e: f64,
+    f: f64,
+}
+
+impl Constants {
+    fn of(v: &Values) -> Constants {
+        Constants {
+            a: v.num("shoulder_strength"),
+            b: v.num("linear_strength"),
+            c: v.num("linear_angle"),
+            d: v.num("toe_strength"),
+            e: v.num("toe_numerator"),
+            f: v.num("toe_denominator"),
+        }
+    }
+
+    /// f(x), in colour-hdri's order of operations.
+    #[inline]
+    fn f(&self, x: f64) -> f64 {
+        let Constants { a, b, c, d, e, f } = *self;
+        ((x * (a * x + c * b) + d * e) / (x * (a * x + b) + d * f)) - e / f
+    }
+}
+
+struct Fit {
+    k: Constants,
+    bias: f64,
+    /// 1/f(W).
+    white_scale: f64,
+}
+
+impl Curve for Fit {
+    #[inline]
+    fn pixel(&self, c: [f64; 3]) -> [f64; 3] {
+        c.map(|x| self.k.f(self.bias * x) * self.white_scale)
+    }
+}
+
+impl ToneOperator for Hable {
+    fn name(&self) -> &'static str {
+        "hable"
+    }
+    fn summary(&self) -> &'static str {
+        "Hable's Uncharted 2 filmic curve, as colour-hdri's tonemapping_operator_filmic"
+    }
+    fn params(&self) -> &'static [Param] {
+        PARAMS
+    }
+    fn check(&self, v: &Values) -> Result<(), String> {
+        let k = Constants::of(v);
+        let w = k.f(v.num("white_point"));
+        if !(w.is_finite() && w > 0.0) {
+            return Err(format!(
+                "white_point: the curve at the white point is {w}, not > 0; raise white_point or change the curve's constants"
+            ));
+        }
+        if k.f(0.0).abs() > 1e-12 {
+            return Err(format!(
+                "toe_numerator, toe_denominator, toe_strength: the curve must map 0 to 0 (it maps it to {})",
+                k.f(0.0)
+            ));
+        }
+        Ok(())
+    }
+    fn needs(&self, _: &Values) -> StatsNeeds {
+        StatsNeeds::default()
+    }
+    fn resolved_names(&self) -> &'static [&'static str] {
+        fixed::RESOLVED
+    }
+    fn resolve(&self, v: &Values, _: &LuminanceStats) -> Result<Resolution, PlanError> {
+        let k = Constants::of(v);
+        Ok(fixed::resolution(
+            v,
+            Fit {
+                k,
+                bias: v.num("exposure_bias"),
+                white_scale: 1.0 / k.f(v.num("white_point")),
+            },
+        ))
+    }
+    fn wgsl(&self) -> &'static str {
+        include_str!("../../shaders/operators/hable.wgsl")
+    }
+    fn gpu_config(&self, v: &Values) -> Vec<f32> {
+        let k = Constants::of(v);
+        vec![
+            k.a as f32,
+            k.b as f32,
+            k.c as f32,
+            k.d as f32,
+            k.e as f32,
+            k.f as f32,
+            v.num("exposure_bias") as f32,
+            (1.0 / k.f(v.num("white_point"))) as f32,
+            v.num("exposure") as f32,
+        ]
+    }
+}
