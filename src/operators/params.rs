@@ -292,7 +292,7 @@ impl Param {
         self.accept(v)
     }
 
-    fn from_raw(&self, raw: &Raw) -> Result<Value, String> {
+    fn read_raw(&self, raw: &Raw) -> Result<Value, String> {
         match raw {
             Raw::Number(x) => self.accept(Value::Number(*x)),
             Raw::Bool(b) => self.accept(Value::Flag(*b)),
@@ -394,7 +394,7 @@ impl<'de> DeserializeSeed<'de> for ParamSeed {
         let mut first_error = None;
         for op in all() {
             if let Some(p) = op.params().iter().find(|p| p.name == self.name) {
-                match p.from_raw(&raw) {
+                match p.read_raw(&raw) {
                     Ok(v) => return Ok((raw, v)),
                     Err(e) => {
                         first_error.get_or_insert(e);
@@ -478,7 +478,7 @@ impl<'de> Visitor<'de> for OperatorVisitor {
             match def.params().iter().find(|p| p.name == *name) {
                 Some(p) => values.push((
                     name,
-                    p.from_raw(raw)
+                    p.read_raw(raw)
                         .map_err(|e| auto_hint(def.as_ref(), name, *v, e))
                         .map_err(A::Error::custom)?,
                 )),

@@ -30,12 +30,12 @@ use std::time::Instant;
 pub const BOUND: f64 = 1e-5;
 const FLOOR: f64 = f32::MIN_POSITIVE as f64;
 
-/// The operator set-ups every case goes through: `reinhard-global`'s plain
+/// The Reinhard set-ups every case goes through: `reinhard-global`'s plain
 /// log-average with white burning (Reinhard's global operator in real time,
 /// docs/bibliography.md), and `reinhard-auto-key`'s weighted mean with the
 /// automatic key, bloom and a contrast/saturation grade (so every statistic
 /// and every stage runs).
-const PIPELINES: [(&str, &str); 2] = [
+const REINHARD: [(&str, &str); 2] = [
     (
         "reinhard_global",
         "[operator]\nkind = \"reinhard-global\"\nkey = 0.18\nwhite_fraction = 0.9\n",
@@ -47,6 +47,24 @@ const PIPELINES: [(&str, &str); 2] = [
          [grade]\ncontrast = 1.2\nsaturation = 0.9\n",
     ),
 ];
+
+/// The pipelines every case goes through, by name: the two Reinhard
+/// set-ups, then every other operator known (built-in or registered) at its
+/// defaults, named after it (`pbr_neutral`).
+pub fn pipelines() -> Vec<(String, Scene)> {
+    let mut out: Vec<(String, Scene)> = REINHARD
+        .iter()
+        .map(|(name, body)| (name.to_string(), pipeline_scene(body)))
+        .collect();
+    for op in crate::operators::all() {
+        if ["reinhard-global", "reinhard-auto-key"].contains(&op.name()) {
+            continue;
+        }
+        let body = format!("[operator]\nkind = \"{}\"\n", op.name());
+        out.push((op.name().replace('-', "_"), pipeline_scene(&body)));
+    }
+    out
+}
 
 fn pipeline_scene(body: &str) -> Scene {
     let text = format!(
@@ -204,10 +222,10 @@ pub fn run(cases: &[Case], ctx: Option<&GpuContext>, reduction: ReductionMethod)
         .map(|c| c.limits.max_texture_dimension_2d)
         .unwrap_or(16384);
     let mut rows = Vec::new();
+    let pipelines = pipelines();
     for case in cases {
-        for (pname, body) in PIPELINES {
-            let scene = pipeline_scene(body);
-            let pipeline = Pipeline::of_scene(&scene);
+        for (pname, scene) in &pipelines {
+            let pipeline = Pipeline::of_scene(scene);
             // A documented exception is for adapters that flush subnormals:
             // it applies to a GPU row only where the probe found flushing,
             // and never to the CPU reference.
