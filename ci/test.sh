@@ -38,6 +38,9 @@ done
 # are built and run by `cargo bench` and `tonegate bench`, not here.
 cargo test --locked --lib --bins --tests "$@"
 cargo test --locked --doc
+# A caller's own operator through the harness (examples/own_operator.rs):
+# registered, rendered on both renderers and compared, stress rows.
+cargo run --locked --quiet --example own_operator
 # The Windows build (DX12): the code that is not Linux-only must keep
 # building there (ci/cross.sh; CROSS_CHECK=0 skips it).
 bash ci/cross.sh

@@ -7,23 +7,7 @@ use crate::scene::{BrightPass, Encoding, Grade, Operator, Scene, TaaParams, TaaV
 use serde::Serialize;
 use std::fmt;
 
-/// Which luminance statistics a frame needs (the `reinhard-global` and
-/// `reinhard-auto-key` reductions).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
-pub struct StatsNeeds {
-    /// exp(mean ln(δ + Y)) over all pixels.
-    pub log_average: bool,
-    /// `reinhard-auto-key`'s exp(Σ w·ln(δ + Y) / Σ w), w = 1 − e^(−Y).
-    pub weighted_log_average: bool,
-    pub min: bool,
-    pub max: bool,
-}
-
-impl StatsNeeds {
-    pub fn any(&self) -> bool {
-        self.log_average || self.weighted_log_average || self.min || self.max
-    }
-}
+pub use crate::operators::StatsNeeds;
 
 /// Where the bright pass reads from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -150,6 +134,14 @@ pub enum PlanError {
         stage: &'static str,
         what: &'static str,
     },
+}
+
+/// An operator that lacks a statistic was resolved before `luminance_stats`
+/// measured it.
+impl From<crate::operators::Unmeasured> for PlanError {
+    fn from(_: crate::operators::Unmeasured) -> PlanError {
+        PlanError::order("tonemap", "luminance_stats")
+    }
 }
 
 impl PlanError {

@@ -426,6 +426,42 @@ pub fn render(a: RenderArgs) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+#[derive(Args)]
+pub struct OperatorsArgs {
+    /// Print them as JSON (what GET /api/v1/operators answers).
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn operators(a: OperatorsArgs) -> Result<ExitCode> {
+    let all = tonegate::operators::describe();
+    if a.json {
+        write_json(Path::new("-"), "the operators", &all)?;
+        return Ok(ExitCode::SUCCESS);
+    }
+    for o in all {
+        let aliases = if o.aliases.is_empty() {
+            String::new()
+        } else {
+            format!(" (also {})", o.aliases.join(", "))
+        };
+        println!("{}{aliases}: {}", o.name, o.summary);
+        for p in o.params {
+            let default = match p.default {
+                tonegate::operators::Value::Unset => "measured".to_owned(),
+                v => v.to_string(),
+            };
+            println!(
+                "  --{:<18} {} (default {default}; {})",
+                p.name.replace('_', "-"),
+                p.doc,
+                p.expected
+            );
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
 pub fn env(a: EnvArgs) -> Result<ExitCode> {
     use tonegate::env::BuiltinEnv;
     if a.list || a.name.is_none() {

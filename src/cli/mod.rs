@@ -62,6 +62,8 @@ pub enum Command {
     Golden(golden::GoldenCommand),
     /// Export a built-in HDR environment, or list them.
     Env(image::EnvArgs),
+    /// List the tone-mapping operators with their parameters, ranges and defaults.
+    Operators(image::OperatorsArgs),
     /// Serve the HTTP API (/api/v1), Prometheus metrics (/metrics) and the dashboard (/).
     Serve(serve::ServeArgs),
     /// Take queued check runs from a shared history (--db postgres://...) and run them on this machine's adapter.
@@ -214,6 +216,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         Command::Render(a) => image::render(a),
         Command::Golden(c) => golden::golden(c),
         Command::Env(a) => image::env(a),
+        Command::Operators(a) => image::operators(a),
         Command::Serve(a) => serve::serve(a),
         Command::Runner(a) => fleet::runner(a),
         Command::Enqueue(a) => fleet::enqueue(a),

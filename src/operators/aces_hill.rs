@@ -5,8 +5,7 @@
 
 use super::fixed::{self, columns, mul3, EXPOSURE};
 use super::{Curve, Param, Resolution, ToneOperator, Values};
-use crate::plan::{PlanError, StatsNeeds};
-use crate::reference::luminance_stats::LuminanceStats;
+use super::{LuminanceStats, StatsNeeds, Unmeasured};
 
 /// `aces-hill`.
 pub struct AcesHill;
@@ -61,7 +60,7 @@ impl ToneOperator for AcesHill {
     fn resolved_names(&self) -> &'static [&'static str] {
         fixed::RESOLVED
     }
-    fn resolve(&self, v: &Values, _: &LuminanceStats) -> Result<Resolution, PlanError> {
+    fn resolve(&self, v: &Values, _: &LuminanceStats) -> Result<Resolution, Unmeasured> {
         Ok(fixed::resolution(v, Fit))
     }
     fn wgsl(&self) -> &'static str {

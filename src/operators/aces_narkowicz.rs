@@ -4,8 +4,7 @@
 
 use super::fixed::{self, EXPOSURE};
 use super::{Curve, Param, Resolution, ToneOperator, Values};
-use crate::plan::{PlanError, StatsNeeds};
-use crate::reference::luminance_stats::LuminanceStats;
+use super::{LuminanceStats, StatsNeeds, Unmeasured};
 
 /// `aces-narkowicz`.
 pub struct AcesNarkowicz;
@@ -41,7 +40,7 @@ impl ToneOperator for AcesNarkowicz {
     fn resolved_names(&self) -> &'static [&'static str] {
         fixed::RESOLVED
     }
-    fn resolve(&self, v: &Values, _: &LuminanceStats) -> Result<Resolution, PlanError> {
+    fn resolve(&self, v: &Values, _: &LuminanceStats) -> Result<Resolution, Unmeasured> {
         Ok(fixed::resolution(v, Fit))
     }
     fn wgsl(&self) -> &'static str {

@@ -9,8 +9,7 @@
 
 use super::fixed::{self, columns, mul3, EXPOSURE};
 use super::{Curve, Kind, Param, Resolution, ToneOperator, Value, Values};
-use crate::plan::{PlanError, StatsNeeds};
-use crate::reference::luminance_stats::LuminanceStats;
+use super::{LuminanceStats, StatsNeeds, Unmeasured};
 
 /// `agx`.
 pub struct Agx;
@@ -114,7 +113,7 @@ impl ToneOperator for Agx {
     fn resolved_names(&self) -> &'static [&'static str] {
         fixed::RESOLVED
     }
-    fn resolve(&self, v: &Values, _: &LuminanceStats) -> Result<Resolution, PlanError> {
+    fn resolve(&self, v: &Values, _: &LuminanceStats) -> Result<Resolution, Unmeasured> {
         Ok(fixed::resolution(
             v,
             Fit {

@@ -7,8 +7,7 @@
 
 use super::fixed::{self, EXPOSURE};
 use super::{Curve, Kind, Param, Range, Resolution, ToneOperator, Value, Values};
-use crate::plan::{PlanError, StatsNeeds};
-use crate::reference::luminance_stats::LuminanceStats;
+use super::{LuminanceStats, StatsNeeds, Unmeasured};
 
 /// `hable`.
 pub struct Hable;
@@ -119,7 +118,7 @@ impl ToneOperator for Hable {
     fn resolved_names(&self) -> &'static [&'static str] {
         fixed::RESOLVED
     }
-    fn resolve(&self, v: &Values, _: &LuminanceStats) -> Result<Resolution, PlanError> {
+    fn resolve(&self, v: &Values, _: &LuminanceStats) -> Result<Resolution, Unmeasured> {
         let k = Constants::of(v);
         Ok(fixed::resolution(
             v,

@@ -6,8 +6,7 @@
 
 use super::fixed::{self, EXPOSURE};
 use super::{Curve, Param, Resolution, ToneOperator, Values};
-use crate::plan::{PlanError, StatsNeeds};
-use crate::reference::luminance_stats::LuminanceStats;
+use super::{LuminanceStats, StatsNeeds, Unmeasured};
 
 /// `pbr-neutral`.
 pub struct PbrNeutral;
@@ -52,7 +51,7 @@ impl ToneOperator for PbrNeutral {
     fn resolved_names(&self) -> &'static [&'static str] {
         fixed::RESOLVED
     }
-    fn resolve(&self, v: &Values, _: &LuminanceStats) -> Result<Resolution, PlanError> {
+    fn resolve(&self, v: &Values, _: &LuminanceStats) -> Result<Resolution, Unmeasured> {
         Ok(fixed::resolution(v, Fit))
     }
     fn wgsl(&self) -> &'static str {

@@ -4,8 +4,7 @@
 
 use super::reinhard::{self, GpuNumbers, COLOUR, KEY, LOG_AVERAGE};
 use super::{Kind, Luminance, Param, Range, Resolution, ToneOperator, Value, Values};
-use crate::plan::{PlanError, StatsNeeds};
-use crate::reference::luminance_stats::LuminanceStats;
+use super::{LuminanceStats, StatsNeeds, Unmeasured};
 
 /// `reinhard02`.
 pub struct Reinhard02;
@@ -58,13 +57,13 @@ impl ToneOperator for Reinhard02 {
     fn resolved_names(&self) -> &'static [&'static str] {
         reinhard::RESOLVED
     }
-    fn resolve(&self, v: &Values, stats: &LuminanceStats) -> Result<Resolution, PlanError> {
-        let measured = |v: Option<f64>| v.ok_or(PlanError::order("tonemap", "luminance_stats"));
-        let lavg = measured(v.number("log_average").or(stats.log_average))?;
+    fn resolve(&self, v: &Values, stats: &LuminanceStats) -> Result<Resolution, Unmeasured> {
+        let measured = |v: Option<f64>, what| v.ok_or(Unmeasured(what));
+        let lavg = measured(v.number("log_average").or(stats.log_average), "log-average")?;
         let a = v.num("key");
         let white = match v.number("white") {
             Some(w) => w,
-            None => a * measured(stats.max)? / lavg,
+            None => a * measured(stats.max, "maximum")? / lavg,
         };
         Ok(reinhard::resolution(
             a,

@@ -5,8 +5,7 @@
 
 use super::reinhard::{self, GpuNumbers, COLOUR, DEFAULT_KEY, KEY};
 use super::{Kind, Param, Range, Resolution, ToneOperator, Value, Values};
-use crate::plan::{PlanError, StatsNeeds};
-use crate::reference::luminance_stats::LuminanceStats;
+use super::{LuminanceStats, StatsNeeds, Unmeasured};
 
 /// `reinhard-auto-key`.
 pub struct ReinhardAutoKey;
@@ -45,13 +44,13 @@ impl ToneOperator for ReinhardAutoKey {
     fn resolved_names(&self) -> &'static [&'static str] {
         reinhard::RESOLVED
     }
-    fn resolve(&self, v: &Values, stats: &LuminanceStats) -> Result<Resolution, PlanError> {
-        let measured = |v: Option<f64>| v.ok_or(PlanError::order("tonemap", "luminance_stats"));
-        let lavg = measured(stats.weighted_log_average)?;
-        let lmax = measured(stats.max)?;
+    fn resolve(&self, v: &Values, stats: &LuminanceStats) -> Result<Resolution, Unmeasured> {
+        let measured = |v: Option<f64>, what| v.ok_or(Unmeasured(what));
+        let lavg = measured(stats.weighted_log_average, "weighted log-average")?;
+        let lmax = measured(stats.max, "maximum")?;
         let a = match v.number("key") {
             Some(k) => k,
-            None => reinhard::automatic_key(measured(stats.min)?, lavg, lmax),
+            None => reinhard::automatic_key(measured(stats.min, "minimum")?, lavg, lmax),
         };
         let white = a * lmax / lavg;
         Ok(reinhard::resolution(

@@ -4,8 +4,7 @@
 
 use super::reinhard::{self, GpuNumbers, COLOUR, KEY, LOG_AVERAGE};
 use super::{Kind, Param, Range, Resolution, ToneOperator, Value, Values};
-use crate::plan::{PlanError, StatsNeeds};
-use crate::reference::luminance_stats::LuminanceStats;
+use super::{LuminanceStats, StatsNeeds, Unmeasured};
 
 /// `reinhard-global`.
 pub struct ReinhardGlobal;
@@ -56,10 +55,10 @@ impl ToneOperator for ReinhardGlobal {
     fn resolved_names(&self) -> &'static [&'static str] {
         reinhard::RESOLVED
     }
-    fn resolve(&self, v: &Values, stats: &LuminanceStats) -> Result<Resolution, PlanError> {
-        let measured = |v: Option<f64>| v.ok_or(PlanError::order("tonemap", "luminance_stats"));
-        let lavg = measured(v.number("log_average").or(stats.log_average))?;
-        let lmax = measured(v.number("max_luminance").or(stats.max))?;
+    fn resolve(&self, v: &Values, stats: &LuminanceStats) -> Result<Resolution, Unmeasured> {
+        let measured = |v: Option<f64>, what| v.ok_or(Unmeasured(what));
+        let lavg = measured(v.number("log_average").or(stats.log_average), "log-average")?;
+        let lmax = measured(v.number("max_luminance").or(stats.max), "maximum")?;
         let w = v.num("white_fraction");
         let white_sq = reinhard::finite_positive_or_inf(w * w * lmax);
         Ok(reinhard::resolution(

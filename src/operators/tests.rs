@@ -141,8 +141,8 @@ impl ToneOperator for Clash {
     fn resolved_names(&self) -> &'static [&'static str] {
         &[]
     }
-    fn resolve(&self, _: &Values, _: &LuminanceStats) -> Result<Resolution, PlanError> {
-        Err(PlanError::order("tonemap", "nothing"))
+    fn resolve(&self, _: &Values, _: &LuminanceStats) -> Result<Resolution, Unmeasured> {
+        Err(Unmeasured("nothing"))
     }
     fn wgsl(&self) -> &'static str {
         ""

@@ -1,20 +1,10 @@
 //! `luminance_stats`: log-average, weighted log-average, min and max of Y.
 
 use crate::image::LinearImage;
-use crate::plan::StatsNeeds;
+use crate::operators::StatsNeeds;
 use rayon::prelude::*;
-use serde::Serialize;
 
-/// The statistics a frame's operator needs; the ones not asked for are `None`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
-pub struct LuminanceStats {
-    pub log_average: Option<f64>,
-    pub weighted_log_average: Option<f64>,
-    pub min: Option<f64>,
-    pub max: Option<f64>,
-    /// Σw of the weighted mean; 0 means the fallback to the plain mean was used.
-    pub weight_sum: Option<f64>,
-}
+pub use crate::operators::LuminanceStats;
 
 /// Neumaier's compensated sum: the error stays O(ε) instead of O(n·ε), which is
 /// what keeps 8 M log terms within 1e-12 of the exact sum.

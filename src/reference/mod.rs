@@ -449,7 +449,8 @@ pub fn pixelwise_tone(img: &HdrImage, p: &Pipeline) -> Option<Result<PixelwiseTo
     Some(
         p.operator
             .resolve(&stats)
-            .map(|tone| PixelwiseTone { plan, stats, tone }),
+            .map(|tone| PixelwiseTone { plan, stats, tone })
+            .map_err(PlanError::from),
     )
 }
 

@@ -91,13 +91,8 @@ pub(crate) fn query_pairs(q: Option<&str>) -> Result<Vec<(String, String)>, ApiE
     params(
         ("gpu" = Option<bool>, Query, description = "Render on the GPU (default true) or with the CPU reference"),
         ("format" = Option<String>, Query, description = "png (default) or json (the PNG inline, base64)"),
-        ("operator" = Option<String>, Query, description = "reinhard-global (default), reinhard-auto-key, reinhard02 (seed000 and seed001: the same two by their first names)"),
+        ("operator" = Option<String>, Query, description = "reinhard-global (default), reinhard-auto-key, reinhard02 (seed000 and seed001: the same two by their first names), aces-narkowicz, aces-hill, agx, pbr-neutral, hable; GET /api/v1/operators lists every operator with its parameters"),
         ("preset" = Option<String>, Query, description = "reinhard02: pfstmo_reinhard02's global operator"),
-        ("key" = Option<String>, Query, description = "Key a, or auto (reinhard-auto-key, its default)"),
-        ("white_fraction" = Option<f64>, Query, description = "reinhard-global: fraction of the maximum mapped to white, (0, 1]"),
-        ("white" = Option<f64>, Query, description = "reinhard02: absolute Lwhite"),
-        ("log_average" = Option<f64>, Query, description = "Fixed adaptation luminance"),
-        ("colour" = Option<String>, Query, description = "ratio (default) or xyy"),
         ("bloom" = Option<f64>, Query, description = "Bloom strength (0 = none); bloom_pass, bloom_threshold, bloom_downsample, bloom_radius, bloom_sigma refine it"),
         ("brightness" = Option<f64>, Query), ("contrast" = Option<f64>, Query), ("saturation" = Option<f64>, Query),
         ("gamma" = Option<f64>, Query, description = "Encode with 1/gamma instead of the sRGB OETF"),
@@ -340,6 +335,19 @@ fn respond(out: ToneOutput, json: bool, settings: &ToneSettings) -> Response {
         }
     }
     r
+}
+
+/// Every operator the server knows (built-in and registered), with its
+/// parameters, their types, ranges and defaults: what the tone-map page
+/// builds its form from, made from the operators' definitions.
+#[utoipa::path(get, path = "/api/v1/operators", tag = "tonemap",
+    responses((status = 200, description = "A JSON array: name, aliases, summary, resolves (the values a report gives), params (name, doc, type: number, number_or_auto, flag or word; range or words; default, null when measured; expected)")))]
+pub async fn operators(
+    State(st): State<Arc<AppState>>,
+    headers: HeaderMap,
+) -> Result<Response, ApiError> {
+    st.authorize_read(&headers)?;
+    Ok(axum::Json(crate::operators::describe()).into_response())
 }
 
 /// A built-in environment as a Radiance .hdr (512×256), so the tone-map page

@@ -10,6 +10,13 @@ use tonegate::history::{History, RunStatus};
 
 use common::{repo, tonegate};
 
+/// The number of scenes in the built-in suite (golden/suite.toml).
+fn suite_size() -> usize {
+    tonegate::suite::load_suite(&repo().join("golden/suite.toml"))
+        .unwrap()
+        .len()
+}
+
 fn text(o: &Output) -> String {
     format!(
         "{}\n{}",
@@ -59,7 +66,11 @@ fn check_passes_on_main_writes_junit_json_and_records_the_run() {
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
     let xml = std::fs::read_to_string(&junit).unwrap();
     // One test suite a scene, and the stress suite (the built-in suite sets `stress = true`).
-    assert_eq!(xml.matches("<testsuite ").count(), 22, "{xml}");
+    assert_eq!(
+        xml.matches("<testsuite ").count(),
+        suite_size() + 1,
+        "{xml}"
+    );
     assert!(xml.contains("<testsuite name=\"stress\""), "{xml}");
     assert!(!xml.contains("<failure"), "{xml}");
     assert!(
@@ -79,7 +90,7 @@ fn check_passes_on_main_writes_junit_json_and_records_the_run() {
     assert_eq!(report["stress"]["passed"], true);
     assert!(report["stress"]["cases"].as_array().unwrap().len() >= 32);
     let scenes = report["scenes"].as_array().unwrap();
-    assert_eq!(scenes.len(), 21);
+    assert_eq!(scenes.len(), suite_size());
     for sc in scenes {
         // Every scene judged something, at its default spp (the goldens' own;
         // 1 for the TAA scenes), and has per-frame metrics.
@@ -122,7 +133,7 @@ fn check_passes_on_main_writes_junit_json_and_records_the_run() {
     assert_eq!(run_status(&db, id), "passed");
     let h = History::open_read_only(&db).unwrap();
     let runs = h.runs(10).unwrap();
-    assert_eq!(runs[0].scenes, 21);
+    assert_eq!(runs[0].scenes as usize, suite_size());
     assert_eq!(
         runs[0].adapter.as_deref(),
         report["adapter"]["name"].as_str()
@@ -337,8 +348,8 @@ fn kill_9_during_a_check_leaves_a_consistent_database_with_the_run_aborted() {
     assert_eq!(h.status(1).unwrap().map(RunStatus::as_str), Some("passed"));
     assert_eq!(h.integrity().unwrap(), "ok");
     let runs = h.runs(10).unwrap();
-    assert_eq!(runs[1].scenes, 21);
-    assert!(runs[0].scenes >= 1 && runs[0].scenes <= 21);
+    assert_eq!(runs[1].scenes as usize, suite_size());
+    assert!(runs[0].scenes >= 1 && (runs[0].scenes as usize) <= suite_size());
     assert!(runs[0].detail.as_deref().unwrap().contains("crash or kill"));
     drop(h);
     let o = tonegate(&["history", "--db", s(&db)]);

@@ -179,13 +179,62 @@ fn the_dashboard_shows_runs_charts_and_image_comparisons_in_chromium() {
     assert!(count(&dom, "class=\"point pareto\"") >= 2, "{dom}");
     assert!(dom.contains("class=\"front\""));
 
-    // The tone-map page's controls.
+    // The tone-map page's controls: the operator's parameters come from
+    // its definition (reinhard-global's by default, agx's when asked).
     let dom = browse(&format!("{}/#/tonemap", s.base), "tonemap");
-    for name in ["file", "operator", "key", "white", "bloom", "gamma"] {
+    for name in [
+        "file",
+        "operator",
+        "key",
+        "white_fraction",
+        "colour",
+        "bloom",
+        "gamma",
+    ] {
         assert!(
             dom.contains(&format!("name=\"{name}\"")),
             "{name} control:\n{dom}"
         );
+    }
+    for op in tonegate::operators::builtin() {
+        assert!(
+            dom.contains(&format!("<option value=\"{}\"", op.name())),
+            "{}",
+            op.name()
+        );
+    }
+    let dom = browse(&format!("{}/#/tonemap?operator=agx", s.base), "tonemap-agx");
+    assert!(
+        dom.contains("name=\"look\"") && dom.contains("name=\"exposure\""),
+        "{dom}"
+    );
+    assert!(!dom.contains("name=\"white_fraction\""), "{dom}");
+}
+
+/// The contact sheet: a built-in sample through every operator the server
+/// knows, side by side, each decoded by the browser with the server's time.
+#[test]
+fn the_contact_sheet_shows_every_operator_in_chromium() {
+    let dir = tempfile::tempdir().unwrap();
+    let seeded = common::seed_empty(dir.path());
+    let s = serve(&seeded, dir.path());
+    let dom = browse(
+        &format!("{}/#/tonemap?sample=night&sheet=1", s.base),
+        "contact-sheet",
+    );
+    assert!(
+        dom.contains("class=\"contact-sheet\" data-done=\"1\""),
+        "{dom}"
+    );
+    for op in tonegate::operators::builtin() {
+        let cell = dom
+            .split(&format!("data-operator=\"{}\"", op.name()))
+            .nth(1)
+            .unwrap_or_else(|| panic!("no cell for {}:\n{dom}", op.name()));
+        let cell = cell.split("</figure>").next().unwrap();
+        assert!(cell.contains("data-loaded=\"1\""), "{}: {cell}", op.name());
+        assert!(cell.contains(" ms"), "{}: {cell}", op.name());
+        assert!(cell.contains("data-ms=\""), "{}: {cell}", op.name());
     }
 }
 

@@ -90,7 +90,7 @@ async function route() {
     if (parts[0] === "runs" && parts[1]) await runPage(+parts[1], params);
     else if (parts[0] === "trends") await trendsPage(params);
     else if (parts[0] === "tradeoff") await tradeoffPage(parts[1], params);
-    else if (parts[0] === "tonemap") tonemapPage(params);
+    else if (parts[0] === "tonemap") await tonemapPage(params);
     else if (parts[0] === "fleet") await fleetPage(params);
     else if (parts[0] === "matrix") await matrixPage();
     else await runsPage(params);
@@ -464,17 +464,26 @@ async function tradeoffPage(idText, params) {
 }
 
 // ---- tone-map an upload -------------------------------------------------------
-function tonemapPage(params) {
+// The operators and their parameters come from the server (GET /operators, made
+// from the operators' definitions), so the form offers every operator it knows.
+async function tonemapPage(params) {
+  let operators = [];
+  try {
+    operators = await api("/operators");
+  } catch (e) {
+    return show(h("h1", {}, "Tone-map an HDR image"), failure(e));
+  }
   const file = h("input", { type: "file", name: "file", accept: ".hdr,.exr,.pfm" });
   // The image to tone-map: the chosen file, or a built-in sample fetched from the server.
   let source = null;
-  file.addEventListener("change", () => { source = file.files[0] || null; });
+  file.addEventListener("change", () => { source = file.files[0] || null; if (source) run(); });
   async function useSample(name) {
     try {
       const r = await fetch(`${API}/samples/${name}.hdr`, { headers: authHeaders() });
       if (!r.ok) throw new Error(`sample ${name}: ${r.status}`);
       source = await r.blob();
-      run();
+      if (params.get("sheet")) contactSheet();
+      else run();
     } catch (e) {
       result.replaceChildren(failure(e));
     }
@@ -482,36 +491,59 @@ function tonemapPage(params) {
   const samples = h("span", { class: "samples" }, "or try a built-in image: ",
     ["sky", "interior", "night", "grid"].map((n) => h("button", { type: "button", "data-sample": n, onclick: () => useSample(n) }, n)));
   const field = (label, input) => h("label", {}, h("span", {}, label), input);
-  const operator = h("select", { name: "operator" }, ["reinhard-global", "reinhard-auto-key", "reinhard02"].map((o) => h("option", { value: o }, o)));
-  const key = h("input", { name: "key", value: "0.18", size: 6, title: "a number, or auto (reinhard-auto-key)" });
-  const white = h("input", { name: "white", type: "range", min: 0.05, max: 1, step: 0.05, value: 0.8 });
-  const whiteOut = h("output", {}, "0.80");
+  const operator = h("select", { name: "operator" }, operators.map((o) => h("option", { value: o.name, title: o.summary }, o.name)));
+  const summary = h("p", { class: "muted operator-summary" });
+  // One control per parameter of the chosen operator; an empty one (or a word at
+  // its default) is not sent, so the operator's own default applies.
+  const paramBox = h("span", { class: "operator-params" });
+  let controls = [];
+  function paramControl(p) {
+    const title = `${p.doc} (${p.expected})`;
+    let input;
+    if (p.type === "word") input = h("select", { name: p.name, title }, p.words.map((w) => h("option", { value: w, selected: w === p.default }, w)));
+    else if (p.type === "flag") input = h("select", { name: p.name, title }, ["false", "true"].map((w) => h("option", { value: w, selected: String(p.default) === w }, w)));
+    else input = h("input", { name: p.name, size: 7, title, placeholder: p.default === null ? "measured" : String(p.default) });
+    input.addEventListener("change", later);
+    controls.push({ p, input });
+    return field(p.name.replace(/_/g, " "), input);
+  }
+  function showParams() {
+    const o = operators.find((x) => x.name === operator.value);
+    controls = [];
+    summary.textContent = o ? o.summary : "";
+    paramBox.replaceChildren(...(o ? o.params.map(paramControl) : []));
+  }
+  function operatorQuery(q) {
+    for (const { p, input } of controls) {
+      const v = input.value.trim();
+      if (v === "" || ((p.type === "word" || p.type === "flag") && v === String(p.default))) continue;
+      q.set(p.name, v);
+    }
+  }
   const bloom = h("input", { name: "bloom", type: "range", min: 0, max: 1, step: 0.05, value: 0 });
   const bloomOut = h("output", {}, "0.00");
   const gamma = h("input", { name: "gamma", placeholder: "sRGB", size: 6 });
   const gpu = h("select", { name: "gpu" }, h("option", { value: "true" }, "GPU"), h("option", { value: "false" }, "CPU reference"));
   const result = h("div", { class: "tonemap-result" }, h("p", { class: "muted" }, "Choose an .hdr, .exr or .pfm file (or a built-in sample); the result updates as you change the settings."));
+  const tonemap = (q) => api("/tonemap?" + q, { method: "POST", body: source, headers: { "Content-Type": "application/octet-stream" } });
+  const resolved = (tone) => Object.entries(tone).filter(([k]) => k !== "operator").map(([k, v]) => [k.replace(/_/g, " "), num(v, 4)]);
   let pending = 0;
   async function run() {
     if (!source) return;
-    whiteOut.value = (+white.value).toFixed(2);
     bloomOut.value = (+bloom.value).toFixed(2);
     const q = new URLSearchParams({ format: "json", gpu: gpu.value, operator: operator.value });
-    if (key.value.trim()) q.set("key", key.value.trim());
-    // The white control is reinhard-global's fraction of the maximum, or reinhard02's
-    // Lwhite relative to the key-scaled maximum (as a fraction, scaled here).
-    if (operator.value === "reinhard-global") q.set("white_fraction", white.value);
+    operatorQuery(q);
     if (+bloom.value > 0) q.set("bloom", bloom.value);
     if (gamma.value.trim()) q.set("gamma", gamma.value.trim());
     const mine = ++pending;
     result.setAttribute("aria-busy", "true");
     try {
-      const r = await api("/tonemap?" + q, { method: "POST", body: source, headers: { "Content-Type": "application/octet-stream" } });
+      const r = await tonemap(q);
       if (mine !== pending) return;
       const img = h("img", { src: `data:image/png;base64,${r.image.base64}`, alt: "tone-mapped result", class: "result" });
       img.addEventListener("load", () => img.setAttribute("data-loaded", "1"));
       result.replaceChildren(img,
-        h("dl", { class: "facts" }, ...[["Size", `${r.width}×${r.height}`], ["Renderer", r.adapter], ["Plan", r.plan.join(" → ")], ["Key", num(r.tone.key, 4)], ["Log-average", num(r.tone.log_average, 4)],
+        h("dl", { class: "facts" }, ...[["Size", `${r.width}×${r.height}`], ["Renderer", r.adapter], ["Plan", r.plan.join(" → ")], ["Operator", r.tone.operator], ...resolved(r.tone),
           ["Luminance", `${num(r.input.min_luminance)} … ${num(r.input.max_luminance)} (${num(r.input.dynamic_range_stops, 1)} stops)`], ["Time", `${num(r.render_ms, 1)} ms (+${num(r.queue_ms, 1)} ms queued)`]]
           .flatMap(([k, v]) => [h("dt", {}, k), h("dd", {}, v)])));
     } catch (e) {
@@ -520,13 +552,45 @@ function tonemapPage(params) {
       if (mine === pending) result.removeAttribute("aria-busy");
     }
   }
+  // The contact sheet: the image through every operator at its defaults, one
+  // after the other on the chosen renderer, each with the time the server took.
+  const sheetExposure = h("input", { name: "sheet_exposure", size: 6, placeholder: "1", title: "The contact sheet's exposure for every operator that takes one (the fixed curves)" });
+  async function contactSheet() {
+    if (!source) return result.replaceChildren(h("p", { class: "bad" }, "Choose a file or a sample first."));
+    const exposure = sheetExposure.value.trim() || params.get("exposure") || "";
+    const mine = ++pending;
+    const cells = operators.map((o) => h("figure", { class: "sheet-cell", "data-operator": o.name }, h("figcaption", {}, o.name, " · …")));
+    const sheet = h("div", { class: "contact-sheet" }, cells);
+    result.replaceChildren(h("p", { class: "muted" }, `Every operator at its defaults${exposure ? `, exposure ${exposure} where it takes one` : ""} (${gpu.value === "true" ? "GPU" : "CPU reference"}); the time is the server's for the whole job.`), sheet);
+    for (const [i, o] of operators.entries()) {
+      if (mine !== pending) return;
+      try {
+        const q = new URLSearchParams({ format: "json", gpu: gpu.value, operator: o.name });
+        if (exposure && o.params.some((p) => p.name === "exposure")) q.set("exposure", exposure);
+        const r = await tonemap(q);
+        const img = h("img", { src: `data:image/png;base64,${r.image.base64}`, alt: o.name, title: o.summary });
+        img.addEventListener("load", () => img.setAttribute("data-loaded", "1"));
+        cells[i].replaceChildren(img, h("figcaption", {}, h("b", {}, o.name), ` · ${num(r.render_ms, 1)} ms`));
+        cells[i].setAttribute("data-ms", r.render_ms);
+      } catch (e) {
+        cells[i].replaceChildren(h("figcaption", {}, o.name), failure(e));
+      }
+    }
+    sheet.setAttribute("data-done", "1");
+  }
   let debounce = null;
   const later = () => { clearTimeout(debounce); debounce = setTimeout(run, 250); };
-  for (const i of [file, operator, key, white, bloom, gamma, gpu]) i.addEventListener(i.type === "range" ? "input" : "change", later);
+  operator.addEventListener("change", () => { showParams(); later(); });
+  for (const i of [bloom, gamma, gpu]) i.addEventListener(i.type === "range" ? "input" : "change", later);
+  if (params.get("operator") && operators.some((o) => o.name === params.get("operator"))) operator.value = params.get("operator");
+  showParams();
   show(h("h1", {}, "Tone-map an HDR image"),
     h("form", { class: "tonemap-form", onsubmit: (e) => { e.preventDefault(); run(); } },
-      field("HDR file", file), field("Operator", operator), field("Key", key), field("White (reinhard-global: fraction)", h("span", {}, white, whiteOut)),
-      field("Bloom", h("span", {}, bloom, bloomOut)), field("Gamma", gamma), field("Renderer", gpu), h("button", { class: "primary", type: "submit" }, "Tone-map")),
+      field("HDR file", file), field("Operator", operator), paramBox,
+      field("Bloom", h("span", {}, bloom, bloomOut)), field("Gamma", gamma), field("Renderer", gpu), h("button", { class: "primary", type: "submit" }, "Tone-map"),
+      h("button", { type: "button", name: "sheet", onclick: contactSheet, title: "The image through every operator, side by side, each with its time" }, "Contact sheet"),
+      field("Sheet exposure", sheetExposure)),
+    summary,
     samples,
     result);
   if (params.get("sample")) useSample(params.get("sample"));

@@ -1,0 +1,43 @@
+//! What an operator asks to be measured and what it is given: the frame's
+//! luminance statistics (docs/statistics.md). `plan` builds the
+//! `luminance_stats` stage from the first, and both renderers fill the
+//! second.
+
+use serde::Serialize;
+
+/// Which luminance statistics a frame needs (what the Reinhard variants and a
+/// `scaled` bloom adapt to).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct StatsNeeds {
+    /// exp(mean ln(δ + Y)) over all pixels.
+    pub log_average: bool,
+    /// `reinhard-auto-key`'s exp(Σ w·ln(δ + Y) / Σ w), w = 1 − e^(−Y).
+    pub weighted_log_average: bool,
+    pub min: bool,
+    pub max: bool,
+}
+
+impl StatsNeeds {
+    /// Whether anything is measured at all.
+    pub fn any(&self) -> bool {
+        self.log_average || self.weighted_log_average || self.min || self.max
+    }
+}
+
+/// The statistics a frame's operator needs; the ones not asked for are `None`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct LuminanceStats {
+    pub log_average: Option<f64>,
+    pub weighted_log_average: Option<f64>,
+    pub min: Option<f64>,
+    pub max: Option<f64>,
+    /// Σw of the weighted mean; 0 means the fallback to the plain mean was used.
+    pub weight_sum: Option<f64>,
+}
+
+/// A statistic the operator needs and the frame's plan did not measure: a
+/// plan that does not measure what its operator needs is a tonegate bug
+/// (the plan converts it into its own error).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("the operator needs the frame's {0}, which was not measured")]
+pub struct Unmeasured(pub &'static str);
