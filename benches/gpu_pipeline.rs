@@ -41,6 +41,7 @@ fn full_plan(c: &mut Criterion) {
                 variant: TaaVariant::Off,
                 ..TaaParams::default()
             },
+            None,
         )
         .unwrap_or_else(|e| panic!("{e}"));
         let mut n = 0u32;

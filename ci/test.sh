@@ -38,6 +38,9 @@ done
 # are built and run by `cargo bench` and `tonegate bench`, not here.
 cargo test --locked --lib --bins --tests "$@"
 cargo test --locked --doc
+# The public API's documentation builds without a warning (broken links
+# included); `operators` denies missing docs.
+RUSTDOCFLAGS="-D warnings" cargo doc --locked --no-deps --lib --quiet
 # A caller's own operator through the harness (examples/own_operator.rs):
 # registered, rendered on both renderers and compared, stress rows.
 cargo run --locked --quiet --example own_operator

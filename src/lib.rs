@@ -19,6 +19,7 @@ pub mod history;
 pub mod image;
 pub mod io;
 pub mod metrics;
+#[deny(missing_docs)]
 pub mod operators;
 pub mod perf;
 pub mod plan;

@@ -4,11 +4,10 @@
 // The punchy look between the sigmoid and the outset.
 override PUNCHY: bool = false;
 
+// AGX_TO_REC2020, AGX_INSET, AGX_OUTSET and AGX_TO_SRGB are written before
+// this text by the host, from src/operators/agx.rs.
+
 struct OperatorConfig {
-    to_rec2020: mat3x3<f32>,
-    inset: mat3x3<f32>,
-    outset: mat3x3<f32>,
-    to_srgb: mat3x3<f32>,
     exposure: f32,
 }
 
@@ -26,7 +25,7 @@ fn agx_contrast(x: vec3<f32>) -> vec3<f32> {
 }
 
 fn operator_pixel(c: vec3<f32>, r: vec4<f32>, k: OperatorConfig) -> vec3<f32> {
-    let v = k.inset * (k.to_rec2020 * (c * r.x));
+    let v = AGX_INSET * (AGX_TO_REC2020 * (c * r.x));
     let e = (log2(max(v, vec3<f32>(1e-10))) - AGX_MIN_EV) / (AGX_MAX_EV - AGX_MIN_EV);
     var s = agx_contrast(clamp(e, vec3<f32>(0.0), vec3<f32>(1.0)));
     if (PUNCHY) {
@@ -34,6 +33,6 @@ fn operator_pixel(c: vec3<f32>, r: vec4<f32>, k: OperatorConfig) -> vec3<f32> {
         let luma = dot(s, vec3<f32>(0.2126, 0.7152, 0.0722));
         s = luma + 1.4 * (s - luma);
     }
-    let o = pow(max(k.outset * s, vec3<f32>(0.0)), vec3<f32>(2.2));
-    return clamp(k.to_srgb * o, vec3<f32>(0.0), vec3<f32>(1.0));
+    let o = pow(max(AGX_OUTSET * s, vec3<f32>(0.0)), vec3<f32>(2.2));
+    return clamp(AGX_TO_SRGB * o, vec3<f32>(0.0), vec3<f32>(1.0));
 }

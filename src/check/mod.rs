@@ -5,7 +5,7 @@
 //! Adding a check kind is one variant of [`Check`] and one arm of
 //! [`Check::rule`]; a new per-frame figure is one row of [`FRAME_METRICS`] (`figures`).
 //! Nothing here renders or reads files: the gate (`crate::gate`) renders,
-//! loads the goldens and calls [`judge`].
+//! loads the goldens and calls [`judge::judge`].
 
 pub mod expect;
 pub mod figures;

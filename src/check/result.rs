@@ -152,7 +152,7 @@ pub struct SceneResult {
     pub frames: Vec<FrameResult>,
     /// The frames the checks judged: the last one for a static test, all for a moving one.
     pub judged_frames: Vec<u32>,
-    /// Best / worst / mean over every frame, per metric (see [`FRAME_METRICS`]).
+    /// Best / worst / mean over every frame, per metric (see [`crate::check::FRAME_METRICS`]).
     pub summaries: BTreeMap<String, Summary>,
     pub checks: Vec<CheckResult>,
     /// Why the scene fails regardless of its checks (for example: none apply).

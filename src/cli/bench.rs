@@ -32,6 +32,11 @@ pub struct BenchArgs {
     /// Where the TAA blend is taken.
     #[arg(long, value_enum, default_value = "tonemapped")]
     pub taa_blend: tonegate::scene::BlendSpace,
+    /// Time this operator (at its defaults) instead of the bench's own
+    /// (reinhard-auto-key with the automatic key); `tonegate operators`
+    /// lists them.
+    #[arg(long)]
+    pub operator: Option<String>,
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
@@ -44,6 +49,11 @@ pub fn bench(a: BenchArgs) -> Result<ExitCode> {
     if a.frames == 0 {
         return Err(invalid("--frames must be at least 1"));
     }
+    let operator = a
+        .operator
+        .as_deref()
+        .map(|name| tonegate::operators::Operator::named(name, &[]).map_err(invalid))
+        .transpose()?;
     let opts = tonegate::gpu::bench::BenchOptions {
         width: a.size.width,
         height: a.size.height,
@@ -57,6 +67,7 @@ pub fn bench(a: BenchArgs) -> Result<ExitCode> {
             blend: a.taa_blend,
             ..Default::default()
         },
+        operator,
     };
     let report = tonegate::gpu::bench::run(&ctx, &opts)?;
     if a.json {

@@ -166,7 +166,7 @@ pub fn extra_vulkan_drivers() -> Vec<PathBuf> {
 /// an instance is created; at most once per process. Changing the
 /// environment while another thread reads it is not safe in C, so a program
 /// with threads calls this first, while it has one (the command line does,
-/// whenever an adapter is asked for by name); [`select`] calls it only if
+/// whenever an adapter is asked for by name); `select` calls it only if
 /// nobody did and the name was not found.
 pub fn add_extra_vulkan_drivers() -> bool {
     *EXTRA_ADDED.get_or_init(|| {

@@ -29,6 +29,10 @@ pub struct BenchOptions {
     /// The TAA stages after `sphere` (variant `TaaVariant::Off`: none),
     /// resolving against a history every measured frame.
     pub taa: TaaParams,
+    /// The operator instead of the bench's own (`reinhard-auto-key` with
+    /// the automatic key), to time one operator's `tonemap` stage against
+    /// the floors.
+    pub operator: Option<Operator>,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -182,14 +186,16 @@ fn median_ratio(
 /// A renderer of the bench's full plan at `width`×`height` over the built-in
 /// sky (2048×1024), shared by `tonegate bench` and the criterion bench; with
 /// TAA (a variant other than `TaaVariant::Off`), its stages after `sphere`.
-pub fn full_plan_renderer(
-    ctx: &GpuContext,
+pub fn full_plan_renderer<'a>(
+    ctx: &'a GpuContext,
     width: u32,
     height: u32,
     config: GpuConfig,
     taa: TaaParams,
-) -> Result<GpuRenderer<'_>, GpuError> {
-    let (op, bloom) = bench_operator();
+    operator: Option<&Operator>,
+) -> Result<GpuRenderer<'a>, GpuError> {
+    let (default_op, bloom) = bench_operator();
+    let op = operator.cloned().unwrap_or(default_op);
     let pipeline = Pipeline {
         operator: &op,
         bloom: Some(&bloom),
@@ -224,7 +230,14 @@ pub fn full_plan_renderer(
 
 /// Runs the bench on `ctx`.
 pub fn run(ctx: &GpuContext, opts: &BenchOptions) -> Result<BenchReport, GpuError> {
-    let r = full_plan_renderer(ctx, opts.width, opts.height, opts.config, opts.taa)?;
+    let r = full_plan_renderer(
+        ctx,
+        opts.width,
+        opts.height,
+        opts.config,
+        opts.taa,
+        opts.operator.as_ref(),
+    )?;
     let plan = r.plan.clone();
     let angle = |n: u32| rotation_matrix([1.0, 0.0, 0.0], (n as f64 * 2.0).to_radians());
     // Every frame, TAA included, is the full cost: a history to resolve.

@@ -223,7 +223,7 @@ impl GpuContext {
     }
 
     /// Refuses frames a renderer cannot hold: larger than one texture, or
-    /// needing a buffer (at [`MAX_BUFFER_BYTES_PER_PIXEL`]) over the adapter's
+    /// needing a buffer (at `MAX_BUFFER_BYTES_PER_PIXEL`) over the adapter's
     /// buffer and storage-binding limits.
     pub fn check_frame(&self, width: u32, height: u32) -> Result<(), GpuError> {
         self.check_size(width, height)?;

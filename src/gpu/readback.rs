@@ -23,7 +23,7 @@ pub struct GpuFrame {
     pub wall_ms: f64,
 }
 
-/// Frames a renderer keeps in flight ([`GpuRenderer::frames`]): each has its
+/// Frames a renderer keeps in flight ([`super::GpuRenderer::frames`]): each has its
 /// own host-readable copies, so frame n is mapped and copied out while frame
 /// n+1 renders. Three cover a frame being rendered, one being copied and one
 /// being read on the host.
@@ -37,7 +37,7 @@ struct Staging {
     timing: Option<wgpu::Buffer>,
 }
 
-/// A submitted frame: [`GpuRenderer::collect`] waits for it and reads it.
+/// A submitted frame: [`super::GpuRenderer::collect`] waits for it and reads it.
 #[must_use = "a submitted frame holds its staging slot until it is collected"]
 pub struct Ticket {
     slot: usize,

@@ -19,7 +19,7 @@ use std::sync::Mutex;
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct LayerMessage {
     pub error: bool,
-    /// Known to be false ([`is_known_false`]): not reported.
+    /// Known to be false (`is_known_false`): not reported.
     pub dropped: bool,
     pub text: String,
 }

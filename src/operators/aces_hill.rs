@@ -3,7 +3,7 @@
 //! (docs/operators.md): the input scaled by exposure/0.6, three.js's input
 //! matrix, the rational RRT+ODT fit, its output matrix, clamped to [0, 1].
 
-use super::fixed::{self, columns, mul3, EXPOSURE};
+use super::fixed::{self, mul3, wgsl_mat3, EXPOSURE};
 use super::{Curve, Param, Resolution, ToneOperator, Values};
 use super::{LuminanceStats, StatsNeeds, Unmeasured};
 
@@ -64,12 +64,14 @@ impl ToneOperator for AcesHill {
         Ok(fixed::resolution(v, Fit))
     }
     fn wgsl(&self) -> &'static str {
-        include_str!("../../shaders/operators/aces_hill.wgsl")
+        static SOURCE: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+        fixed::with_constants(
+            &SOURCE,
+            || wgsl_mat3("ACES_INPUT", &INPUT) + &wgsl_mat3("ACES_OUTPUT", &OUTPUT),
+            include_str!("../../shaders/operators/aces_hill.wgsl"),
+        )
     }
     fn gpu_config(&self, v: &Values) -> Vec<f32> {
-        let mut c = columns(&INPUT).to_vec();
-        c.extend(columns(&OUTPUT));
-        c.extend([(v.num("exposure") / 0.6) as f32, 0.0, 0.0, 0.0]);
-        c
+        vec![(v.num("exposure") / 0.6) as f32]
     }
 }

@@ -7,7 +7,7 @@
 //! `agxPunchy`); a sigmoid value below 0 (a channel darker than about
 //! 2e-4) is taken as 0 there, where the power has no real value.
 
-use super::fixed::{self, columns, mul3, EXPOSURE};
+use super::fixed::{self, mul3, wgsl_mat3, EXPOSURE};
 use super::{Curve, Kind, Param, Resolution, ToneOperator, Value, Values};
 use super::{LuminanceStats, StatsNeeds, Unmeasured};
 
@@ -122,17 +122,23 @@ impl ToneOperator for Agx {
         ))
     }
     fn wgsl(&self) -> &'static str {
-        include_str!("../../shaders/operators/agx.wgsl")
+        static SOURCE: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+        fixed::with_constants(
+            &SOURCE,
+            || {
+                [
+                    wgsl_mat3("AGX_TO_REC2020", &SRGB_TO_REC2020),
+                    wgsl_mat3("AGX_INSET", &INSET),
+                    wgsl_mat3("AGX_OUTSET", &OUTSET),
+                    wgsl_mat3("AGX_TO_SRGB", &REC2020_TO_SRGB),
+                ]
+                .concat()
+            },
+            include_str!("../../shaders/operators/agx.wgsl"),
+        )
     }
     fn gpu_config(&self, v: &Values) -> Vec<f32> {
-        // sRGB → Rec.2020 → inset folded into one matrix on the host would
-        // round differently from the reference's two steps: both are sent.
-        let mut c = columns(&SRGB_TO_REC2020).to_vec();
-        c.extend(columns(&INSET));
-        c.extend(columns(&OUTSET));
-        c.extend(columns(&REC2020_TO_SRGB));
-        c.extend([v.num("exposure") as f32, 0.0, 0.0, 0.0]);
-        c
+        vec![v.num("exposure") as f32]
     }
     fn gpu_constants(&self, v: &Values) -> Vec<(&'static str, f64)> {
         vec![("PUNCHY", (v.word("look") == "punchy") as u32 as f64)]

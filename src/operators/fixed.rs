@@ -43,14 +43,28 @@ pub(super) fn mul3(m: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
     super::reinhard::mul3(m, v)
 }
 
-/// The row-major matrix as three vec4 columns of `OperatorConfig` (WGSL's
-/// `mat3x3<f32>` in a uniform: three columns, each padded to 16 bytes).
-pub(super) fn columns(m: &[[f64; 3]; 3]) -> [f32; 12] {
-    let mut out = [0f32; 12];
+/// The row-major matrix as a WGSL constant, `const NAME = mat3x3<f32>(…);`
+/// (column by column, each value the f32 nearest the f64, printed so that
+/// it reads back exactly). A constant rather than a uniform: llvmpipe folds
+/// it into the code, where a uniform matrix made AgX's `tonemap` stage take
+/// half again as long (57 ms against 38 ms with three of its four matrices
+/// removed, 1080p, 2026-11-26).
+pub(super) fn wgsl_mat3(name: &str, m: &[[f64; 3]; 3]) -> String {
+    let mut values = Vec::with_capacity(9);
     for col in 0..3 {
-        for row in 0..3 {
-            out[col * 4 + row] = m[row][col] as f32;
+        for row in m {
+            values.push(format!("{:?}", row[col] as f32));
         }
     }
-    out
+    format!("const {name} = mat3x3<f32>({});\n", values.join(", "))
+}
+
+/// An operator's WGSL with constants written by the host first: made once,
+/// kept for the process (a module is `'static` text).
+pub(super) fn with_constants(
+    cell: &'static std::sync::OnceLock<String>,
+    constants: impl FnOnce() -> String,
+    body: &'static str,
+) -> &'static str {
+    cell.get_or_init(|| format!("{}{body}", constants()))
 }

@@ -13,7 +13,9 @@ pub struct StatsNeeds {
     pub log_average: bool,
     /// `reinhard-auto-key`'s exp(Σ w·ln(δ + Y) / Σ w), w = 1 − e^(−Y).
     pub weighted_log_average: bool,
+    /// The smallest Y.
     pub min: bool,
+    /// The largest Y.
     pub max: bool,
 }
 
@@ -27,9 +29,14 @@ impl StatsNeeds {
 /// The statistics a frame's operator needs; the ones not asked for are `None`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct LuminanceStats {
+    /// exp(mean ln(δ + Y)) (docs/statistics.md#log-average).
     pub log_average: Option<f64>,
+    /// exp(Σ w·ln(δ + Y) / Σ w), w = 1 − e^(−Y)
+    /// (docs/statistics.md#weighted-log-average).
     pub weighted_log_average: Option<f64>,
+    /// The smallest Y.
     pub min: Option<f64>,
+    /// The largest Y.
     pub max: Option<f64>,
     /// Σw of the weighted mean; 0 means the fallback to the plain mean was used.
     pub weight_sum: Option<f64>,

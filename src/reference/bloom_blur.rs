@@ -3,7 +3,7 @@
 use crate::image::LinearImage;
 use rayon::prelude::*;
 
-/// Normalised weights w[k], k = −radius..=radius, ∝ exp(−k²/(2σ²)).
+/// Normalised weights w\[k\], k = −radius..=radius, ∝ exp(−k²/(2σ²)).
 pub fn gaussian_weights(radius: u32, sigma: f64) -> Vec<f64> {
     let r = radius as i64;
     let raw: Vec<f64> = (-r..=r)
