@@ -43,7 +43,7 @@ cargo test --locked --doc
 RUSTDOCFLAGS="-D warnings" cargo doc --locked --no-deps --lib --quiet
 # A caller's own operator through the harness (examples/own_operator.rs):
 # registered, rendered on both renderers and compared, stress rows.
-cargo run --locked --quiet --example own_operator
+cargo run --locked --quiet --profile test --example own_operator
 # The Windows build (DX12): the code that is not Linux-only must keep
 # building there (ci/cross.sh; CROSS_CHECK=0 skips it).
 bash ci/cross.sh

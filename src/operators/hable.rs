@@ -12,11 +12,18 @@ use super::{LuminanceStats, StatsNeeds, Unmeasured};
 /// `hable`.
 pub struct Hable;
 
+/// A constant of the curve: (0, 1000], so that no product of two of them
+/// with an f32 input leaves f64's range.
 const fn number(name: &'static str, doc: &'static str, default: f64) -> Param {
     Param {
         name,
         doc,
-        kind: Kind::Number(Range::POSITIVE),
+        kind: Kind::Number(Range {
+            min: 0.0,
+            min_open: true,
+            max: 1000.0,
+            max_open: false,
+        }),
         default: Value::Number(default),
     }
 }
@@ -98,16 +105,17 @@ impl ToneOperator for Hable {
     }
     fn check(&self, v: &Values) -> Result<(), String> {
         let k = Constants::of(v);
+        // A NaN too: constants so small that their products underflow.
+        let at_zero = k.f(0.0);
+        if at_zero.is_nan() || at_zero.abs() > 1e-12 {
+            return Err(format!(
+                "toe_numerator, toe_denominator, toe_strength: the curve must map 0 to 0 (it maps it to {at_zero})"
+            ));
+        }
         let w = k.f(v.num("white_point"));
         if !(w.is_finite() && w > 0.0) {
             return Err(format!(
                 "white_point: the curve at the white point is {w}, not > 0; raise white_point or change the curve's constants"
-            ));
-        }
-        if k.f(0.0).abs() > 1e-12 {
-            return Err(format!(
-                "toe_numerator, toe_denominator, toe_strength: the curve must map 0 to 0 (it maps it to {})",
-                k.f(0.0)
             ));
         }
         Ok(())

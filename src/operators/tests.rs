@@ -184,3 +184,25 @@ fn registering_refuses_taken_names_and_clashing_parameters() {
     assert!(admissible(&known, &Clash("mine", bad_default)).is_err());
     admissible(&known, &Clash("mine", &[])).unwrap();
 }
+
+#[test]
+fn hable_refuses_constants_its_curve_cannot_use() {
+    let hable = |given: &[(&str, Value)]| Operator::named("hable", given);
+    // E/F ≠ DE/DF: 0 no longer maps to 0.
+    let e = hable(&[("toe_numerator", Value::Number(0.05))]);
+    assert!(hable(&[]).is_ok());
+    // A toe that does not map 0 to 0 is refused by name.
+    let e2 = hable(&[
+        ("toe_strength", Value::Number(1e-200)),
+        ("toe_denominator", Value::Number(1e-200)),
+    ])
+    .unwrap_err();
+    assert!(e2.contains("toe"), "{e2}");
+    let e3 = hable(&[("shoulder_strength", Value::Number(1e6))]).unwrap_err();
+    assert!(
+        e3.contains("shoulder_strength: must be in (0, 1000]"),
+        "{e3}"
+    );
+    // Any E with the other defaults still maps 0 to 0 (DE/DF = E/F).
+    assert!(e.is_ok());
+}
