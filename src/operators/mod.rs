@@ -18,23 +18,28 @@
 mod aces_hill;
 mod aces_narkowicz;
 mod agx;
+mod describe;
 mod fixed;
 mod hable;
 mod params;
 mod pbr_neutral;
+mod registry;
 pub mod reinhard;
 mod reinhard02;
 mod reinhard_auto_key;
 mod reinhard_global;
 mod stats;
+mod table;
 
+pub use describe::{describe, OperatorInfo, ParamInfo, RangeInfo};
 pub use params::{Kind, Param, Range, Value, Values};
+pub use registry::{all, all_params, builtin, find, names, register};
 pub use reinhard02::preset as reinhard02_preset;
 pub use stats::{LuminanceStats, StatsNeeds, Unmeasured};
 
 use serde::ser::SerializeMap;
 use serde::{Deserialize, Serialize};
-use std::sync::{Arc, OnceLock, RwLock};
+use std::sync::Arc;
 
 /// The luminance an operator's statistics are measured in: the weights of
 /// Y = w·RGB and the offset δ of the log-averages (ln(δ + Y)).
@@ -143,206 +148,6 @@ impl std::fmt::Debug for dyn ToneOperator {
     }
 }
 
-/// The built-in operators, the default first.
-pub fn builtin() -> Vec<Arc<dyn ToneOperator>> {
-    vec![
-        Arc::new(reinhard_global::ReinhardGlobal),
-        Arc::new(reinhard_auto_key::ReinhardAutoKey),
-        Arc::new(reinhard02::Reinhard02),
-        Arc::new(aces_narkowicz::AcesNarkowicz),
-        Arc::new(aces_hill::AcesHill),
-        Arc::new(agx::Agx),
-        Arc::new(pbr_neutral::PbrNeutral),
-        Arc::new(hable::Hable),
-    ]
-}
-
-fn registry() -> &'static RwLock<Vec<Arc<dyn ToneOperator>>> {
-    static REGISTRY: OnceLock<RwLock<Vec<Arc<dyn ToneOperator>>>> = OnceLock::new();
-    REGISTRY.get_or_init(|| RwLock::new(builtin()))
-}
-
-/// Every operator known: the built-in ones, then the registered ones.
-pub fn all() -> Vec<Arc<dyn ToneOperator>> {
-    registry().read().unwrap_or_else(|e| e.into_inner()).clone()
-}
-
-/// The operator called `name` (or one of its aliases).
-pub fn find(name: &str) -> Option<Arc<dyn ToneOperator>> {
-    all()
-        .into_iter()
-        .find(|o| o.name() == name || o.aliases().contains(&name))
-}
-
-/// The names of every operator, for messages and help.
-pub fn names() -> Vec<&'static str> {
-    all().iter().map(|o| o.name()).collect()
-}
-
-/// Adds a caller's operator, so that scene files, flags and the API know
-/// it. Refused when its name (or an alias) is taken, when a parameter
-/// shares a name with another operator's parameter of another kind (a
-/// `--flag` means one thing), or when its defaults are out of its ranges.
-pub fn register(op: Arc<dyn ToneOperator>) -> Result<(), String> {
-    let mut ops = registry().write().unwrap_or_else(|e| e.into_inner());
-    admissible(&ops, op.as_ref())?;
-    ops.push(op);
-    Ok(())
-}
-
-fn admissible(known: &[Arc<dyn ToneOperator>], op: &dyn ToneOperator) -> Result<(), String> {
-    let new_names = std::iter::once(op.name()).chain(op.aliases().iter().copied());
-    for name in new_names {
-        if params::RESERVED.contains(&name) || name.is_empty() {
-            return Err(format!("operator name {name:?} is not allowed"));
-        }
-        if let Some(o) = known
-            .iter()
-            .find(|o| o.name() == name || o.aliases().contains(&name))
-        {
-            return Err(format!("operator {name:?} is taken (by {})", o.name()));
-        }
-    }
-    if op.resolved_names().len() > 4 {
-        return Err(format!(
-            "operator {}: at most 4 resolved values, got {}",
-            op.name(),
-            op.resolved_names().len()
-        ));
-    }
-    for p in op.params() {
-        params::check_name(p.name).map_err(|e| format!("operator {}: {e}", op.name()))?;
-        if p.default != Value::Unset {
-            p.accept(p.default)
-                .map_err(|e| format!("operator {}: default of {e}", op.name()))?;
-        }
-        for o in known {
-            if let Some(q) = o.params().iter().find(|q| q.name == p.name) {
-                if !q.kind.same_type(&p.kind) {
-                    return Err(format!(
-                        "operator {}: parameter {} is a {} in operator {}, not a {}",
-                        op.name(),
-                        p.name,
-                        q.kind.type_name(),
-                        o.name(),
-                        p.kind.type_name()
-                    ));
-                }
-            }
-        }
-    }
-    Ok(())
-}
-
-/// Every parameter name any operator takes, once, with the operators that
-/// take it: what the flags and the API's parameters are made of.
-pub fn all_params() -> Vec<(Param, Vec<&'static str>)> {
-    let mut out: Vec<(Param, Vec<&'static str>)> = Vec::new();
-    for op in all() {
-        for p in op.params() {
-            match out.iter_mut().find(|(q, _)| q.name == p.name) {
-                Some((_, by)) => by.push(op.name()),
-                None => out.push((*p, vec![op.name()])),
-            }
-        }
-    }
-    out
-}
-
-/// An operator as `tonegate operators` and `GET /api/v1/operators` describe
-/// it: everything a form or a schema needs to offer it.
-#[derive(Clone, Debug, Serialize)]
-pub struct OperatorInfo {
-    /// Its name.
-    pub name: &'static str,
-    /// Other names it is accepted by.
-    pub aliases: &'static [&'static str],
-    /// Its documentation line.
-    pub summary: &'static str,
-    /// The values it resolves per frame, which reports show.
-    pub resolves: &'static [&'static str],
-    /// Its parameters.
-    pub params: Vec<ParamInfo>,
-}
-
-/// One parameter of an [`OperatorInfo`].
-#[derive(Clone, Debug, Serialize)]
-pub struct ParamInfo {
-    /// Its name.
-    pub name: &'static str,
-    /// Its documentation line.
-    pub doc: &'static str,
-    /// `number`, `number_or_auto`, `flag` or `word`.
-    #[serde(rename = "type")]
-    pub kind: &'static str,
-    /// For numbers: the range (`max` null for none) and whether each end
-    /// is excluded.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub range: Option<RangeInfo>,
-    /// For words: the words.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub words: Option<&'static [&'static str]>,
-    /// The default; null when the operator measures it instead.
-    pub default: Value,
-    /// What it takes, in words ("a finite number > 0").
-    pub expected: String,
-}
-
-/// A number's range in an [`OperatorInfo`].
-#[derive(Clone, Copy, Debug, Serialize)]
-pub struct RangeInfo {
-    /// The lower bound.
-    pub min: f64,
-    /// Whether `min` is excluded.
-    pub min_open: bool,
-    /// The upper bound; none for unbounded.
-    pub max: Option<f64>,
-    /// Whether `max` is excluded.
-    pub max_open: bool,
-}
-
-/// Every operator known, described.
-pub fn describe() -> Vec<OperatorInfo> {
-    all().iter().map(|o| describe_one(o.as_ref())).collect()
-}
-
-fn describe_one(o: &dyn ToneOperator) -> OperatorInfo {
-    let params = o
-        .params()
-        .iter()
-        .map(|p| {
-            let range = |r: &Range| RangeInfo {
-                min: r.min,
-                min_open: r.min_open,
-                max: r.max.is_finite().then_some(r.max),
-                max_open: r.max_open,
-            };
-            let (kind, range, words) = match &p.kind {
-                Kind::Number(r) => ("number", Some(range(r)), None),
-                Kind::NumberOrAuto(r) => ("number_or_auto", Some(range(r)), None),
-                Kind::Flag => ("flag", None, None),
-                Kind::Word(w) => ("word", None, Some(*w)),
-            };
-            ParamInfo {
-                name: p.name,
-                doc: p.doc,
-                kind,
-                range,
-                words,
-                default: p.default,
-                expected: p.expected(),
-            }
-        })
-        .collect();
-    OperatorInfo {
-        name: o.name(),
-        aliases: o.aliases(),
-        summary: o.summary(),
-        resolves: o.resolved_names(),
-        params,
-    }
-}
-
 /// An operator with its parameters' values: what a scene's `[operator]`
 /// table, the `tonemap` flags and the API's parameters become.
 #[derive(Clone)]
@@ -373,7 +178,7 @@ impl Operator {
                 v
             } else {
                 p.accept(v)
-                    .map_err(|e| params::auto_hint(def.as_ref(), p.name, v, e))?
+                    .map_err(|e| table::auto_hint(def.as_ref(), p.name, v, e))?
             };
             values.push((p.name, v));
         }
@@ -557,7 +362,7 @@ impl<'de> Deserialize<'de> for Operator {
     /// every operator taking a parameter of that name, then against the
     /// chosen operator once `kind` is known.
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        d.deserialize_map(params::OperatorVisitor)
+        d.deserialize_map(table::OperatorVisitor)
     }
 }
 

@@ -1,3 +1,4 @@
+use super::registry::admissible;
 use super::*;
 
 fn stats() -> LuminanceStats {

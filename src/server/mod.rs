@@ -244,44 +244,7 @@ pub async fn start_run(
 )]
 pub struct ApiDoc;
 
-/// `POST /tonemap`'s operator parameters, one query parameter each, from
-/// the operators' definitions (a registered operator's included).
-struct OperatorParams;
-
-impl utoipa::Modify for OperatorParams {
-    fn modify(&self, doc: &mut utoipa::openapi::OpenApi) {
-        use utoipa::openapi::path::{ParameterBuilder, ParameterIn};
-        use utoipa::openapi::schema::{ObjectBuilder, Type};
-        use utoipa::openapi::Required;
-        let Some(item) = doc.paths.paths.get_mut("/api/v1/tonemap") else {
-            return;
-        };
-        let Some(op) = item.post.as_mut() else { return };
-        let params = op.parameters.get_or_insert_with(Vec::new);
-        for (p, by) in crate::operators::all_params() {
-            let ty = match p.kind.schema_type() {
-                "number" => Type::Number,
-                "boolean" => Type::Boolean,
-                _ => Type::String,
-            };
-            params.push(
-                ParameterBuilder::new()
-                    .name(p.name)
-                    .parameter_in(ParameterIn::Query)
-                    .required(Required::False)
-                    .description(Some(format!(
-                        "{} ({}; {})",
-                        p.doc,
-                        by.join(", "),
-                        p.expected()
-                    )))
-                    .schema(Some(ObjectBuilder::new().schema_type(ty)))
-                    .build()
-                    .into(),
-            );
-        }
-    }
-}
+use tonemap::OperatorParams;
 
 struct BearerAuth;
 
