@@ -9,6 +9,7 @@
 #   vulkan-validationlayers - the Khronos layer the adapter tests (tests/it/adapters.rs) run the gate under
 #   libegl1, libegl-mesa0, libgl1-mesa-dri - Mesa's EGL and llvmpipe for wgpu's GL backend
 #   nodejs, npm        - run three.js's and glsl-tone-map's shader text for tests/operators/vectors.json
+#   libplacebo-dev, pkg-config, gcc - build the C harness that writes tests/bt2390/vectors.json
 #   (chromium also ships SwiftShader, the second Vulkan implementation the gate runs on)
 set -euo pipefail
 
@@ -25,6 +26,9 @@ ls /usr/lib/*/dri/swrast_dri.so >/dev/null 2>&1 || need+=(libgl1-mesa-dri)
 # keeps it.
 command -v node >/dev/null 2>&1 || need+=(nodejs)
 command -v npm >/dev/null 2>&1 || need+=(npm)
+command -v pkg-config >/dev/null 2>&1 || need+=(pkg-config)
+{ command -v pkg-config >/dev/null 2>&1 && pkg-config --exists libplacebo; } || need+=(libplacebo-dev)
+command -v cc >/dev/null 2>&1 || need+=(gcc)
 if [ "${#need[@]}" -gt 0 ]; then
   sudo=""
   [ "$(id -u)" -eq 0 ] || sudo="sudo"

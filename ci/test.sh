@@ -15,7 +15,9 @@ cargo fmt --all -- --check
 #   tests/operators   Hable (colour-hdri), ACES Narkowicz (his formula), three.js's
 #                     ACES fitted, AgX and PBR Neutral, AgX punchy (glsl-tone-map),
 #                     Khronos PBR Neutral (its reference GLSL)
-for lock in skimage perceptual operators; do
+#   tests/bt2390      BT.2390's EETF (libplacebo's pl_tone_map_sample, Debian's
+#                     libplacebo-dev, through a small C harness)
+for lock in skimage perceptual operators bt2390; do
   committed=$(mktemp)
   cp "tests/$lock/vectors.json" "$committed"
   same=yes

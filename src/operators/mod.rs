@@ -18,6 +18,7 @@
 mod aces_hill;
 mod aces_narkowicz;
 mod agx;
+mod bt2390;
 mod describe;
 mod fixed;
 mod hable;
@@ -31,6 +32,7 @@ mod reinhard_global;
 mod stats;
 mod table;
 
+pub use bt2390::{pq_decode, pq_encode};
 pub use describe::{describe, OperatorInfo, ParamInfo, RangeInfo};
 pub use params::{Kind, Param, Range, Value, Values};
 pub use registry::{all, all_params, builtin, find, names, register};

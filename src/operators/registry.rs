@@ -3,7 +3,7 @@
 
 use super::params::{self, Param, Value};
 use super::{
-    aces_hill, aces_narkowicz, agx, hable, pbr_neutral, reinhard02, reinhard_auto_key,
+    aces_hill, aces_narkowicz, agx, bt2390, hable, pbr_neutral, reinhard02, reinhard_auto_key,
     reinhard_global, ToneOperator,
 };
 use std::sync::{Arc, OnceLock, RwLock};
@@ -19,6 +19,7 @@ pub fn builtin() -> Vec<Arc<dyn ToneOperator>> {
         Arc::new(agx::Agx),
         Arc::new(pbr_neutral::PbrNeutral),
         Arc::new(hable::Hable),
+        Arc::new(bt2390::Bt2390),
     ]
 }
 

@@ -91,7 +91,7 @@ pub(crate) fn query_pairs(q: Option<&str>) -> Result<Vec<(String, String)>, ApiE
     params(
         ("gpu" = Option<bool>, Query, description = "Render on the GPU (default true) or with the CPU reference"),
         ("format" = Option<String>, Query, description = "png (default) or json (the PNG inline, base64)"),
-        ("operator" = Option<String>, Query, description = "reinhard-global (default), reinhard-auto-key, reinhard02 (seed000 and seed001: the same two by their first names), aces-narkowicz, aces-hill, agx, pbr-neutral, hable; GET /api/v1/operators lists every operator with its parameters"),
+        ("operator" = Option<String>, Query, description = "reinhard-global (default), reinhard-auto-key, reinhard02 (seed000 and seed001: the same two by their first names), aces-narkowicz, aces-hill, agx, pbr-neutral, hable, bt2390; GET /api/v1/operators lists every operator with its parameters"),
         ("preset" = Option<String>, Query, description = "reinhard02: pfstmo_reinhard02's global operator"),
         ("bloom" = Option<f64>, Query, description = "Bloom strength (0 = none); bloom_pass, bloom_threshold, bloom_downsample, bloom_radius, bloom_sigma refine it"),
         ("brightness" = Option<f64>, Query), ("contrast" = Option<f64>, Query), ("saturation" = Option<f64>, Query),

@@ -11,6 +11,11 @@ cd "$(dirname "$0")/../.."
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT INT TERM
 version=$(pkg-config --modversion libplacebo)
+# The pinned version: Debian 12's. Another one may compute otherwise.
+if [ "$version" != 4.208.0 ]; then
+    echo "tests/bt2390: libplacebo $version, not the pinned 4.208.0 (Debian 12's libplacebo-dev)" >&2
+    exit 1
+fi
 # shellcheck disable=SC2046
 ${CC:-cc} -std=c11 -O2 -ffp-contract=off -Wall -Wextra -o "$tmp/harness" \
     tests/bt2390/harness.c $(pkg-config --cflags --libs libplacebo) -lm

@@ -8,13 +8,16 @@
 //!   (`tonemapping_pars_fragment`), evaluated in f64 by a GLSL-subset
 //!   interpreter under node;
 //! - `agx` with `look = "punchy"`: glsl-tone-map's `agxPunchy`, the same way;
-//! - `pbr-neutral` also against the Khronos reference GLSL's numbers.
+//! - `pbr-neutral` also against the Khronos reference GLSL's numbers;
+//! - `bt2390`: libplacebo's `pl_tone_map_sample` (tests/bt2390/vectors.json,
+//!   regenerated in CI by tests/bt2390/make_vectors.sh from Debian's
+//!   libplacebo-dev).
 //!
 //! Then every built-in operator's WGSL against its f64 curve, on lavapipe,
 //! for the same inputs.
 
 use serde_json::Value as Json;
-use tonegate::operators::{Operator, Value};
+use tonegate::operators::{pq_decode, pq_encode, Operator, Value};
 use tonegate::reference::luminance_stats::LuminanceStats;
 
 fn vectors() -> Json {
@@ -173,6 +176,19 @@ fn every_operators_gpu_curve_matches_its_f64_curve() {
         .collect();
     ops.push(Operator::named("agx", &[("look", Value::Word("punchy"))]).unwrap());
     ops.push(Operator::named("hable", &[("exposure", Value::Number(4.0))]).unwrap());
+    ops.push(
+        Operator::named(
+            "bt2390",
+            &[
+                ("source_black", Value::Number(0.005)),
+                ("target_black", Value::Number(0.1)),
+                ("target_peak", Value::Number(203.0)),
+                ("knee_offset", Value::Number(1.0)),
+                ("exposure", Value::Number(8.0)),
+            ],
+        )
+        .unwrap(),
+    );
     for op in &ops {
         let pipeline = Pipeline {
             operator: op,
@@ -209,5 +225,106 @@ fn every_operators_gpu_curve_matches_its_f64_curve() {
         let diff = tonegate::metrics::max_abs_diff(frame.raster(), cpu.frame.raster()).unwrap();
         assert!(diff <= 1, "{op:?}: frames {diff} LSB apart");
         eprintln!("{}: worst {worst:.3} of the bound, {diff} LSB", op.name());
+    }
+}
+
+fn bt2390_vectors() -> Json {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/bt2390/vectors.json");
+    serde_json::from_str(&std::fs::read_to_string(path).expect("tests/bt2390/vectors.json"))
+        .unwrap()
+}
+
+fn floats(v: &Json) -> Vec<f64> {
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect()
+}
+
+/// libplacebo evaluates the EETF in f32 (ε = 2⁻²⁴ per rounding). On PQ
+/// signals (≤ 1) its dozen roundings stay within 4e-7 (measured worst
+/// 1.4e-7, 2026-11-26); a knee or a peak changed in its fifth digit moves
+/// the output by more.
+const PQ_DOMAIN_TOL: f64 = 4e-7;
+/// Given cd/m², libplacebo also converts to PQ and back in f32: its
+/// `powf(y, m2)` carries y's rounding times m2 = 78.84 into the signal,
+/// once on the way in and once out, so 2·m2·2⁻²⁴ = 9.4e-6 of signal
+/// (measured worst 6.2e-6).
+const NITS_DOMAIN_TOL: f64 = 2.0 * 78.84375 / 16_777_216.0;
+
+/// The worst |PQ(ours) − PQ(libplacebo)| / tolerance over one case of
+/// tests/bt2390/vectors.json, ours being `bt2390` with the case's levels
+/// and knee, the exposure 1 and reference_white 1 (so an input is its cd/m²);
+/// asserts it is at most 1. `scale` multiplies the target peak (the lock's
+/// own test that it can fail).
+fn bt2390_lock(case: &Json, inputs: &Json, domain: &str, scale: f64) -> f64 {
+    let level = |k: &str| case[k].as_f64().unwrap();
+    let (target_black, target_peak) = (level("output_min_nits"), level("output_max_nits") * scale);
+    let op = Operator::named(
+        "bt2390",
+        &[
+            ("reference_white", Value::Number(1.0)),
+            ("source_black", Value::Number(level("input_min_nits"))),
+            ("source_peak", Value::Number(level("input_max_nits"))),
+            ("target_black", Value::Number(target_black)),
+            ("target_peak", Value::Number(target_peak)),
+            ("knee_offset", Value::Number(level("knee_offset"))),
+        ],
+    )
+    .unwrap();
+    let tone = op.resolve(&LuminanceStats::default()).unwrap();
+    let (tol, to_nits): (f64, fn(f64) -> f64) = match domain {
+        "pq" => (PQ_DOMAIN_TOL, pq_decode),
+        _ => (NITS_DOMAIN_TOL, |x| x),
+    };
+    let outputs = floats(&case[domain]["output"]);
+    let inputs = floats(&inputs[domain]);
+    assert_eq!(inputs.len(), outputs.len());
+    assert!(inputs.len() > 200);
+    let mut worst = 0.0f64;
+    for (x, want) in inputs.iter().zip(&outputs) {
+        let display = tone.pixel([to_nits(*x); 3])[0];
+        let ours = pq_encode(target_black + display * (target_peak - target_black));
+        let theirs = if domain == "pq" {
+            *want
+        } else {
+            pq_encode(*want)
+        };
+        let e = (ours - theirs).abs() / tol;
+        assert!(
+            e <= 1.0,
+            "{} ({domain}) at {x}: ours {ours} against {theirs}",
+            case["name"]
+        );
+        worst = worst.max(e);
+    }
+    worst
+}
+
+#[test]
+fn bt2390_matches_libplacebo() {
+    let v = bt2390_vectors();
+    assert_eq!(v["libplacebo"], "4.208.0");
+    let cases = v["cases"].as_array().unwrap();
+    assert_eq!(cases.len(), 18);
+    for case in cases {
+        for domain in ["pq", "nits"] {
+            let worst = bt2390_lock(case, &v["inputs"], domain, 1.0);
+            eprintln!("{} ({domain}): worst {worst:.3} of the bound", case["name"]);
+        }
+    }
+}
+
+/// A target peak 0.01 % off fails the lock.
+#[test]
+fn a_changed_eetf_fails_its_lock() {
+    let v = bt2390_vectors();
+    let case = &v["cases"][0];
+    for domain in ["pq", "nits"] {
+        let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            bt2390_lock(case, &v["inputs"], domain, 1.0001)
+        }));
+        assert!(r.is_err(), "{domain}: a 0.01 % target peak change passed");
     }
 }
