@@ -46,6 +46,9 @@ RUSTDOCFLAGS="-D warnings" cargo doc --locked --no-deps --lib --quiet
 # A caller's own operator through the harness (examples/own_operator.rs):
 # registered, rendered on both renderers and compared, stress rows.
 cargo run --locked --quiet --profile test --example own_operator
+# tonegate's tone mapper inside an application's own device, frame and
+# encoder (examples/tone_mapper.rs; docs/embedding.md).
+cargo run --locked --quiet --profile test --example tone_mapper
 # The Windows build (DX12): the code that is not Linux-only must keep
 # building there (ci/cross.sh; CROSS_CHECK=0 skips it).
 bash ci/cross.sh

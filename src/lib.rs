@@ -35,3 +35,4 @@ pub mod toning;
 pub mod tradeoff;
 
 pub use error::{Error, Result};
+pub use gpu::{ToneMapper, ToneMapperSettings};

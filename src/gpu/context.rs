@@ -132,6 +132,38 @@ impl GpuContext {
         })
     }
 
+    /// A context on a device someone else opened (a caller's application,
+    /// through [`super::ToneMapper`]). Nothing of the device is changed: its
+    /// error and device-lost callbacks stay the caller's (so wgpu's errors
+    /// reach the caller, not [`GpuContext::take_error`]), nothing is
+    /// submitted to its queue, and whether it flushes subnormals is not
+    /// probed.
+    pub fn from_device(device: &wgpu::Device, queue: &wgpu::Queue) -> GpuContext {
+        let info = device.adapter_info();
+        let features = device.features();
+        GpuContext {
+            cpu_adapter: info.device_type == wgpu::DeviceType::Cpu,
+            subgroups: features.contains(wgpu::Features::SUBGROUP),
+            float32_filterable: features.contains(wgpu::Features::FLOAT32_FILTERABLE),
+            timestamp_period: queue.get_timestamp_period(),
+            limits: device.limits(),
+            adapter: AdapterReport {
+                name: info.name.clone(),
+                backend: format!("{:?}", info.backend),
+                device_type: format!("{:?}", info.device_type),
+                driver: info.driver.clone(),
+                driver_info: info.driver_info.clone(),
+                timestamps: features.contains(wgpu::Features::TIMESTAMP_QUERY),
+                flushes_subnormals: None,
+                chosen: "the caller's device".into(),
+            },
+            device: device.clone(),
+            queue: queue.clone(),
+            errors: Arc::default(),
+            pipelines: Mutex::new(Default::default()),
+        }
+    }
+
     /// What decides the configuration in effect on this device.
     pub fn traits(&self) -> super::config::AdapterTraits {
         super::config::AdapterTraits {

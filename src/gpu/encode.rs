@@ -29,3 +29,29 @@ pub fn encode(
     );
     dispatch_2d(p, bg, src.width(), src.height()).sized(ctx, extent)
 }
+
+/// `encode` into a caller's Rgba8Unorm storage texture (the same bytes as
+/// [`encode`] packs into its buffer).
+pub fn encode_to_texture(
+    ctx: &GpuContext,
+    format: HdrFormat,
+    encoding: Encoding,
+    src: &wgpu::Texture,
+    frame_out: &wgpu::Texture,
+    extent: &wgpu::Buffer,
+) -> Dispatch {
+    let p = pipeline(
+        ctx,
+        "encode",
+        "to_texture",
+        format,
+        &encode_constants(encoding),
+    );
+    let bg = bind_group(
+        ctx,
+        &p,
+        "tonegate.encode.to_texture",
+        &[(0, Bind::Texture(src)), (2, Bind::Texture(frame_out))],
+    );
+    dispatch_2d(p, bg, src.width(), src.height()).sized(ctx, extent)
+}

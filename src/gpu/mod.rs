@@ -13,6 +13,8 @@ pub mod renderer;
 pub mod shaders;
 pub mod stages;
 pub mod timing;
+#[deny(missing_docs)]
+pub mod tone_mapper;
 pub mod validation;
 mod wiring;
 
@@ -25,6 +27,7 @@ pub use luminance_stats::GpuStats;
 pub use pool::{size_class, RendererPool};
 pub use readback::{GpuFrame, Ticket, FRAMES_IN_FLIGHT};
 pub use renderer::GpuRenderer;
+pub use tone_mapper::{ToneMapper, ToneMapperSettings};
 pub use wiring::GpuInput;
 
 #[derive(Debug, thiserror::Error)]
@@ -79,6 +82,9 @@ pub enum GpuError {
     /// The driver's validation layer reported an error (`WGPU_VALIDATION=1`).
     #[error("validation layer error (a tonegate bug, please report): {0}")]
     LayerError(String),
+    /// A caller's texture that `ToneMapper` cannot use: which, and why.
+    #[error("{0}")]
+    Texture(String),
     /// Reading results back failed.
     #[error("GPU readback failed: {0}")]
     Readback(String),

@@ -34,5 +34,6 @@ mod pfstmo;
 mod postgres;
 mod stress;
 mod taa;
+mod tone_mapper;
 mod tonemap_cli;
 mod tradeoff;
