@@ -11,38 +11,10 @@ use super::MetricsError;
 use crate::image::{HdrImage, Image};
 use rayon::prelude::*;
 
-type Mat3 = [[f64; 3]; 3];
-
-fn mul(a: &Mat3, b: &Mat3) -> Mat3 {
-    std::array::from_fn(|i| std::array::from_fn(|j| (0..3).map(|k| a[i][k] * b[k][j]).sum()))
-}
-
-fn apply(m: &Mat3, v: [f64; 3]) -> [f64; 3] {
-    std::array::from_fn(|i| m[i][0] * v[0] + m[i][1] * v[1] + m[i][2] * v[2])
-}
-
-fn inverse(m: &Mat3) -> Mat3 {
-    let c = |i: usize, j: usize| {
-        let (r0, r1) = ((i + 1) % 3, (i + 2) % 3);
-        let (c0, c1) = ((j + 1) % 3, (j + 2) % 3);
-        m[r0][c0] * m[r1][c1] - m[r0][c1] * m[r1][c0]
-    };
-    let det = m[0][0] * c(0, 0) + m[0][1] * c(0, 1) + m[0][2] * c(0, 2);
-    std::array::from_fn(|i| std::array::from_fn(|j| c(j, i) / det))
-}
-
-/// RGB → XYZ of primaries `xy` and white `w` (the normalised primary matrix).
-fn npm(xy: [[f64; 2]; 3], w: [f64; 2]) -> Mat3 {
-    let xyz = |[x, y]: [f64; 2]| [x / y, 1.0, (1.0 - x - y) / y];
-    let cols = xy.map(xyz);
-    let p: Mat3 = std::array::from_fn(|i| std::array::from_fn(|j| cols[j][i]));
-    let s = apply(&inverse(&p), xyz(w));
-    std::array::from_fn(|i| std::array::from_fn(|j| p[i][j] * s[j]))
-}
-
-const D65: [f64; 2] = [0.3127, 0.329];
-const BT709: [[f64; 2]; 3] = [[0.64, 0.33], [0.30, 0.60], [0.15, 0.06]];
-const BT2020: [[f64; 2]; 3] = [[0.708, 0.292], [0.170, 0.797], [0.131, 0.046]];
+use crate::color::{
+    apply, inverse, mul, npm, pq_encode as pq, Mat3, BT2020_XY as BT2020, BT709_XY as BT709,
+    D65_XY as D65,
+};
 
 /// BT.2100's RGB (BT.2020) → LMS, in 4096ths.
 const RGB_TO_LMS: Mat3 = [
@@ -56,17 +28,6 @@ const LMS_TO_ICTCP: Mat3 = [
     [6610.0 / 4096.0, -13613.0 / 4096.0, 7003.0 / 4096.0],
     [17933.0 / 4096.0, -17390.0 / 4096.0, -543.0 / 4096.0],
 ];
-
-/// SMPTE ST 2084 (PQ) inverse EOTF of `l` cd/m².
-fn pq(l: f64) -> f64 {
-    const M1: f64 = 2610.0 / 16384.0;
-    const M2: f64 = 2523.0 / 4096.0 * 128.0;
-    const C1: f64 = 3424.0 / 4096.0;
-    const C2: f64 = 2413.0 / 4096.0 * 32.0;
-    const C3: f64 = 2392.0 / 4096.0 * 32.0;
-    let y = libm::pow(l.max(0.0) / 10000.0, M1);
-    libm::pow((C1 + C2 * y) / (1.0 + C3 * y), M2)
-}
 
 /// Linear BT.709 (1.0 = `peak` cd/m²) → ICtCp.
 fn to_ictcp(rgb709_to_lms: &Mat3, p: &[f32; 3], peak: f64) -> [f64; 3] {

@@ -17,31 +17,21 @@ use super::{LuminanceStats, StatsNeeds, Unmeasured};
 /// `bt2390`.
 pub struct Bt2390;
 
-/// The highest luminance PQ encodes, cd/m².
-pub const PQ_PEAK: f64 = 10_000.0;
+use crate::color::PQ_PEAK;
 
-/// SMPTE ST 2084's constants.
-const M1: f64 = 2610.0 / 16384.0;
-const M2: f64 = 2523.0 / 4096.0 * 128.0;
-const C1: f64 = 3424.0 / 4096.0;
-const C2: f64 = 2413.0 / 4096.0 * 32.0;
-const C3: f64 = 2392.0 / 4096.0 * 32.0;
-
-/// ST 2084's inverse EOTF: cd/m² to PQ signal in [0, 1]. 0 cd/m² (and
-/// below) is signal 0, as libplacebo has it; the formula itself gives
-/// c1^m2 = 7.3e-7 there, the level every signal below which decodes to 0.
+/// ST 2084's inverse EOTF as libplacebo has it: 0 cd/m² (and below) is
+/// signal 0, where the formula gives c1^m2 = 7.3e-7 (the level below which
+/// every signal decodes to 0); above 10000 cd/m², 1.
 pub fn pq_encode(nits: f64) -> f64 {
     if nits <= 0.0 {
         return 0.0;
     }
-    let y = (nits.min(PQ_PEAK) / PQ_PEAK).powf(M1);
-    ((C1 + C2 * y) / (1.0 + C3 * y)).powf(M2)
+    crate::color::pq_encode(nits.min(PQ_PEAK))
 }
 
 /// ST 2084's EOTF: PQ signal to cd/m².
 pub fn pq_decode(signal: f64) -> f64 {
-    let p = signal.clamp(0.0, 1.0).powf(1.0 / M2);
-    PQ_PEAK * ((p - C1).max(0.0) / (C2 - C3 * p)).powf(1.0 / M1)
+    crate::color::pq_decode(signal)
 }
 
 const fn nits(name: &'static str, doc: &'static str, min_open: bool, default: f64) -> Param {
