@@ -17,7 +17,8 @@ cargo fmt --all -- --check
 #                     Khronos PBR Neutral (its reference GLSL)
 #   tests/bt2390      BT.2390's EETF (libplacebo's pl_tone_map_sample, Debian's
 #                     libplacebo-dev, through a small C harness)
-for lock in skimage perceptual operators bt2390; do
+#   tests/display     PQ and HLG output: light, signals, 16-bit codes (colour-science)
+for lock in skimage perceptual operators bt2390 display; do
   committed=$(mktemp)
   cp "tests/$lock/vectors.json" "$committed"
   same=yes

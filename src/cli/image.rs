@@ -142,7 +142,7 @@ pub fn tonemap(a: TonemapArgs) -> Result<ExitCode> {
     } else {
         None
     };
-    let want = OutputKind::of_path(&a.output)?;
+    let want = resolved.output_kind(OutputKind::of_path(&a.output)?)?;
     let toned = tonegate::toning::tone_map(
         &img,
         &resolved.pipeline(),

@@ -16,6 +16,7 @@
 mod atomic;
 mod error;
 mod exr_guards;
+mod hdr_png;
 mod openexr;
 mod pfm;
 mod png;
@@ -29,6 +30,10 @@ use std::path::Path;
 use serde::Serialize;
 
 pub use self::error::HdrIoError;
+pub use self::hdr_png::{
+    encode_hdr_png, read_hdr_png_info, write_hdr_png, Cicp, FoundChunks, HdrPngInfo, LightLevel,
+    Mastering,
+};
 pub use self::png::Rgb16Image;
 pub use self::validate::{
     DeviceFit, LoadOptions, LoadReport, DEFAULT_MAX_PIXELS, LOG_AVERAGE_DELTA,

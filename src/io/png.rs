@@ -275,7 +275,7 @@ pub(crate) fn write_png16(path: &Path, image: &Rgb16Image) -> Result<(), HdrIoEr
 
 /// PNG writers insist on `.png` so that a golden is never written under a
 /// name that says it is something else.
-fn check_png_extension(path: &Path, file: &str) -> Result<(), HdrIoError> {
+pub(crate) fn check_png_extension(path: &Path, file: &str) -> Result<(), HdrIoError> {
     let is_png = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("png"));

@@ -11,7 +11,7 @@
 //! BT.1886 display) reproduces it and black stays black.
 
 use super::fixed::{self, EXPOSURE};
-use super::{Curve, Kind, Param, Range, Resolution, ToneOperator, Value, Values};
+use super::{Curve, DisplayLevels, Kind, Param, Range, Resolution, ToneOperator, Value, Values};
 use super::{LuminanceStats, StatsNeeds, Unmeasured};
 
 /// `bt2390`.
@@ -231,6 +231,13 @@ impl ToneOperator for Bt2390 {
     }
     fn gpu_config(&self, v: &Values) -> Vec<f32> {
         vec![v.num("exposure") as f32]
+    }
+    /// The target display's: the output is relative to its black and peak.
+    fn display_levels(&self, v: &Values) -> Option<DisplayLevels> {
+        Some(DisplayLevels {
+            black: v.num("target_black"),
+            peak: v.num("target_peak"),
+        })
     }
     /// The EETF's constants, computed here in f64, as override constants
     /// (llvmpipe folds them into the code, as it does Hable's).

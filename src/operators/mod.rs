@@ -142,6 +142,23 @@ pub trait ToneOperator: Send + Sync + 'static {
     fn gpu_constants(&self, _values: &Values) -> Vec<(&'static str, f64)> {
         Vec::new()
     }
+    /// The display its curve maps onto, in cd/m²: output 0 is `black`, 1
+    /// is `peak`. `None` (the default) for a curve whose output is relative
+    /// to an SDR display's white, which has no absolute level and so no
+    /// PQ or HLG output.
+    fn display_levels(&self, _values: &Values) -> Option<DisplayLevels> {
+        None
+    }
+}
+
+/// The black and peak, in cd/m², of the display an operator maps onto
+/// ([`ToneOperator::display_levels`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct DisplayLevels {
+    /// What output 0 stands for.
+    pub black: f64,
+    /// What output 1 stands for.
+    pub peak: f64,
 }
 
 impl std::fmt::Debug for dyn ToneOperator {
@@ -262,6 +279,12 @@ impl Operator {
     /// The luminance its statistics are measured in.
     pub fn luminance(&self) -> Luminance {
         self.def.luminance(&self.values)
+    }
+
+    /// The display it maps onto, for an operator with absolute output
+    /// ([`ToneOperator::display_levels`]).
+    pub fn display_levels(&self) -> Option<DisplayLevels> {
+        self.def.display_levels(&self.values)
     }
 
     /// The f64 reference for a frame with statistics `stats`.

@@ -341,8 +341,11 @@ fn run_job(
         (Renderer::Gpu { config, .. }, Some(r)) => Some((r, *config)),
         _ => None,
     };
-    let result =
-        crate::toning::tone_map_until(&img, &p.resolved.pipeline(), gpu, OutputKind::Encoded, gone);
+    let want = p
+        .resolved
+        .output_kind(OutputKind::Encoded)
+        .map_err(|e| ApiError::of_crate(&e))?;
+    let result = crate::toning::tone_map_until(&img, &p.resolved.pipeline(), gpu, want, gone);
     let tonemap_ms = ms(start);
     if let Err(crate::Error::Gpu(e)) = &result {
         if !matches!(
@@ -357,8 +360,12 @@ fn run_job(
         return Ok(None);
     };
     let crate::toning::Toned { report, image } = out;
-    let TonedImage::Encoded(frame) = image else {
-        return Err(ApiError::internal("the tone-map made no 8-bit frame"));
+    // The 8-bit frame, or the 16-bit image with its chunks: both own their
+    // pixels, so the input can go.
+    let image = match image {
+        TonedImage::Encoded(frame) => Ok(frame),
+        TonedImage::Hdr(hdr, info) => Err((hdr, info)),
+        _ => return Err(ApiError::internal("the tone-map made no PNG image")),
     };
     // The input is not needed past here: a server holds little per job.
     drop(img);
@@ -366,12 +373,16 @@ fn run_job(
         return Ok(None);
     }
     let start = Instant::now();
-    let png = crate::io::encode_png8(&frame).map_err(|e| ApiError::internal(e.to_string()))?;
+    let (png, width, height) = match &image {
+        Ok(frame) => (crate::io::encode_png8(frame), frame.width, frame.height),
+        Err((hdr, info)) => (crate::io::encode_hdr_png(hdr, info), hdr.width, hdr.height),
+    };
+    let png = png.map_err(|e| ApiError::internal(e.to_string()))?;
     let png_ms = ms(start);
     Ok(Some(ToneOutput {
         png,
-        width: frame.width,
-        height: frame.height,
+        width,
+        height,
         input: load_report,
         report,
         render_ms: 0.0,

@@ -96,6 +96,7 @@ pub(crate) fn query_pairs(q: Option<&str>) -> Result<Vec<(String, String)>, ApiE
         ("bloom" = Option<f64>, Query, description = "Bloom strength (0 = none); bloom_pass, bloom_threshold, bloom_downsample, bloom_radius, bloom_sigma refine it"),
         ("brightness" = Option<f64>, Query), ("contrast" = Option<f64>, Query), ("saturation" = Option<f64>, Query),
         ("gamma" = Option<f64>, Query, description = "Encode with 1/gamma instead of the sRGB OETF"),
+        ("display" = Option<String>, Query, description = "sdr (default: 8-bit PNG), pq or hlg (16-bit BT.2100 PNG with cICP; mDCV and cLLI for pq), for an operator that maps onto a display of known peak (bt2390); refused with the reason otherwise"),
         ("sanitize" = Option<bool>, Query, description = "Set NaN/Inf to 0 instead of refusing the file"),
     ),
     request_body(content = Vec<u8>, description = "The .hdr, .exr or .pfm file (raw, or multipart/form-data with a file field; form fields are parameters too)",
@@ -309,6 +310,11 @@ fn respond(out: ToneOutput, json: bool, settings: &ToneSettings) -> Response {
     put("x-tonegate-operator", tone.operator.to_owned());
     for (name, v) in &tone.values {
         put(&format!("x-tonegate-{}", name.replace('_', "-")), num(*v));
+    }
+    if let Some(hdr) = &report.hdr {
+        put("x-tonegate-display", hdr.display.as_str().to_owned());
+        put("x-tonegate-max-cll", num(hdr.max_cll));
+        put("x-tonegate-max-fall", num(hdr.max_fall));
     }
     put("x-tonegate-min-luminance", num(input.min_luminance));
     put("x-tonegate-max-luminance", num(input.max_luminance));

@@ -5,8 +5,10 @@
 //! alone (on the CPU, for every output), the staged reference otherwise, or
 //! the GPU. Its [`ToneReport`] is what both callers serialise.
 
+pub mod display;
 pub mod settings;
 
+pub use display::{Display, HdrOutput, HdrReport};
 pub use settings::{OperatorParams, Preset, Resolved, ToneSettings};
 
 use crate::error::{Error, Result};
@@ -21,13 +23,15 @@ use serde::Serialize;
 use std::path::Path;
 
 /// What a tone-map hands back.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum OutputKind {
     /// The encoded 8-bit frame (a PNG).
     Encoded,
     /// The linear display-referred image, before the encoding (an HDR file:
     /// OpenEXR, Radiance or PFM).
     Linear,
+    /// The 16-bit PQ or HLG image (a PNG with its cICP chunk).
+    Hdr(HdrOutput),
 }
 
 impl OutputKind {
@@ -75,6 +79,9 @@ pub struct ToneReport {
     pub plan: Vec<&'static str>,
     pub stats: LuminanceStats,
     pub tone: ToneParams,
+    /// The PQ or HLG output, when that is what was made.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hdr: Option<HdrReport>,
 }
 
 /// A decoded file's tone-map, as the command line and the API report it.
@@ -98,6 +105,8 @@ pub enum TonedImage<'i> {
         tone: Box<PixelwiseTone>,
         input: &'i HdrImage,
     },
+    /// The 16-bit PQ or HLG image and the chunks that say so.
+    Hdr(crate::io::Rgb16Image, crate::io::HdrPngInfo),
 }
 
 impl TonedImage<'_> {
@@ -110,6 +119,9 @@ impl TonedImage<'_> {
         match (self, kind) {
             (TonedImage::Encoded(frame), OutputKind::Encoded) => {
                 Ok(crate::io::write_png8(path, frame)?)
+            }
+            (TonedImage::Hdr(img, info), OutputKind::Encoded) => {
+                Ok(crate::io::write_hdr_png(path, img, info)?)
             }
             (TonedImage::Linear(img), OutputKind::Linear) => {
                 Ok(crate::io::write_image_hdr(path, img)?)
@@ -138,7 +150,7 @@ impl TonedImage<'_> {
     /// computed as it is written; None for an encoded frame.
     pub fn linear(&self) -> Option<std::borrow::Cow<'_, HdrImage>> {
         match self {
-            TonedImage::Encoded(_) => None,
+            TonedImage::Encoded(_) | TonedImage::Hdr(..) => None,
             TonedImage::Linear(img) => Some(std::borrow::Cow::Borrowed(img)),
             TonedImage::Mapped { tone, input } => {
                 Some(std::borrow::Cow::Owned(input.par_map(|c| tone.map(c))))
@@ -152,6 +164,7 @@ impl TonedImage<'_> {
             path.display(),
             match self {
                 TonedImage::Encoded(_) => "an encoded 8-bit",
+                TonedImage::Hdr(..) => "a 16-bit HDR",
                 _ => "a linear",
             }
         ))
@@ -190,12 +203,32 @@ pub fn tone_map_until<'i>(
     want: OutputKind,
     stop: &dyn Fn() -> bool,
 ) -> Result<Option<Toned<'i>>> {
+    // PQ and HLG are encoded here from the display-referred image, whichever
+    // renderer made it.
+    if let OutputKind::Hdr(hdr) = want {
+        let Some(toned) = tone_map_until(img, pipeline, gpu, OutputKind::Linear, stop)? else {
+            return Ok(None);
+        };
+        let display = toned
+            .image
+            .linear()
+            .ok_or_else(|| Error::Invalid("the tone-map made no display image".into()))?;
+        let (image, info, hdr_report) = hdr.encode(&display);
+        drop(display);
+        let mut report = toned.report;
+        report.hdr = Some(hdr_report);
+        return Ok(Some(Toned {
+            report,
+            image: TonedImage::Hdr(image, info),
+        }));
+    }
     let report = |adapter: String, path, plan: &StagePlan, stats, tone| ToneReport {
         adapter,
         path,
         plan: plan.names(),
         stats,
         tone,
+        hdr: None,
     };
     let cpu = crate::render::CPU_REFERENCE.to_owned();
     match gpu {
@@ -234,7 +267,7 @@ pub fn tone_map_until<'i>(
                             image: TonedImage::Encoded(frame),
                         }
                     }
-                    OutputKind::Linear => Toned {
+                    OutputKind::Linear | OutputKind::Hdr(_) => Toned {
                         report: report(
                             cpu,
                             TonePath::Pixelwise,
@@ -251,7 +284,7 @@ pub fn tone_map_until<'i>(
                 return Ok(Some(toned));
             }
             match want {
-                OutputKind::Linear => {
+                OutputKind::Linear | OutputKind::Hdr(_) => {
                     let out = crate::reference::render_flat_display_until(img, pipeline, stop)?;
                     Ok(out.map(|out| Toned {
                         report: report(cpu, TonePath::Staged, &out.plan, out.stats, out.tone),
@@ -293,7 +326,7 @@ fn gpu_flat<'i>(
     );
     // The display image is a staged output: fused kernels never store it.
     let mut config = config;
-    if want == OutputKind::Linear {
+    if want != OutputKind::Encoded {
         config.execution = crate::gpu::Execution::Staged;
     }
     let rendered = renderers
@@ -301,7 +334,7 @@ fn gpu_flat<'i>(
         .and_then(|r| {
             let out = r.render(want == OutputKind::Encoded)?;
             let display = match want {
-                OutputKind::Linear => Some(
+                OutputKind::Linear | OutputKind::Hdr(_) => Some(
                     r.read_output("display")?
                         .map(|d| d.to_hdr())
                         .unwrap_or_else(|| img.clone()),

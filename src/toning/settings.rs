@@ -2,6 +2,8 @@
 //! `POST /tonemap`'s parameters (one definition, so the two cannot drift),
 //! and their resolution into an operator, bloom, grade and encoding.
 
+use super::display::{Display, HdrOutput};
+use super::OutputKind;
 use crate::error::{Error, Result};
 use crate::operators;
 use crate::reference::Pipeline;
@@ -78,6 +80,11 @@ pub struct ToneSettings {
     /// Encode with a 1/γ power instead of the sRGB OETF.
     #[cfg_attr(feature = "cli", arg(long))]
     pub gamma: Option<f64>,
+    /// The display: sdr (8-bit, the sRGB transfer or --gamma), or pq or hlg
+    /// (a 16-bit BT.2100 PNG, for an operator that maps onto a display of
+    /// known peak: bt2390).
+    #[cfg_attr(feature = "cli", arg(long, value_enum, default_value = "sdr"))]
+    pub display: Display,
 }
 
 impl Default for ToneSettings {
@@ -96,6 +103,7 @@ impl Default for ToneSettings {
             contrast: 1.0,
             saturation: 1.0,
             gamma: None,
+            display: Display::Sdr,
         }
     }
 }
@@ -107,9 +115,25 @@ pub struct Resolved {
     pub bloom: Option<Bloom>,
     pub grade: Grade,
     pub encoding: Encoding,
+    /// The PQ or HLG output; `None` for SDR.
+    pub hdr: Option<HdrOutput>,
 }
 
 impl Resolved {
+    /// What the tone-map is asked for: the HDR image for PQ or HLG, else
+    /// `kind` (what the output file's name asks for), refusing a PQ or HLG
+    /// output to anything but a PNG.
+    pub fn output_kind(&self, kind: OutputKind) -> Result<OutputKind> {
+        match (self.hdr, kind) {
+            (None, kind) => Ok(kind),
+            (Some(hdr), OutputKind::Encoded) => Ok(OutputKind::Hdr(hdr)),
+            (Some(hdr), _) => Err(invalid(format!(
+                "display {}: writes a 16-bit PNG; name the output .png (an .exr, .hdr or .pfm output is the display-referred image, with --display sdr)",
+                hdr.display.as_str()
+            ))),
+        }
+    }
+
     pub fn pipeline(&self) -> Pipeline<'_> {
         Pipeline {
             operator: &self.operator,
@@ -228,8 +252,17 @@ impl ToneSettings {
     /// Checks every value and builds the operator, bloom, grade and encoding;
     /// the error names the parameter and what it must be.
     pub fn resolve(&self) -> Result<Resolved> {
+        let operator = self.operator()?;
+        let hdr = self.display.hdr_output(&operator).map_err(invalid)?;
+        if let (Some(_), Some(_)) = (hdr, self.gamma) {
+            return Err(invalid(format!(
+                "gamma: applies to SDR output only; display {} has its own transfer",
+                self.display.as_str()
+            )));
+        }
         Ok(Resolved {
-            operator: self.operator()?,
+            operator,
+            hdr,
             bloom: self.bloom()?,
             grade: Grade {
                 brightness: non_negative("brightness", self.brightness)?,

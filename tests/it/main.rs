@@ -16,6 +16,7 @@ mod chaos;
 mod check;
 mod compare_cli;
 mod dashboard;
+mod display;
 mod fleet;
 mod fuzz_regressions;
 mod golden;
