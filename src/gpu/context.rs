@@ -50,6 +50,25 @@ pub(crate) type PipelineKey = (
 /// sizes would otherwise grow without end).
 const PIPELINE_CACHE_LIMIT: usize = 256;
 
+/// What reports say of the adapter behind a device.
+fn report(
+    info: &wgpu::AdapterInfo,
+    timestamps: bool,
+    flushes_subnormals: Option<bool>,
+    chosen: String,
+) -> AdapterReport {
+    AdapterReport {
+        name: info.name.clone(),
+        backend: format!("{:?}", info.backend),
+        device_type: format!("{:?}", info.device_type),
+        driver: info.driver.clone(),
+        driver_info: info.driver_info.clone(),
+        timestamps,
+        flushes_subnormals,
+        chosen,
+    }
+}
+
 impl GpuContext {
     /// Opens the adapter `choice` selects, with timestamp queries when it has them.
     pub fn new(choice: &AdapterChoice) -> Result<GpuContext, GpuError> {
@@ -117,16 +136,7 @@ impl GpuContext {
             device,
             queue,
             limits,
-            adapter: AdapterReport {
-                name: info.name.clone(),
-                backend: format!("{:?}", info.backend),
-                device_type: format!("{:?}", info.device_type),
-                driver: info.driver.clone(),
-                driver_info: info.driver_info.clone(),
-                timestamps,
-                flushes_subnormals: Some(flushes),
-                chosen,
-            },
+            adapter: report(&info, timestamps, Some(flushes), chosen),
             errors,
             pipelines: Mutex::new(Default::default()),
         })
@@ -147,16 +157,12 @@ impl GpuContext {
             float32_filterable: features.contains(wgpu::Features::FLOAT32_FILTERABLE),
             timestamp_period: queue.get_timestamp_period(),
             limits: device.limits(),
-            adapter: AdapterReport {
-                name: info.name.clone(),
-                backend: format!("{:?}", info.backend),
-                device_type: format!("{:?}", info.device_type),
-                driver: info.driver.clone(),
-                driver_info: info.driver_info.clone(),
-                timestamps: features.contains(wgpu::Features::TIMESTAMP_QUERY),
-                flushes_subnormals: None,
-                chosen: "the caller's device".into(),
-            },
+            adapter: report(
+                &info,
+                features.contains(wgpu::Features::TIMESTAMP_QUERY),
+                None,
+                "the caller's device".into(),
+            ),
             device: device.clone(),
             queue: queue.clone(),
             errors: Arc::default(),
