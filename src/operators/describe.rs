@@ -19,6 +19,9 @@ pub struct OperatorInfo {
     pub resolves: &'static [&'static str],
     /// Its parameters.
     pub params: Vec<ParamInfo>,
+    /// Whether, at its defaults, it maps onto a display of known peak, so
+    /// that PQ or HLG output (`display`) can be asked of it.
+    pub hdr_output: bool,
 }
 
 /// One parameter of an [`OperatorInfo`].
@@ -62,6 +65,11 @@ pub fn describe() -> Vec<OperatorInfo> {
     all().iter().map(|o| describe_one(o.as_ref())).collect()
 }
 
+/// The operator's parameters at their defaults.
+fn defaults(o: &dyn ToneOperator) -> super::Values {
+    super::Values::new(o.params().iter().map(|p| (p.name, p.default)).collect())
+}
+
 fn describe_one(o: &dyn ToneOperator) -> OperatorInfo {
     let params = o
         .params()
@@ -96,5 +104,6 @@ fn describe_one(o: &dyn ToneOperator) -> OperatorInfo {
         summary: o.summary(),
         resolves: o.resolved_names(),
         params,
+        hdr_output: o.display_levels(&defaults(o)).is_some(),
     }
 }

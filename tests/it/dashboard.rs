@@ -209,6 +209,35 @@ fn the_dashboard_shows_runs_charts_and_image_comparisons_in_chromium() {
         "{dom}"
     );
     assert!(!dom.contains("name=\"white_fraction\""), "{dom}");
+    // PQ and HLG are offered only where the operator can feed them.
+    let display = |dom: &str| {
+        dom.split("name=\"display\"")
+            .nth(1)
+            .and_then(|d| d.split("</select>").next())
+            .map(str::to_owned)
+            .unwrap_or_else(|| panic!("no display control:\n{dom}"))
+    };
+    assert!(
+        display(&dom).contains("<option value=\"pq\" disabled"),
+        "{dom}"
+    );
+}
+
+/// bt2390 to a PQ display on the tone-map page: the 16-bit PNG is decoded by
+/// the browser, and its display and light levels are shown.
+#[test]
+fn the_tone_map_page_writes_pq_for_bt2390_in_chromium() {
+    let dir = tempfile::tempdir().unwrap();
+    let seeded = common::seed_empty(dir.path());
+    let s = serve(&seeded, dir.path());
+    let dom = browse(
+        &format!("{}/#/tonemap?sample=sky&operator=bt2390&display=pq", s.base),
+        "tonemap-pq",
+    );
+    assert!(dom.contains("data-loaded=\"1\""), "{dom}");
+    assert!(dom.contains("<dt>Display</dt><dd>pq, 0"), "{dom}");
+    assert!(dom.contains("<dt>MaxCLL / MaxFALL</dt>"), "{dom}");
+    assert!(!dom.contains("<option value=\"pq\" disabled"), "{dom}");
 }
 
 /// The contact sheet: a built-in sample through every operator the server

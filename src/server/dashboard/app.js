@@ -523,6 +523,15 @@ async function tonemapPage(params) {
   const bloom = h("input", { name: "bloom", type: "range", min: 0, max: 1, step: 0.05, value: 0 });
   const bloomOut = h("output", {}, "0.00");
   const gamma = h("input", { name: "gamma", placeholder: "sRGB", size: 6 });
+  // PQ and HLG only for an operator that maps onto a display of known peak.
+  const display = h("select", { name: "display", title: "sdr: 8-bit PNG; pq, hlg: 16-bit BT.2100 PNG (cICP), for an operator that maps onto a display of known peak" },
+    ["sdr", "pq", "hlg"].map((d) => h("option", { value: d }, d)));
+  function showDisplay() {
+    const o = operators.find((x) => x.name === operator.value);
+    const hdr = !!(o && o.hdr_output);
+    for (const opt of display.options) opt.disabled = !hdr && opt.value !== "sdr";
+    if (!hdr) display.value = "sdr";
+  }
   const gpu = h("select", { name: "gpu" }, h("option", { value: "true" }, "GPU"), h("option", { value: "false" }, "CPU reference"));
   const result = h("div", { class: "tonemap-result" }, h("p", { class: "muted" }, "Choose an .hdr, .exr or .pfm file (or a built-in sample); the result updates as you change the settings."));
   const tonemap = (q) => api("/tonemap?" + q, { method: "POST", body: source, headers: { "Content-Type": "application/octet-stream" } });
@@ -535,6 +544,7 @@ async function tonemapPage(params) {
     operatorQuery(q);
     if (+bloom.value > 0) q.set("bloom", bloom.value);
     if (gamma.value.trim()) q.set("gamma", gamma.value.trim());
+    if (display.value !== "sdr") q.set("display", display.value);
     const mine = ++pending;
     result.setAttribute("aria-busy", "true");
     try {
@@ -544,6 +554,7 @@ async function tonemapPage(params) {
       img.addEventListener("load", () => img.setAttribute("data-loaded", "1"));
       result.replaceChildren(img,
         h("dl", { class: "facts" }, ...[["Size", `${r.width}×${r.height}`], ["Renderer", r.adapter], ["Plan", r.plan.join(" → ")], ["Operator", r.tone.operator], ...resolved(r.tone),
+          ...(r.hdr ? [["Display", `${r.hdr.display}, ${num(r.hdr.black_nits)} … ${num(r.hdr.peak_nits)} cd/m², 16-bit BT.2100`], ["MaxCLL / MaxFALL", `${num(r.hdr.max_cll, 1)} / ${num(r.hdr.max_fall, 1)} cd/m²`]] : []),
           ["Luminance", `${num(r.input.min_luminance)} … ${num(r.input.max_luminance)} (${num(r.input.dynamic_range_stops, 1)} stops)`], ["Time", `${num(r.render_ms, 1)} ms (+${num(r.queue_ms, 1)} ms queued)`]]
           .flatMap(([k, v]) => [h("dt", {}, k), h("dd", {}, v)])));
     } catch (e) {
@@ -580,14 +591,17 @@ async function tonemapPage(params) {
   }
   let debounce = null;
   const later = () => { clearTimeout(debounce); debounce = setTimeout(run, 250); };
-  operator.addEventListener("change", () => { showParams(); later(); });
-  for (const i of [bloom, gamma, gpu]) i.addEventListener(i.type === "range" ? "input" : "change", later);
+  operator.addEventListener("change", () => { showParams(); showDisplay(); later(); });
+  for (const i of [bloom, gamma, gpu, display]) i.addEventListener(i.type === "range" ? "input" : "change", later);
   if (params.get("operator") && operators.some((o) => o.name === params.get("operator"))) operator.value = params.get("operator");
   showParams();
+  showDisplay();
+  const wanted = [...display.options].find((o) => o.value === params.get("display"));
+  if (wanted && !wanted.disabled) display.value = wanted.value;
   show(h("h1", {}, "Tone-map an HDR image"),
     h("form", { class: "tonemap-form", onsubmit: (e) => { e.preventDefault(); run(); } },
       field("HDR file", file), field("Operator", operator), paramBox,
-      field("Bloom", h("span", {}, bloom, bloomOut)), field("Gamma", gamma), field("Renderer", gpu), h("button", { class: "primary", type: "submit" }, "Tone-map"),
+      field("Bloom", h("span", {}, bloom, bloomOut)), field("Gamma", gamma), field("Display", display), field("Renderer", gpu), h("button", { class: "primary", type: "submit" }, "Tone-map"),
       h("button", { type: "button", name: "sheet", onclick: contactSheet, title: "The image through every operator, side by side, each with its time" }, "Contact sheet"),
       field("Sheet exposure", sheetExposure)),
     summary,
