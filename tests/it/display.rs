@@ -238,6 +238,20 @@ async fn the_api_writes_pq_and_refuses_what_has_no_meaning() {
     let s = common::server::start(&seeded, |_| {}).await;
     let hdr = common::hdr_bytes(dir.path(), 96, 64);
 
+    // GET /operators says which operators can feed PQ or HLG.
+    let (status, ops) = s.json("/api/v1/operators").await;
+    assert_eq!(status, StatusCode::OK);
+    let ops = ops.as_array().unwrap();
+    assert_eq!(ops.len(), tonegate::operators::all().len());
+    for o in ops {
+        let name = o["name"].as_str().unwrap();
+        assert_eq!(o["hdr_output"], name == "bt2390", "{name}");
+        assert!(
+            o["params"].as_array().is_some_and(|p| !p.is_empty()),
+            "{name}"
+        );
+    }
+
     let r = s
         .tonemap(
             "gpu=false&operator=bt2390&display=pq&target_peak=1000",
