@@ -7,7 +7,7 @@
 //! bloom or grade: the luminance statistics (when the operator needs them),
 //! the operator (its resolve step, then its curve), and the display
 //! encoding. The same shaders and pipelines, so the same bits: an input
-//! texture in `Rgba32Float` gives the bytes `tonegate tonemap` writes on the
+//! texture in `Rgba32Float` gives the bytes `tonegate tonemap --gpu` writes on the
 //! same adapter.
 
 use super::config::ReductionMethod;
