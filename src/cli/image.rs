@@ -445,7 +445,12 @@ pub fn operators(a: OperatorsArgs) -> Result<ExitCode> {
         } else {
             format!(" (also {})", o.aliases.join(", "))
         };
-        println!("{}{aliases}: {}", o.name, o.summary);
+        let hdr = if o.hdr_output {
+            "; --display pq|hlg too"
+        } else {
+            ""
+        };
+        println!("{}{aliases}: {}{hdr}", o.name, o.summary);
         for p in o.params {
             let default = match p.default {
                 tonegate::operators::Value::Unset => "measured".to_owned(),

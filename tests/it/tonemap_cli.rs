@@ -203,3 +203,37 @@ fn a_pixelwise_plan_writes_exactly_what_the_staged_path_computes() {
         }
     }
 }
+
+/// `tonegate operators` lists every operator with its flags, and says which
+/// can feed a PQ or HLG display; `--json` is what `GET /operators` answers.
+#[test]
+fn operators_lists_every_operator_and_which_feed_hdr_displays() {
+    let o = common::tonegate(&["operators"]);
+    assert!(o.status.success());
+    let text = String::from_utf8_lossy(&o.stdout);
+    for op in tonegate::operators::builtin() {
+        let line = text
+            .lines()
+            .find(|l| {
+                l.starts_with(&format!("{}:", op.name()))
+                    || l.starts_with(&format!("{} (", op.name()))
+            })
+            .unwrap_or_else(|| panic!("no line for {}:\n{text}", op.name()));
+        assert_eq!(
+            line.contains("--display pq|hlg"),
+            op.name() == "bt2390",
+            "{line}"
+        );
+    }
+    assert!(text.contains("  --knee-offset"), "{text}");
+    let o = common::tonegate(&["operators", "--json"]);
+    assert!(o.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let bt = v
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|o| o["name"] == "bt2390")
+        .unwrap();
+    assert_eq!(bt["hdr_output"], true);
+}
