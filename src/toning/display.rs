@@ -124,18 +124,28 @@ impl HdrOutput {
     /// The 16-bit image and its PNG chunks, from the operator's
     /// display-relative output.
     pub fn encode(&self, display: &HdrImage) -> (Rgb16Image, HdrPngInfo, HdrReport) {
+        const CHUNK: usize = 4096;
         let m = bt709_to_bt2020();
-        let (pixels, brightest): (Vec<[u16; 3]>, Vec<f64>) = display
-            .pixels
-            .par_iter()
-            .map(|p| {
-                let nits = self.nits(&m, p.map(f64::from));
-                let codes = self.signal(nits).map(code16);
-                (codes, nits[0].max(nits[1]).max(nits[2]))
+        let mut pixels = vec![[0u16; 3]; display.pixels.len()];
+        // Each chunk's brightest channel and sum of brightest channels, in
+        // order, so that MaxFALL's sum is the same on every run.
+        let levels: Vec<(f64, f64)> = pixels
+            .par_chunks_mut(CHUNK)
+            .zip(display.pixels.par_chunks(CHUNK))
+            .map(|(out, input)| {
+                let (mut max, mut sum) = (0.0f64, 0.0f64);
+                for (o, p) in out.iter_mut().zip(input) {
+                    let nits = self.nits(&m, p.map(f64::from));
+                    *o = self.signal(nits).map(code16);
+                    let brightest = nits[0].max(nits[1]).max(nits[2]);
+                    max = max.max(brightest);
+                    sum += brightest;
+                }
+                (max, sum)
             })
-            .unzip();
-        let max_cll = brightest.iter().copied().fold(0.0, f64::max);
-        let max_fall = brightest.iter().sum::<f64>() / brightest.len().max(1) as f64;
+            .collect();
+        let max_cll = levels.iter().map(|l| l.0).fold(0.0, f64::max);
+        let max_fall = levels.iter().map(|l| l.1).sum::<f64>() / display.pixels.len().max(1) as f64;
         let image = Rgb16Image {
             width: display.width,
             height: display.height,
