@@ -6,10 +6,12 @@
 //! the GPU. Its [`ToneReport`] is what both callers serialise.
 
 pub mod display;
+mod operator_params;
 pub mod settings;
 
 pub use display::{Display, HdrOutput, HdrReport};
-pub use settings::{OperatorParams, Preset, Resolved, ToneSettings};
+pub use operator_params::OperatorParams;
+pub use settings::{Preset, Resolved, ToneSettings};
 
 use crate::error::{Error, Result};
 use crate::gpu::{GpuConfig, GpuContext, RendererPool};
