@@ -15,8 +15,8 @@ use std::process::ExitCode;
 use std::sync::Arc;
 use tonegate::gpu::{AdapterChoice, GpuConfig, GpuContext, ReductionMethod};
 use tonegate::operators::{
-    self, Curve, Kind, LuminanceStats, Param, Range, Resolution, StatsNeeds, ToneOperator,
-    Unmeasured, Value, Values,
+    self, Curve, Kind, LuminanceStats, Param, Range, Resolution, ToneOperator, Unmeasured, Value,
+    Values,
 };
 use tonegate::render::{scene_environment, SceneRenderer};
 use tonegate::scene::Scene;
@@ -69,9 +69,6 @@ impl ToneOperator for Exponential {
     }
     fn params(&self) -> &'static [Param] {
         PARAMS
-    }
-    fn needs(&self, _: &Values) -> StatsNeeds {
-        StatsNeeds::default()
     }
     fn resolved_names(&self) -> &'static [&'static str] {
         &["exposure"]

@@ -5,7 +5,7 @@
 
 use super::fixed::{self, mul3, wgsl_mat3, EXPOSURE};
 use super::{Curve, Param, Resolution, ToneOperator, Values};
-use super::{LuminanceStats, StatsNeeds, Unmeasured};
+use super::{LuminanceStats, Unmeasured};
 
 /// `aces-hill`.
 pub struct AcesHill;
@@ -53,9 +53,6 @@ impl ToneOperator for AcesHill {
     }
     fn params(&self) -> &'static [Param] {
         &[EXPOSURE]
-    }
-    fn needs(&self, _: &Values) -> StatsNeeds {
-        StatsNeeds::default()
     }
     fn resolved_names(&self) -> &'static [&'static str] {
         fixed::RESOLVED

@@ -4,7 +4,7 @@
 
 use super::fixed::{self, EXPOSURE};
 use super::{Curve, Param, Resolution, ToneOperator, Values};
-use super::{LuminanceStats, StatsNeeds, Unmeasured};
+use super::{LuminanceStats, Unmeasured};
 
 /// `aces-narkowicz`.
 pub struct AcesNarkowicz;
@@ -33,9 +33,6 @@ impl ToneOperator for AcesNarkowicz {
     }
     fn params(&self) -> &'static [Param] {
         &[EXPOSURE]
-    }
-    fn needs(&self, _: &Values) -> StatsNeeds {
-        StatsNeeds::default()
     }
     fn resolved_names(&self) -> &'static [&'static str] {
         fixed::RESOLVED

@@ -9,7 +9,7 @@
 
 use super::fixed::{self, mul3, wgsl_mat3, EXPOSURE};
 use super::{Curve, Kind, Param, Resolution, ToneOperator, Value, Values};
-use super::{LuminanceStats, StatsNeeds, Unmeasured};
+use super::{LuminanceStats, Unmeasured};
 
 /// `agx`.
 pub struct Agx;
@@ -106,9 +106,6 @@ impl ToneOperator for Agx {
     }
     fn params(&self) -> &'static [Param] {
         &[EXPOSURE, LOOK]
-    }
-    fn needs(&self, _: &Values) -> StatsNeeds {
-        StatsNeeds::default()
     }
     fn resolved_names(&self) -> &'static [&'static str] {
         fixed::RESOLVED

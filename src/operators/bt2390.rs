@@ -12,12 +12,12 @@
 
 use super::fixed::{self, EXPOSURE};
 use super::{Curve, DisplayLevels, Kind, Param, Range, Resolution, ToneOperator, Value, Values};
-use super::{LuminanceStats, StatsNeeds, Unmeasured};
+use super::{LuminanceStats, Unmeasured};
 
 /// `bt2390`.
 pub struct Bt2390;
 
-use crate::color::PQ_PEAK;
+use crate::color::{pq_decode, PQ_PEAK};
 
 /// ST 2084's inverse EOTF as libplacebo has it: 0 cd/m² (and below) is
 /// signal 0, where the formula gives c1^m2 = 7.3e-7 (the level below which
@@ -27,11 +27,6 @@ pub fn pq_encode(nits: f64) -> f64 {
         return 0.0;
     }
     crate::color::pq_encode(nits.min(PQ_PEAK))
-}
-
-/// ST 2084's EOTF: PQ signal to cd/m².
-pub fn pq_decode(signal: f64) -> f64 {
-    crate::color::pq_decode(signal)
 }
 
 const fn nits(name: &'static str, doc: &'static str, min_open: bool, default: f64) -> Param {
@@ -216,9 +211,6 @@ impl ToneOperator for Bt2390 {
             ));
         }
         Ok(())
-    }
-    fn needs(&self, _: &Values) -> StatsNeeds {
-        StatsNeeds::default()
     }
     fn resolved_names(&self) -> &'static [&'static str] {
         fixed::RESOLVED

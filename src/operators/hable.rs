@@ -7,7 +7,7 @@
 
 use super::fixed::{self, EXPOSURE};
 use super::{Curve, Kind, Param, Range, Resolution, ToneOperator, Value, Values};
-use super::{LuminanceStats, StatsNeeds, Unmeasured};
+use super::{LuminanceStats, Unmeasured};
 
 /// `hable`.
 pub struct Hable;
@@ -119,9 +119,6 @@ impl ToneOperator for Hable {
             ));
         }
         Ok(())
-    }
-    fn needs(&self, _: &Values) -> StatsNeeds {
-        StatsNeeds::default()
     }
     fn resolved_names(&self) -> &'static [&'static str] {
         fixed::RESOLVED

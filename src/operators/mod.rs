@@ -32,7 +32,8 @@ mod reinhard_global;
 mod stats;
 mod table;
 
-pub use bt2390::{pq_decode, pq_encode};
+pub use crate::color::pq_decode;
+pub use bt2390::pq_encode;
 pub use describe::{describe, OperatorInfo, ParamInfo, RangeInfo};
 pub use params::{Kind, Param, Range, Value, Values};
 pub use registry::{all, all_params, builtin, find, names, register};
@@ -117,8 +118,11 @@ pub trait ToneOperator: Send + Sync + 'static {
     fn luminance(&self, _values: &Values) -> Luminance {
         Luminance::BT709
     }
-    /// The statistics it needs measured (none for a fixed curve).
-    fn needs(&self, values: &Values) -> StatsNeeds;
+    /// The statistics it needs measured: by default none, as for a fixed
+    /// curve.
+    fn needs(&self, _values: &Values) -> StatsNeeds {
+        StatsNeeds::default()
+    }
     /// The names of the (at most four) values it resolves per frame, in the
     /// order of `operator_resolve`'s vec4.
     fn resolved_names(&self) -> &'static [&'static str];

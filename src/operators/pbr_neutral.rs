@@ -6,7 +6,7 @@
 
 use super::fixed::{self, EXPOSURE};
 use super::{Curve, Param, Resolution, ToneOperator, Values};
-use super::{LuminanceStats, StatsNeeds, Unmeasured};
+use super::{LuminanceStats, Unmeasured};
 
 /// `pbr-neutral`.
 pub struct PbrNeutral;
@@ -44,9 +44,6 @@ impl ToneOperator for PbrNeutral {
     }
     fn params(&self) -> &'static [Param] {
         &[EXPOSURE]
-    }
-    fn needs(&self, _: &Values) -> StatsNeeds {
-        StatsNeeds::default()
     }
     fn resolved_names(&self) -> &'static [&'static str] {
         fixed::RESOLVED

@@ -136,9 +136,6 @@ impl ToneOperator for Clash {
     fn params(&self) -> &'static [Param] {
         self.1
     }
-    fn needs(&self, _: &Values) -> StatsNeeds {
-        StatsNeeds::default()
-    }
     fn resolved_names(&self) -> &'static [&'static str] {
         &[]
     }
