@@ -15,6 +15,7 @@
 //! gets the whole harness: scene files, goldens from its f64 reference, the
 //! GPU held to it, stress rows and `tradeoff`.
 
+pub mod aces2;
 mod aces_hill;
 mod aces_narkowicz;
 mod agx;

@@ -3,8 +3,8 @@
 
 use super::params::{self, Param, Value};
 use super::{
-    aces_hill, aces_narkowicz, agx, bt2390, hable, pbr_neutral, reinhard02, reinhard_auto_key,
-    reinhard_global, ToneOperator,
+    aces2, aces_hill, aces_narkowicz, agx, bt2390, hable, pbr_neutral, reinhard02,
+    reinhard_auto_key, reinhard_global, ToneOperator,
 };
 use std::sync::{Arc, OnceLock, RwLock};
 
@@ -20,6 +20,7 @@ pub fn builtin() -> Vec<Arc<dyn ToneOperator>> {
         Arc::new(pbr_neutral::PbrNeutral),
         Arc::new(hable::Hable),
         Arc::new(bt2390::Bt2390),
+        Arc::new(aces2::Aces2),
     ]
 }
 

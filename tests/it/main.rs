@@ -9,6 +9,7 @@
 
 mod common;
 
+mod aces2;
 mod adapters;
 mod api;
 mod architecture;

@@ -176,6 +176,8 @@ fn every_operators_gpu_curve_matches_its_f64_curve() {
         .collect();
     ops.push(Operator::named("agx", &[("look", Value::Word("punchy"))]).unwrap());
     ops.push(Operator::named("hable", &[("exposure", Value::Number(4.0))]).unwrap());
+    ops.push(Operator::named("aces2", &[("gamut_compression", Value::Flag(false))]).unwrap());
+    ops.push(Operator::named("aces2", &[("exposure", Value::Number(16.0))]).unwrap());
     ops.push(
         Operator::named(
             "bt2390",
