@@ -20,7 +20,8 @@ struct OperatorConfig {
     // The band around a hue's uniform position its entry lies in.
     search_lo: f32,
     search_hi: f32,
-    pad: f32,
+    // A of limit_j.
+    limit_a: f32,
     // The reach's M at each whole degree (entry 1 = 0°), four to a vec4.
     reach: array<vec4<f32>, 91>,
     // Per hue entry: the cusp's J, its M, the upper hull's 1/γ, the hue.
@@ -167,7 +168,6 @@ fn operator_pixel(c: vec3<f32>, r: vec4<f32>, k: OperatorConfig) -> vec3<f32> {
     if (aab.x <= 0.0) {
         return vec3<f32>(0.0);
     }
-    let j = 100.0 * pow(aab.x, ACES2_CZ);
     let m = length(aab.yz);
     var h = degrees(atan2(aab.z, aab.y));
     if (h < 0.0) {
@@ -181,13 +181,15 @@ fn operator_pixel(c: vec3<f32>, r: vec4<f32>, k: OperatorConfig) -> vec3<f32> {
     }
     let reach_m = aces2_reach(h);
 
-    // The tone scale on Y, through A.
+    // The tone scale on Y, through A; a_ts is the toned J's achromatic
+    // response, so that (J_ts/J)^(1/cz) is a_ts/A and (J_ts/J_limit)^(1/cz)
+    // is a_ts/A_limit (cz is also the chroma compression's gamma).
     let ra_in = min(ACES2_A_W_J * aab.x, 0.99);
     let y = pow(27.13 * ra_in / (1.0 - ra_in), 1.0 / 0.42) / ACES2_F_L_N;
     let f = ACES2_TS_M_2 * pow(y / (y + ACES2_TS_S_2), ACES2_TS_G);
     let y_ts = max(f * f / (f + ACES2_TS_T_1), 0.0) * ACES2_TS_N_R;
-    let ra = aces2_compress1(y_ts * ACES2_F_L_N);
-    let j_ts = 100.0 * pow(ra / ACES2_A_W_J, ACES2_CZ);
+    let a_ts = aces2_compress1(y_ts * ACES2_F_L_N) / ACES2_A_W_J;
+    let j_ts = 100.0 * pow(a_ts, ACES2_CZ);
 
     // The chroma compression.
     var m_cp = m;
@@ -199,8 +201,8 @@ fn operator_pixel(c: vec3<f32>, r: vec4<f32>, k: OperatorConfig) -> vec3<f32> {
         let norm = (11.34072 * cos_h + 16.46899 * cos2 + 7.88380 * cos3 + 14.66441 * sin_h - 6.37224 * sin2 + 9.19364 * sin3 + 77.12896) * ACES2_CC_SCALE;
         let nj = j_ts / k.limit_j;
         let snj = max(1.0 - nj, 0.0);
-        let limit = pow(nj, ACES2_GAMMA_INV) * reach_m / norm;
-        var x = m * pow(j_ts / j, ACES2_GAMMA_INV) / norm;
+        let limit = a_ts / k.limit_a * reach_m / norm;
+        var x = m * (a_ts / aab.x) / norm;
         x = limit - aces2_toe(limit - x, limit - 0.001, snj * ACES2_CC_SAT, sqrt(nj * nj + ACES2_CC_SAT_THR));
         x = aces2_toe(x, limit, nj * ACES2_CC_COMPR, snj);
         m_cp = x * norm;

@@ -32,11 +32,13 @@ pub struct BenchArgs {
     /// Where the TAA blend is taken.
     #[arg(long, value_enum, default_value = "tonemapped")]
     pub taa_blend: tonegate::scene::BlendSpace,
-    /// Time this operator (at its defaults) instead of the bench's own
-    /// (reinhard-auto-key with the automatic key); `tonegate operators`
-    /// lists them.
+    /// Time this operator instead of the bench's own (reinhard-auto-key
+    /// with the automatic key), with the operator parameters given (the
+    /// rest at their defaults); `tonegate operators` lists them.
     #[arg(long)]
     pub operator: Option<String>,
+    #[command(flatten)]
+    pub params: tonegate::toning::OperatorParams,
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
@@ -49,10 +51,24 @@ pub fn bench(a: BenchArgs) -> Result<ExitCode> {
     if a.frames == 0 {
         return Err(invalid("--frames must be at least 1"));
     }
+    if a.operator.is_none() && !a.params.0.is_empty() {
+        return Err(invalid(format!(
+            "{}: operator parameters need --operator",
+            a.params.0[0].0
+        )));
+    }
     let operator = a
         .operator
         .as_deref()
-        .map(|name| tonegate::operators::Operator::named(name, &[]).map_err(invalid))
+        .map(|name| {
+            let def = tonegate::operators::find(name).ok_or_else(|| {
+                invalid(format!(
+                    "--operator: unknown operator {name:?}; expected one of {}",
+                    tonegate::operators::names().join(", ")
+                ))
+            })?;
+            tonegate::operators::Operator::from_text(def, &a.params.0).map_err(invalid)
+        })
         .transpose()?;
     let opts = tonegate::gpu::bench::BenchOptions {
         width: a.size.width,

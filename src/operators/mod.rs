@@ -147,6 +147,13 @@ pub trait ToneOperator: Send + Sync + 'static {
     fn gpu_constants(&self, _values: &Values) -> Vec<(&'static str, f64)> {
         Vec::new()
     }
+    /// Values of its parameters that trade accuracy for speed, each a
+    /// change from the values a scene gives: `tradeoff` renders the scene
+    /// with each and measures it against the scene as written. By default
+    /// none.
+    fn speed_knobs(&self) -> &'static [(&'static str, Value)] {
+        &[]
+    }
     /// The display its curve maps onto, in cd/m²: output 0 is `black`, 1
     /// is `peak`. `None` (the default) for a curve whose output is relative
     /// to an SDR display's white, which has no absolute level and so no
@@ -215,6 +222,19 @@ impl Operator {
     pub fn named(name: &str, given: &[(&str, Value)]) -> Result<Operator, String> {
         let def = find(name).ok_or_else(|| unknown_operator(name))?;
         Operator::with(def, given)
+    }
+
+    /// This operator with parameter `name` set to `value`, the others as
+    /// they are.
+    pub fn with_value(&self, name: &str, value: Value) -> Result<Operator, String> {
+        let mut given: Vec<(&str, Value)> = self
+            .values
+            .iter()
+            .filter(|(_, v)| *v != Value::Unset)
+            .map(|(n, v)| (*n, *v))
+            .collect();
+        given.push((name, value));
+        Operator::with(self.def.clone(), &given)
     }
 
     /// Operator `def` with values given as text (flags, query parameters):

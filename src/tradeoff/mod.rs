@@ -29,6 +29,16 @@ pub struct Knobs {
     pub spp: u32,
     /// TAA on the 1-spp frames (None: the scene's own setting).
     pub taa: Option<TaaKnob>,
+    /// One of the operator's speed knobs (None: the scene's own values).
+    pub operator: Option<OperatorKnob>,
+}
+
+/// A parameter of the scene's operator set to a value that trades accuracy
+/// for speed ([`crate::operators::ToneOperator::speed_knobs`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct OperatorKnob {
+    pub param: &'static str,
+    pub value: crate::operators::Value,
 }
 
 /// The TAA knobs of a 1-spp configuration: every key of the stage.
@@ -125,7 +135,11 @@ impl Knobs {
                 }
             ),
         };
-        format!("{f} {r} {e}{ds} {}spp{taa}", self.spp)
+        let op = self
+            .operator
+            .map(|k| format!(" {}={}", k.param, k.value))
+            .unwrap_or_default();
+        format!("{f} {r} {e}{ds} {}spp{taa}{op}", self.spp)
     }
 }
 
@@ -154,6 +168,7 @@ pub fn sweep(scene: &Scene, spps: &[u32], downsamples: &[u32]) -> Vec<Knobs> {
                             bloom_downsample,
                             spp,
                             taa: None,
+                            operator: None,
                         });
                     }
                 }
@@ -171,10 +186,35 @@ pub fn sweep(scene: &Scene, spps: &[u32], downsamples: &[u32]) -> Vec<Knobs> {
                 bloom_downsample: ds.first().copied().flatten(),
                 spp: 1,
                 taa: Some(taa),
+                operator: None,
+            });
+        }
+    }
+    // The operator's own speed knobs, one at a time, at every spp and the
+    // other knobs at their defaults.
+    for &(param, value) in scene.operator.definition().speed_knobs() {
+        for &spp in spps {
+            all.push(Knobs {
+                hdr_format: HdrFormat::Rgba32Float,
+                reduction: ReductionMethod::BlockPartials,
+                env_filter: EnvFilter::Manual,
+                bloom_downsample: ds.first().copied().flatten(),
+                spp,
+                taa: None,
+                operator: Some(OperatorKnob { param, value }),
             });
         }
     }
     all
+}
+
+/// `scene` with `knob`'s operator value.
+pub fn with_operator_knob(scene: &Scene, knob: Option<OperatorKnob>) -> Result<Scene, String> {
+    let mut variant = scene.clone();
+    if let Some(k) = knob {
+        variant.operator = scene.operator.with_value(k.param, k.value)?;
+    }
+    Ok(variant)
 }
 
 /// `scene` with `knob`'s TAA (a scene's reset frames are kept).
@@ -321,6 +361,7 @@ pub fn measure_scene(
         };
         let variant = with_downsample(scene, knobs.bloom_downsample).map_err(invalid)?;
         let variant = with_taa(&variant, knobs.taa).map_err(invalid)?;
+        let variant = with_operator_knob(&variant, knobs.operator).map_err(invalid)?;
         let measured: Vec<u32> = match knobs.taa {
             Some(_) => frames.iter().map(|&n| taa_frame(n, scene)).collect(),
             None => frames.clone(),

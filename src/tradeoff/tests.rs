@@ -11,6 +11,7 @@ fn point(ms: f64, psnr: f64) -> Point {
             bloom_downsample: None,
             spp: 1,
             taa: None,
+            operator: None,
         },
         ms,
         psnr,
@@ -66,4 +67,36 @@ fn the_sweep_covers_every_knob_and_bloom_only_where_there_is_bloom() {
     labels.sort();
     labels.dedup();
     assert_eq!(labels.len(), a.len(), "labels name configurations uniquely");
+}
+
+/// An operator with a speed knob (aces2's gamut compression) adds it at
+/// every spp; the configuration renders the scene with the knob's value
+/// and says so in its label. Operators without one add nothing.
+#[test]
+fn the_sweep_offers_the_operators_speed_knobs() {
+    let text = std::fs::read_to_string("golden/scenes/sky-aces2.toml").unwrap();
+    let aces = Scene::parse(&text, std::path::Path::new("x.toml")).unwrap();
+    let text = std::fs::read_to_string("golden/scenes/grid-static.toml").unwrap();
+    let plain = Scene::parse(&text, std::path::Path::new("x.toml")).unwrap();
+    let a = sweep(&aces, &[1, 4], &[2]);
+    let b = sweep(&plain, &[1, 4], &[2]);
+    assert_eq!(a.len(), b.len() + 2);
+    assert!(b.iter().all(|k| k.operator.is_none()));
+    let knobs: Vec<&Knobs> = a.iter().filter(|k| k.operator.is_some()).collect();
+    assert_eq!(knobs.iter().map(|k| k.spp).collect::<Vec<_>>(), [1, 4]);
+    assert!(
+        knobs[0].label().ends_with("1spp gamut_compression=false"),
+        "{}",
+        knobs[0].label()
+    );
+    let variant = with_operator_knob(&aces, knobs[0].operator).unwrap();
+    assert!(aces.operator.values().flag("gamut_compression"));
+    assert!(!variant.operator.values().flag("gamut_compression"));
+    assert_eq!(variant.operator.values().num("exposure"), 1.0);
+    // A knob the operator does not take is refused, not ignored.
+    let wrong = OperatorKnob {
+        param: "gamut_compression",
+        value: crate::operators::Value::Flag(false),
+    };
+    assert!(with_operator_knob(&plain, Some(wrong)).is_err());
 }

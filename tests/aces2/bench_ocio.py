@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Times OpenColorIO's CPU processor on the transform tests/aces2 locks.
 
-    .venv/bin/python tests/aces2/bench_ocio.py
+    .venv/bin/python tests/aces2/bench_ocio.py [--pfm DIR]
 
 Not a test and not run by CI: a baseline for tonegate's own benchmark. A
 2048x1024 float32 RGB image (packed, 3 channels) goes through
@@ -9,6 +9,10 @@ CPUProcessor.apply(PackedImageDesc) for the ACES 2.0 SDR 100 nits (Rec.709)
 view on the sRGB display, 5 times per case; the median wall time is printed,
 with processor creation (which builds the ACES 2 tables) timed separately.
 OCIO's CPUProcessor.apply runs on the calling thread only.
+
+--pfm DIR also writes the two images as DIR/random.pfm and DIR/ramp.pfm
+(float32, little-endian, bottom row first), so that `tonegate tonemap` can
+be timed on the same pixels.
 """
 
 import os
@@ -33,7 +37,18 @@ def images():
     return {"random log-uniform 2^-10..2^6": random, "grey ramp 2^-12..2^8": grey}
 
 
+def write_pfm(path, image):
+    with open(path, "wb") as f:
+        f.write(f"PF\n{WIDTH} {HEIGHT}\n-1.0\n".encode())
+        f.write(np.ascontiguousarray(image[::-1], dtype="<f4").tobytes())
+
+
 def main():
+    if len(sys.argv) == 3 and sys.argv[1] == "--pfm":
+        pics = images()
+        for (label, image), name in zip(pics.items(), ["random", "ramp"]):
+            write_pfm(os.path.join(sys.argv[2], f"{name}.pfm"), image)
+            print(f"wrote {name}.pfm: {label}")
     print(f"opencolorio {ocio.__version__}, {os.cpu_count()} CPUs, "
           f"{WIDTH}x{HEIGHT} RGB float32, median of {RUNS}")
     start = time.perf_counter()

@@ -155,13 +155,11 @@ impl JmhSpace {
         if aab[0] <= 0.0 {
             return [0.0; 3];
         }
-        let j = J_SCALE * aab[0].powf(self.cz);
-        let m = aab[1].hypot(aab[2]);
-        let h = aab[2].atan2(aab[1]).to_degrees();
-        [j, m, if h < 0.0 { h + 360.0 } else { h }]
+        let (m, h) = aab_to_mh(aab);
+        [self.a_to_j(aab[0]), m, h]
     }
 
-    /// RGB to JMh.
+    /// RGB to JMh (J, M, h).
     pub fn rgb_to_jmh(&self, rgb: [f64; 3]) -> [f64; 3] {
         self.aab_to_jmh(self.rgb_to_aab(rgb))
     }
@@ -198,6 +196,20 @@ impl JmhSpace {
     pub fn j_to_a(&self, j: f64) -> f64 {
         (j / J_SCALE).powf(1.0 / self.cz)
     }
+
+    /// The lightness J of achromatic response A.
+    pub fn a_to_j(&self, a: f64) -> f64 {
+        J_SCALE * a.powf(self.cz)
+    }
+}
+
+/// M and h (degrees, [0, 360)) of (A, a, b), for a positive A: JMh
+/// without J.
+#[inline]
+pub fn aab_to_mh(aab: [f64; 3]) -> (f64, f64) {
+    let h = aab[2].atan2(aab[1]).to_degrees();
+    let m = (aab[1] * aab[1] + aab[2] * aab[2]).sqrt();
+    (m, if h < 0.0 { h + 360.0 } else { h })
 }
 
 /// The tone scale's constants for a display peak (cd/m²).
@@ -266,11 +278,13 @@ impl ToneScale {
         (f * f / (f + self.t_1)).max(0.0) * self.n_r
     }
 
-    /// The toned J of achromatic response A (sign kept).
+    /// The achromatic response of the toned luminance of achromatic
+    /// response A (> 0): OpenColorIO's tone scale from A to J, stopped
+    /// before its last power (J = 100·A^γ, [`JmhSpace::a_to_j`]).
     #[inline]
-    pub fn a_to_j(&self, a: f64, space: &JmhSpace) -> f64 {
-        let y = space.a_to_y(a.abs());
-        space.y_to_j(self.apply(y)).copysign(a)
+    pub fn a_to_toned_a(&self, a: f64, space: &JmhSpace) -> f64 {
+        let y = self.apply(space.a_to_y(a));
+        compress(y * space.f_l_n) / space.a_w_j
     }
 }
 
@@ -311,19 +325,28 @@ impl ChromaCompression {
         m * self.scale
     }
 
-    /// M after the tone scale moved J to `j_ts`: scaled with J, then
+    /// M after the tone scale moved J to J_ts: scaled with J, then
     /// compressed towards the reach's limit at this hue (`reach_m`), with
-    /// the norm `m_norm`. `limit_j` is the display peak's J.
+    /// the norm `m_norm`. `nj` is J_ts over the display peak's J; the two
+    /// ratios OpenColorIO raises to 1/γ (γ the model's c·z) come as the
+    /// ratios of achromatic responses they equal: `scale` = (J_ts/J)^(1/γ),
+    /// `limit_scale` = nj^(1/γ).
     #[inline]
-    pub fn apply(&self, j: f64, m: f64, j_ts: f64, m_norm: f64, reach_m: f64, limit_j: f64) -> f64 {
+    pub fn apply(
+        &self,
+        m: f64,
+        nj: f64,
+        scale: f64,
+        limit_scale: f64,
+        m_norm: f64,
+        reach_m: f64,
+    ) -> f64 {
         if m == 0.0 {
             return m;
         }
-        let gamma_inv = 1.0 / model_gamma();
-        let nj = j_ts / limit_j;
         let snj = (1.0 - nj).max(0.0);
-        let limit = nj.powf(gamma_inv) * reach_m / m_norm;
-        let mut mc = m * (j_ts / j).powf(gamma_inv) / m_norm;
+        let limit = limit_scale * reach_m / m_norm;
+        let mut mc = m * scale / m_norm;
         mc = limit
             - toe(
                 limit - mc,

@@ -30,6 +30,8 @@ const CORNERS: usize = 6;
 pub struct GamutTables {
     /// J of the display's peak: the top of every hull.
     pub limit_j: f64,
+    /// The achromatic response of `limit_j`.
+    pub limit_a: f64,
     /// The reach gamut's (AP1's) M at `limit_j`, per whole degree of hue.
     pub reach_m: [f64; TOTAL],
     /// The hue of each cusp entry, nearly uniform, with the limiting
@@ -320,6 +322,7 @@ impl GamutTables {
         let search = search_range(&cusps);
         let mut tables = GamutTables {
             limit_j,
+            limit_a: input.j_to_a(limit_j),
             reach_m,
             hues,
             cusps,

@@ -105,14 +105,25 @@ impl Model {
     /// peak), before the final clamp.
     pub fn transform(&self, ap0: [f64; 3], gamut_compression: bool) -> [f64; 3] {
         let aab = self.input.rgb_to_aab(ap0);
-        let [j, m, h] = self.input.aab_to_jmh(aab);
+        if aab[0] <= 0.0 {
+            return [0.0; 3];
+        }
+        let (m, h) = cam::aab_to_mh(aab);
         let reach_m = self.gamut.reach_m_at(h);
         let (sin_h, cos_h) = h.to_radians().sin_cos();
         let m_norm = self.chroma.norm(cos_h, sin_h);
-        let j_ts = self.tone.a_to_j(aab[0], &self.input);
-        let m_cp = self
-            .chroma
-            .apply(j, m, j_ts, m_norm, reach_m, self.gamut.limit_j);
+        // (J_ts/J)^(1/γ) and (J_ts/J_limit)^(1/γ), which OpenColorIO
+        // takes of J, are ratios of achromatic responses: J = 100·A^γ.
+        let a_ts = self.tone.a_to_toned_a(aab[0], &self.input);
+        let j_ts = self.input.a_to_j(a_ts);
+        let m_cp = self.chroma.apply(
+            m,
+            j_ts / self.gamut.limit_j,
+            a_ts / aab[0],
+            a_ts / self.gamut.limit_a,
+            m_norm,
+            reach_m,
+        );
         let [j_out, m_out] = if gamut_compression {
             self.gamut.compress(j_ts, m_cp, h, reach_m)
         } else {
@@ -190,7 +201,7 @@ impl ToneOperator for Aces2 {
             g.lower_gamma_inv as f32,
             g.search[0] as f32,
             g.search[1] as f32,
-            0.0,
+            g.limit_a as f32,
         ];
         // reach: 363 values packed four to a vec4 (91 of them).
         let mut reach = g.reach_m.map(|x| x as f32).to_vec();
@@ -200,6 +211,9 @@ impl ToneOperator for Aces2 {
             out.extend([c[0] as f32, c[1] as f32, c[2] as f32, *h as f32]);
         }
         out
+    }
+    fn speed_knobs(&self) -> &'static [(&'static str, Value)] {
+        &[("gamut_compression", Value::Flag(false))]
     }
     fn gpu_constants(&self, v: &Values) -> Vec<(&'static str, f64)> {
         vec![(
