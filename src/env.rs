@@ -25,10 +25,20 @@ pub enum BuiltinEnv {
     /// High-frequency checkerboard (0.02 and 1.0, tinted) crossed by thin bright
     /// lines (8.0): exercises aliasing and filtering.
     Grid,
+    /// Twelve fully saturated hues in three rows (0.25, 2.5 and 25 times
+    /// their RGB) around the horizon, between grey (0.18) and dark (0.02):
+    /// colours outside most displays' gamuts, for gamut and hue handling.
+    Colours,
 }
 
 impl BuiltinEnv {
-    pub const ALL: [BuiltinEnv; 4] = [Self::Sky, Self::Interior, Self::Night, Self::Grid];
+    pub const ALL: [BuiltinEnv; 5] = [
+        Self::Sky,
+        Self::Interior,
+        Self::Night,
+        Self::Grid,
+        Self::Colours,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -36,6 +46,7 @@ impl BuiltinEnv {
             Self::Interior => "interior",
             Self::Night => "night",
             Self::Grid => "grid",
+            Self::Colours => "colours",
         }
     }
 
@@ -50,6 +61,9 @@ impl BuiltinEnv {
             Self::Interior => "dark room with a bright mullioned window; Y 0.005 .. 200 (~1e4:1)",
             Self::Night => "near-black with five small lamps; Y 1e-4 .. 600",
             Self::Grid => "high-frequency checker with thin bright lines; Y 0.02 .. 8",
+            Self::Colours => {
+                "twelve saturated hues at three levels on grey and dark; Y 0.019 .. 23"
+            }
         }
     }
 
@@ -60,6 +74,7 @@ impl BuiltinEnv {
             Self::Interior => interior(d),
             Self::Night => night(d),
             Self::Grid => grid(d),
+            Self::Colours => colours(d),
         }
     }
 
@@ -215,6 +230,48 @@ fn grid(d: [f64; 3]) -> [f64; 3] {
     }
 }
 
+/// Twelve fully saturated hues (every 30° from red) in three rows of
+/// intensity around the horizon, on a mid-grey upper half and a dark lower
+/// one: colours outside most displays' gamuts at display levels and far
+/// above them.
+fn colours(d: [f64; 3]) -> [f64; 3] {
+    let (u, v) = crate::conventions::equirect_uv(d);
+    if !(0.3..0.7).contains(&v) {
+        return if v < 0.5 {
+            [0.18, 0.18, 0.18]
+        } else {
+            [0.02, 0.02, 0.02]
+        };
+    }
+    // Rows from the top: 25, 2.5 and 0.25 times the hue's own RGB; a thin
+    // grey gap between swatches keeps their edges apart.
+    let row = ((v - 0.3) / 0.4 * 3.0).floor().min(2.0);
+    let k = 25.0 * libm::pow(0.1, row);
+    let cell = u * 12.0;
+    if libm::fmod(cell, 1.0) < 0.06 {
+        return [0.18, 0.18, 0.18];
+    }
+    let hue = cell.floor() * 30.0;
+    // HSV with S = V = 1, piecewise linear in the hue; a floor of 0.004 so
+    // that no channel is 0.
+    let channel = |offset: f64| {
+        let h = libm::fmod(hue + offset, 360.0);
+        let x = if h < 60.0 {
+            1.0
+        } else if h < 120.0 {
+            (120.0 - h) / 60.0
+        } else if h < 240.0 {
+            0.0
+        } else if h < 300.0 {
+            (h - 240.0) / 60.0
+        } else {
+            1.0
+        };
+        x.max(0.004) * k
+    };
+    [channel(0.0), channel(240.0), channel(120.0)]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -235,6 +292,7 @@ mod tests {
             (BuiltinEnv::Interior, 0.002, 150.0, 1.0e4),
             (BuiltinEnv::Night, 5e-5, 500.0, 1.0e5),
             (BuiltinEnv::Grid, 0.01, 7.0, 100.0),
+            (BuiltinEnv::Colours, 0.004, 20.0, 1.0e3),
         ];
         for (env, lo, hi, range) in cases {
             let img = env.generate(1024, 512);

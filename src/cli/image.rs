@@ -117,7 +117,7 @@ pub struct RenderArgs {
 
 #[derive(Args)]
 pub struct EnvArgs {
-    /// sky, interior, night or grid.
+    /// sky, interior, night, grid or colours.
     pub name: Option<String>,
     #[arg(long, default_value = "1024x512")]
     pub size: Size,
@@ -478,7 +478,7 @@ pub fn env(a: EnvArgs) -> Result<ExitCode> {
     let name = a.name.unwrap_or_default();
     let env = BuiltinEnv::from_name(&name).ok_or_else(|| {
         invalid(format!(
-            "unknown environment {name:?}; built-in: sky, interior, night, grid"
+            "unknown environment {name:?}; built-in: sky, interior, night, grid, colours"
         ))
     })?;
     let output = a

@@ -489,7 +489,7 @@ async function tonemapPage(params) {
     }
   }
   const samples = h("span", { class: "samples" }, "or try a built-in image: ",
-    ["sky", "interior", "night", "grid"].map((n) => h("button", { type: "button", "data-sample": n, onclick: () => useSample(n) }, n)));
+    ["sky", "interior", "night", "grid", "colours"].map((n) => h("button", { type: "button", "data-sample": n, onclick: () => useSample(n) }, n)));
   const field = (label, input) => h("label", {}, h("span", {}, label), input);
   const operator = h("select", { name: "operator" }, operators.map((o) => h("option", { value: o.name, title: o.summary }, o.name)));
   const summary = h("p", { class: "muted operator-summary" });
