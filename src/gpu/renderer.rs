@@ -119,6 +119,13 @@ impl<'a> GpuRenderer<'a> {
                 passes.push(pass);
             }
         }
+        // A plan without `encode` (an HDR or linear output) still names
+        // its display image, which `encode` would otherwise have read.
+        if !plan.contains("encode") {
+            if let Some(display) = wiring.display.clone() {
+                wiring.outputs.push(("display", display));
+            }
+        }
         let queries = Queries::new(ctx, passes.len());
         ctx.take_error()?;
         let Wiring {

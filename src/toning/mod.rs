@@ -327,10 +327,14 @@ fn gpu_flat<'i>(
         pipeline.grade,
     );
     // The display image is a staged output: fused kernels never store it.
+    // An output that keeps it (HDR, or a linear file) needs no `encode`.
     let mut config = config;
-    if want != OutputKind::Encoded {
+    let plan = if want == OutputKind::Encoded {
+        plan
+    } else {
         config.execution = crate::gpu::Execution::Staged;
-    }
+        plan.without_encode()
+    };
     let rendered = renderers
         .renderer(img, &plan, pipeline, config)
         .and_then(|r| {

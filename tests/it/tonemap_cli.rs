@@ -237,3 +237,41 @@ fn operators_lists_every_operator_and_which_feed_hdr_displays() {
         .unwrap();
     assert_eq!(bt["hdr_output"], true);
 }
+
+/// On the GPU too, a linear or HDR output stops at the display image: no
+/// `encode` in the plan, and the file holds the display image (bloom,
+/// tone curve and grade applied), within the GPU-against-f64 bound of the
+/// CPU's file, not the input.
+#[test]
+fn a_gpu_hdr_output_skips_the_encode_and_keeps_the_display_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("sky.pfm");
+    write_image_hdr(&input, &BuiltinEnv::Sky.generate(128, 64)).unwrap();
+    let cpu_path = dir.path().join("cpu.pfm");
+    let gpu_path = dir.path().join("gpu.pfm");
+    tonemap(&input, &cpu_path, &[]);
+    let report = tonemap(&input, &gpu_path, &["--gpu"]);
+    assert_ne!(report["adapter"], "cpu-reference", "{report}");
+    let gpu_plan = plan(&report);
+    assert!(!gpu_plan.iter().any(|s| s == "encode"), "{gpu_plan:?}");
+    assert!(gpu_plan.iter().any(|s| s == "grade"), "{gpu_plan:?}");
+    let (cpu, _) = load_hdr(&cpu_path, &LoadOptions::default()).unwrap();
+    let (gpu, _) = load_hdr(&gpu_path, &LoadOptions::default()).unwrap();
+    let (src, _) = load_hdr(&input, &LoadOptions::default()).unwrap();
+    let mut worst = 0.0f64;
+    for (g, c) in gpu.pixels.iter().zip(&cpu.pixels) {
+        for k in 0..3 {
+            let (g, c) = (g[k] as f64, c[k] as f64);
+            // The `tonemap` stage's bound (docs/tolerances.md); it holds
+            // through the bloom and grade too (0.10 of it on lavapipe,
+            // 2026-11-26).
+            worst = worst.max((g - c).abs() / (1e-4 * c.abs() + 1e-6));
+        }
+    }
+    eprintln!("GPU display image: worst {worst:.3} of the bound");
+    assert!(
+        worst <= 1.0,
+        "GPU display image off the CPU's by {worst:.2}x"
+    );
+    assert!(gpu.pixels != src.pixels, "the GPU's file is its input");
+}
