@@ -180,6 +180,11 @@ fn the_tone_mapper_on_an_applications_device_writes_tonegates_own_bits() {
             .unwrap(),
             Encoding::Srgb,
         ),
+        // Tables in its uniform, read from the stage's `config`.
+        (
+            Operator::named("aces2", &[("exposure", Value::Number(4.0))]).unwrap(),
+            Encoding::Srgb,
+        ),
     ];
     for (op, encoding) in cases {
         let mut mapper = ToneMapper::new(
