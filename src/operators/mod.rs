@@ -99,7 +99,10 @@ pub struct Resolution {
 ///
 /// The source may `//#include shared/<file>.wgsl` (colour.wgsl has
 /// `SMALLEST_NORMAL` and `luminance_with`) and declare `override`
-/// constants, which [`ToneOperator::gpu_constants`] sets.
+/// constants, which [`ToneOperator::gpu_constants`] sets. Every stage that
+/// includes it declares the uniform as `config`: an operator with tables
+/// in its `OperatorConfig` indexes `config` directly (as `aces2` does), so
+/// that a dynamic index reads the uniform rather than a copy of it.
 pub trait ToneOperator: Send + Sync + 'static {
     /// The name scene files, flags and the API use (`kind = "…"`).
     fn name(&self) -> &'static str;
