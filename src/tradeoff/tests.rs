@@ -1,4 +1,6 @@
 use super::*;
+use crate::gpu::{EnvFilter, HdrFormat, ReductionMethod};
+use crate::scene::TaaVariant;
 
 fn point(ms: f64, psnr: f64) -> Point {
     Point {

@@ -2,7 +2,7 @@
 //! steps that work in it before gamut compression: the tone scale (Daniele
 //! Siragusano's curve, applied to J through Y) and the chroma compression.
 //! f64 throughout; the structure and constants are those of OpenColorIO's
-//! ACES 2 fixed function (docs/operators.md#aces-20).
+//! ACES 2 fixed function (docs/operators.md#aces2).
 
 use crate::color::{apply, inverse, mul, npm, Mat3};
 

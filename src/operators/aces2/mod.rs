@@ -1,7 +1,7 @@
 //! `aces2`: the ACES 2.0 Output Transform for an SDR display (100 cd/m²,
 //! Rec.709 primaries and white, sRGB encoding), as OpenColorIO 2.6's
 //! built-in ACES 2.0 config renders the view "ACES 2.0 - SDR 100 nits
-//! (Rec.709)" from "Linear Rec.709 (sRGB)" (docs/operators.md#aces-20):
+//! (Rec.709)" from "Linear Rec.709 (sRGB)" (docs/operators.md#aces2):
 //!
 //! 1. linear Rec.709 to AP1 (Bradford-adapted to the ACES white), clamped
 //!    to [0, 1024], then to AP0: the ACES 2 preamble;
@@ -16,6 +16,7 @@
 
 pub mod cam;
 pub mod gamut;
+mod tables;
 
 use super::fixed::{self, wgsl_mat3, EXPOSURE};
 use super::{Curve, Kind, Param, Resolution, ToneOperator, Value, Values};
