@@ -13,7 +13,7 @@ pub struct Knobs {
     pub reduction: ReductionMethod,
     pub env_filter: EnvFilter,
     /// Bloom downsample factor (None for scenes without bloom); the blur is
-    /// rescaled to keep its full-resolution extent (see [`with_downsample`]).
+    /// rescaled to keep its full-resolution extent (see [`super::with_downsample`]).
     pub bloom_downsample: Option<u32>,
     pub spp: u32,
     /// TAA on the 1-spp frames (None: the scene's own setting).
