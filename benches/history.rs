@@ -45,6 +45,7 @@ fn scene(name: &str, i: usize, shift: f64) -> SceneResult {
                 mean_abs_diff: 0.01,
                 fraction_over_1lsb: 0.0,
                 flip_mean: 1e-5,
+                bits: 8,
                 ssim_definition: String::new(),
             },
             fraction_over: BTreeMap::new(),

@@ -129,8 +129,8 @@ fn run() -> Result<bool, Box<dyn std::error::Error>> {
     let mut ok = true;
     for n in 0..scene.frames {
         let (want, got) = (cpu.frame(n)?, gpu.frame(n)?);
-        let m = tonegate::metrics::compare(got.image.raster(), want.image.raster())?;
-        let over = tonegate::metrics::fraction_over(got.image.raster(), want.image.raster(), 1)?;
+        let (m, _) = tonegate::metrics::compare_frames(&got.image, &want.image)?;
+        let over = tonegate::metrics::frame_fraction_over(&got.image, &want.image, 1)?;
         // The gate's GPU-vs-CPU accuracy bounds (docs/tolerances.md).
         let passed = m.psnr >= 50.0 && over <= 0.001;
         ok &= passed;

@@ -1,5 +1,6 @@
-// encode: clamp, OETF, round half up to 8 bits, packed RGBA8 (A = 255) into
-// a buffer the host reads back without row padding (reference/encode.rs);
+// encode: clamp, OETF, round half up to 8 bits, packed RGBA8 (A = 255), or
+// 16-bit PQ in two words a pixel, into a buffer the host reads back without
+// row padding (reference/encode.rs);
 // `to_texture` stores the same bytes in a caller's Rgba8Unorm texture
 // (gpu::ToneMapper).
 
@@ -16,7 +17,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x >= dims.x || id.y >= dims.y) {
         return;
     }
-    frame_out[id.y * dims.x + id.x] = pack_rgba8(textureLoad(src, id.xy, 0).rgb);
+    store_frame(id.y * dims.x + id.x, textureLoad(src, id.xy, 0).rgb);
 }
 
 // k/255 in f32 stores back as k: the same bytes as `main`'s.

@@ -64,5 +64,5 @@ fn tail(@builtin(global_invocation_id) id: vec3<u32>) {
     if (BLOOM) {
         c = c + STRENGTH * upsample_at(bloom, id.x, id.y, dims, extent.low);
     }
-    frame_out[id.y * dims.x + id.x] = pack_rgba8(c);
+    store_frame(id.y * dims.x + id.x, c);
 }

@@ -2,7 +2,7 @@
 //! manifest. Goldens never update themselves: only `tonegate golden bless`
 //! writes them, and a missing or stale golden is an error everywhere else.
 
-use crate::image::Rgb8Image;
+use crate::image::Frame;
 use crate::progress::Progress;
 use crate::reference::REFERENCE_VERSION;
 use crate::render::{scene_environment, RenderError, SceneRenderer};
@@ -165,9 +165,9 @@ fn sha256_file(path: &Path) -> Option<String> {
 }
 
 /// Reads golden frame `n` of `scene`.
-pub fn read_frame(root: &Path, scene: &str, n: u32) -> Result<Rgb8Image, GoldenError> {
+pub fn read_frame(root: &Path, scene: &str, n: u32) -> Result<Frame, GoldenError> {
     let path = frame_path(root, scene, n);
-    crate::io::read_png8(&path).map_err(|e| GoldenError::Frame {
+    crate::io::read_frame_png(&path).map_err(|e| GoldenError::Frame {
         path,
         detail: e.to_string(),
     })
@@ -237,7 +237,7 @@ pub fn bless(root: &Path, scenes: &[Scene], progress: &dyn Progress) -> Result<(
         for n in 0..scene.frames {
             let frame = reference.frame(n)?.image;
             let path = frame_path(root, &scene.name, n);
-            crate::io::write_png8(&path, &frame).map_err(|e| GoldenError::Write {
+            crate::io::write_frame_png(&path, &frame).map_err(|e| GoldenError::Write {
                 path: path.clone(),
                 detail: e.to_string(),
             })?;
@@ -314,15 +314,15 @@ pub fn verify(
                 continue; // already reported as missing
             };
             let frame = reference.frame(n)?.image;
-            let pixels = if (golden.width, golden.height) != (frame.width, frame.height) {
-                frame.pixel_count()
-            } else {
-                golden
-                    .pixels
-                    .iter()
-                    .zip(&frame.pixels)
-                    .filter(|(a, b)| a != b)
-                    .count()
+            let pixels = match (&golden, &frame) {
+                (Frame::Rgb8(g), Frame::Rgb8(f)) if (g.width, g.height) == (f.width, f.height) => {
+                    differing(&g.pixels, &f.pixels)
+                }
+                (Frame::Pq16(g), Frame::Pq16(f)) if (g.width, g.height) == (f.width, f.height) => {
+                    differing(&g.pixels, &f.pixels)
+                }
+                // Another size or depth: every pixel differs.
+                _ => frame.width() as usize * frame.height() as usize,
             };
             if pixels > 0 {
                 problems.push(Problem::PixelsDiffer {
@@ -354,4 +354,9 @@ pub fn directory_bytes(root: &Path) -> u64 {
         }
     }
     total
+}
+
+/// How many pixels of two same-sized images differ.
+fn differing<P: PartialEq>(a: &[P], b: &[P]) -> usize {
+    a.iter().zip(b).filter(|(a, b)| a != b).count()
 }

@@ -19,6 +19,73 @@ pub type HdrImage = Image<[f32; 3]>;
 pub type LinearImage = Image<[f64; 3]>;
 /// Display-encoded 8-bit RGB: the pipeline's final output and what goldens hold.
 pub type Rgb8Image = Image<[u8; 3]>;
+/// 16 bits a channel: a PQ frame, a 16-bit PNG.
+pub type Rgb16Image = Image<[u16; 3]>;
+
+/// An encoded frame: the code values a display is sent, at its encoding's
+/// depth. What both renderers produce, goldens hold and the gate compares.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Frame {
+    /// 8 bits a channel: the sRGB transfer or a gamma, BT.709 primaries.
+    Rgb8(Rgb8Image),
+    /// 16 bits a channel, full range: SMPTE ST 2084 (PQ) of absolute
+    /// cd/m², BT.2020 primaries (BT.2100).
+    Pq16(Rgb16Image),
+}
+
+impl Frame {
+    pub fn width(&self) -> u32 {
+        match self {
+            Frame::Rgb8(i) => i.width,
+            Frame::Pq16(i) => i.width,
+        }
+    }
+
+    pub fn height(&self) -> u32 {
+        match self {
+            Frame::Rgb8(i) => i.height,
+            Frame::Pq16(i) => i.height,
+        }
+    }
+
+    /// Bits per sample of its codes: 8 or 16.
+    pub fn bits(&self) -> u32 {
+        match self {
+            Frame::Rgb8(_) => 8,
+            Frame::Pq16(_) => 16,
+        }
+    }
+
+    /// What its codes are, for messages: "8-bit" or "16-bit PQ".
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Frame::Rgb8(_) => "8-bit",
+            Frame::Pq16(_) => "16-bit PQ",
+        }
+    }
+
+    /// The 8-bit image, if it is one.
+    pub fn as_rgb8(&self) -> Option<&Rgb8Image> {
+        match self {
+            Frame::Rgb8(i) => Some(i),
+            Frame::Pq16(_) => None,
+        }
+    }
+
+    /// The 8-bit image, if it is one.
+    pub fn into_rgb8(self) -> Option<Rgb8Image> {
+        match self {
+            Frame::Rgb8(i) => Some(i),
+            Frame::Pq16(_) => None,
+        }
+    }
+}
+
+impl From<Rgb8Image> for Frame {
+    fn from(image: Rgb8Image) -> Frame {
+        Frame::Rgb8(image)
+    }
+}
 
 impl<P: Copy> Image<P> {
     /// An image filled with one value.

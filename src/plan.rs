@@ -315,6 +315,7 @@ pub fn encoding_label(e: &Encoding) -> String {
     match e {
         Encoding::Srgb => "srgb".into(),
         Encoding::Gamma(g) => format!("gamma {}", g.get()),
+        Encoding::Pq => "pq (16-bit)".into(),
     }
 }
 

@@ -4,7 +4,7 @@
 use crate::check::Rendered;
 use crate::conventions::{reprojection, rotation_matrix, taa_jitter, Mat3};
 use crate::gpu::{GpuConfig, GpuContext, GpuError, GpuFrame, GpuInput, GpuRenderer, GpuStats};
-use crate::image::{HdrImage, Rgb8Image};
+use crate::image::{Frame, HdrImage, Rgb8Image};
 use crate::perf::{summarise, StageTiming};
 use crate::plan::{PlanError, StagePlan};
 use crate::reference::{render_frame, render_taa_frame, scene_camera, FrameSummary, Pipeline};
@@ -83,8 +83,8 @@ pub enum FrameDetail {
 #[derive(Clone, Debug)]
 pub struct RenderedFrame {
     pub index: u32,
-    /// The encoded 8-bit frame.
-    pub image: Rgb8Image,
+    /// The encoded frame (8-bit, or 16-bit PQ).
+    pub image: Frame,
     /// Host time for the frame, GPU readback included.
     pub wall_ms: f64,
     pub detail: FrameDetail,
@@ -325,7 +325,9 @@ impl<'a> SceneRenderer<'a> {
                     let out = r.render(k == n).map_err(|e| self.gpu_error(e))?;
                     RenderedFrame {
                         index: k,
-                        image: out.frame.unwrap_or_else(|| Rgb8Image::filled(0, 0, [0; 3])),
+                        image: out
+                            .frame
+                            .unwrap_or_else(|| Frame::Rgb8(Rgb8Image::filled(0, 0, [0; 3]))),
                         wall_ms: out.wall_ms,
                         detail: FrameDetail::Gpu {
                             stats: out.stats,

@@ -5,8 +5,8 @@
 use super::figures::FRAME_METRICS;
 use super::result::{CheckResult, FrameResult, SceneResult, Summary, TestKind};
 use super::spec::{not_applied, Check, CheckSpec, GainOver, Judged, Subject};
-use crate::image::Rgb8Image;
-use crate::metrics::{compare_with_flip, fraction_over};
+use crate::image::Frame;
+use crate::metrics::{compare_frames, frame_fraction_over};
 use crate::perf::TimingSummary;
 use std::collections::BTreeMap;
 
@@ -207,7 +207,7 @@ pub struct Rendered {
     pub spp: u32,
     /// The stages the frames went through.
     pub plan: Vec<&'static str>,
-    pub frames: Vec<Rgb8Image>,
+    pub frames: Vec<Frame>,
     pub timings: Vec<TimingSummary>,
     pub fps: Option<f64>,
     /// The accuracy-trading options the renderer had in effect (none on
@@ -221,8 +221,8 @@ pub struct KeptFrame {
     pub frame: u32,
     /// Whether the frame failed a check (else it is the scene's worst frame).
     pub failed: bool,
-    pub actual: Rgb8Image,
-    pub golden: Rgb8Image,
+    pub actual: Frame,
+    pub golden: Frame,
 }
 
 /// Compares the rendered frames with `goldens` (frame n with golden n) and
@@ -231,7 +231,7 @@ pub struct KeptFrame {
 pub fn judge(
     on: Judging,
     rendered: Rendered,
-    goldens: Vec<Rgb8Image>,
+    goldens: Vec<Frame>,
 ) -> Result<(SceneResult, Vec<KeptFrame>), JudgeError> {
     let Rendered {
         renderer,
@@ -276,17 +276,14 @@ pub fn judge(
             frame: n,
             source,
         };
-        let (metrics, flip) = compare_with_flip(frame.raster(), golden.raster()).map_err(err)?;
+        let (metrics, flip) = compare_frames(frame, golden).map_err(err)?;
         let flip_percentiles = flip_ps
             .iter()
             .map(|&p| (p.to_string(), flip.weighted_percentile(p)))
             .collect();
         let mut fraction = BTreeMap::new();
         for &k in &lsbs {
-            fraction.insert(
-                k,
-                fraction_over(frame.raster(), golden.raster(), k).map_err(err)?,
-            );
+            fraction.insert(k, frame_fraction_over(frame, golden, k).map_err(err)?);
         }
         frames.push(FrameResult {
             frame: n,

@@ -237,7 +237,7 @@ pub fn compare(a: CompareArgs) -> Result<ExitCode> {
         (true, true) => compare_ldr(&a, &test, &reference),
         (false, false) => compare_hdr(&a, &test, &reference),
         _ => Err(invalid(format!(
-            "{} and {} are not of one kind: compare two 8-bit PNGs (LDR metrics) or two linear HDR files (.exr, .hdr, .pfm)",
+            "{} and {} are not of one kind: compare two frame PNGs (8-bit, or 16-bit PQ) or two linear HDR files (.exr, .hdr, .pfm)",
             test.display(),
             reference.display()
         ))),
@@ -245,22 +245,29 @@ pub fn compare(a: CompareArgs) -> Result<ExitCode> {
 }
 
 fn compare_ldr(a: &CompareArgs, test: &Path, reference: &Path) -> Result<ExitCode> {
-    let img_a = tonegate::io::read_png8(test)?;
-    let img_b = tonegate::io::read_png8(reference)?;
-    let (m, default_flip) = tonegate::metrics::compare_with_flip(img_a.raster(), img_b.raster())?;
-    let flip = match a.ppd {
-        Some(ppd) => tonegate::metrics::flip::flip(img_a.raster(), img_b.raster(), ppd)?,
-        None => default_flip,
+    use tonegate::image::Frame;
+    use tonegate::metrics::{compare_frames, frame_diff_heatmap, frame_ssim};
+    // 8-bit frames, or 16-bit PQ ones (a PQ scene's goldens and artifacts).
+    let frame_a = tonegate::io::read_frame_png(test)?;
+    let frame_b = tonegate::io::read_frame_png(reference)?;
+    let (m, default_flip) = compare_frames(&frame_a, &frame_b)?;
+    let flip = match (a.ppd, &frame_a, &frame_b) {
+        (None, ..) => default_flip,
+        (Some(ppd), Frame::Rgb8(x), Frame::Rgb8(y)) => {
+            tonegate::metrics::flip::flip(x.raster(), y.raster(), ppd)?
+        }
+        (Some(_), ..) => {
+            return Err(invalid(
+                "--ppd sets LDR FLIP's viewing distance; 16-bit PQ frames are compared with HDR-FLIP at its default",
+            ))
+        }
     };
     if let Some(path) = &a.ssim_map {
-        let s = tonegate::metrics::ssim(img_a.raster(), img_b.raster())?;
+        let s = frame_ssim(&frame_a, &frame_b)?;
         tonegate::io::write_png8(path, &tonegate::metrics::ssim_map_image(&s))?;
     }
     if let Some(path) = &a.diff {
-        tonegate::io::write_png8(
-            path,
-            &tonegate::metrics::diff_heatmap(img_a.raster(), img_b.raster())?,
-        )?;
+        tonegate::io::write_png8(path, &frame_diff_heatmap(&frame_a, &frame_b)?)?;
     }
     if let Some(path) = &a.flip_map {
         tonegate::io::write_png8(path, &flip.magma_image())?;
@@ -388,7 +395,7 @@ pub fn render(a: RenderArgs) -> Result<ExitCode> {
     // Frames in flight on the GPU: frame n's PNG is written while n+1 renders.
     renderer.each_frame(|out| -> Result<()> {
         let n = out.index;
-        tonegate::io::write_png8(&a.out.join(frame_file(n)), &out.image)?;
+        tonegate::io::write_frame_png(&a.out.join(frame_file(n)), &out.image)?;
         frames.push(match &out.detail {
             FrameDetail::Cpu(s) => serde_json::json!({
                 "frame": n, "file": frame_file(n), "wall_ms": out.wall_ms,

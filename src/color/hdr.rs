@@ -29,6 +29,16 @@ pub fn pq_decode(signal: f64) -> f64 {
     PQ_PEAK * libm::pow((p - C1).max(0.0) / (C2 - C3 * p), 1.0 / M1)
 }
 
+/// The 16-bit full-range code of a signal in [0, 1] (NaN as 0): ⌊65535·s + 0.5⌋.
+pub fn code16(signal: f64) -> u16 {
+    let s = if signal.is_nan() {
+        0.0
+    } else {
+        signal.clamp(0.0, 1.0)
+    };
+    (s * 65535.0 + 0.5).floor() as u16
+}
+
 const HLG_A: f64 = 0.178_832_77;
 const HLG_B: f64 = 1.0 - 4.0 * HLG_A;
 

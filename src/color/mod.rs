@@ -35,6 +35,6 @@ mod hdr;
 mod primaries;
 
 pub use hdr::{
-    hlg_gamma, hlg_inverse_eotf, hlg_oetf, pq_decode, pq_encode, BT2100_LUMINANCE, PQ_PEAK,
+    code16, hlg_gamma, hlg_inverse_eotf, hlg_oetf, pq_decode, pq_encode, BT2100_LUMINANCE, PQ_PEAK,
 };
 pub use primaries::{apply, bt709_to_bt2020, inverse, mul, npm, Mat3, BT2020_XY, BT709_XY, D65_XY};

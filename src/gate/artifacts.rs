@@ -4,8 +4,7 @@
 
 use super::CheckError;
 use crate::check::KeptFrame;
-use crate::metrics::flip::{flip, DEFAULT_PPD};
-use crate::metrics::{diff_heatmap, ssim, ssim_map_image};
+use crate::metrics::{frame_diff_heatmap, frame_flip, frame_ssim, ssim_map_image};
 use std::path::Path;
 
 /// The adapter name as a file-name part: lowercase ASCII letters and digits,
@@ -47,19 +46,18 @@ pub(super) fn render_frame(
     };
     let name = |kind: &str| artifact_name(scene, f.frame, slug, kind);
     let metric = |e: crate::metrics::MetricsError| fail(&name("diff"), e.to_string());
-    let diff = diff_heatmap(f.actual.raster(), f.golden.raster()).map_err(metric)?;
-    let map = ssim_map_image(&ssim(f.actual.raster(), f.golden.raster()).map_err(metric)?);
-    let flip = flip(f.actual.raster(), f.golden.raster(), DEFAULT_PPD)
+    let diff = frame_diff_heatmap(&f.actual, &f.golden).map_err(metric)?;
+    let map = ssim_map_image(&frame_ssim(&f.actual, &f.golden).map_err(metric)?);
+    let flip = frame_flip(&f.actual, &f.golden)
         .map_err(metric)?
         .magma_image();
     let mut files = Vec::with_capacity(5);
-    for (kind, img) in [
-        ("actual", &f.actual),
-        ("golden", &f.golden),
-        ("diff", &diff),
-        ("ssim", &map),
-        ("flip", &flip),
-    ] {
+    for (kind, img) in [("actual", &f.actual), ("golden", &f.golden)] {
+        let bytes =
+            crate::io::encode_frame_png(img).map_err(|e| fail(&name(kind), e.to_string()))?;
+        files.push((name(kind), bytes));
+    }
+    for (kind, img) in [("diff", &diff), ("ssim", &map), ("flip", &flip)] {
         let bytes = crate::io::encode_png8(img).map_err(|e| fail(&name(kind), e.to_string()))?;
         files.push((name(kind), bytes));
     }

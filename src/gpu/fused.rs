@@ -81,6 +81,7 @@ pub fn wire(w: &mut Wiring, stage: &Stage) -> Result<Option<Pass>, GpuError> {
                 t,
                 bloom,
                 w.pipeline.encoding,
+                w.pipeline.operator.display_levels(),
                 &w.stats,
                 &w.hdr,
                 &w.frame,
@@ -135,6 +136,7 @@ pub fn tail(
     tone: &ToneParams,
     bloom: Option<(&wgpu::Texture, f64)>,
     encoding: crate::scene::Encoding,
+    levels: Option<crate::operators::DisplayLevels>,
     stats: &wgpu::Buffer,
     hdr: &wgpu::Texture,
     frame_out: &wgpu::Buffer,
@@ -144,7 +146,7 @@ pub fn tail(
         ("BLOOM", bloom.is_some() as u32 as f64),
         ("STRENGTH", bloom.map(|(_, k)| k).unwrap_or(0.0)),
     ];
-    constants.extend(encode_constants(encoding));
+    constants.extend(encode_constants(encoding, levels));
     let p = tone.pipeline(ctx, "fused", "tail", format, &constants);
     // Without bloom the kernel never reads binding 3; it still needs a texture.
     let placeholder;

@@ -8,14 +8,14 @@ use super::luminance_stats::GpuStats;
 use super::stages::read_buffer;
 use super::timing::Queries;
 use super::{GpuContext, GpuError};
-use crate::image::Rgb8Image;
+use crate::image::{Frame, Image};
 use crate::perf::StageTiming;
 
 /// One rendered frame.
 #[derive(Clone, Debug)]
 pub struct GpuFrame {
     /// The encoded frame, when read back.
-    pub frame: Option<Rgb8Image>,
+    pub frame: Option<Frame>,
     pub stats: GpuStats,
     /// GPU time of each stage of the plan (empty without timestamp support).
     pub timings: Vec<StageTiming>,
@@ -54,15 +54,25 @@ pub struct Ticket {
 /// The staging slots and which of them a frame not yet collected holds.
 pub(super) struct Ring {
     staging: Vec<Staging>,
+    /// The frame is 16-bit PQ, two words a pixel (else RGBA8, one).
+    pq: bool,
     busy: std::sync::Mutex<[bool; FRAMES_IN_FLIGHT]>,
     submitted: std::sync::atomic::AtomicUsize,
 }
 
 impl Ring {
-    /// Slots for frames of up to `frame_bytes`, with `timing_bytes` of
-    /// resolved timestamps each when the adapter has timestamp queries.
-    pub(super) fn new(ctx: &GpuContext, frame_bytes: u64, timing_bytes: Option<u64>) -> Ring {
+    /// Slots for frames of up to `pixels` in `encoding`, with
+    /// `timing_bytes` of resolved timestamps each when the adapter has
+    /// timestamp queries.
+    pub(super) fn new(
+        ctx: &GpuContext,
+        pixels: u64,
+        encoding: crate::scene::Encoding,
+        timing_bytes: Option<u64>,
+    ) -> Ring {
+        let frame_bytes = pixels * super::encode::frame_bytes_per_pixel(encoding);
         Ring {
+            pq: encoding == crate::scene::Encoding::Pq,
             staging: (0..FRAMES_IN_FLIGHT)
                 .map(|_| Staging {
                     stats: read_buffer(
@@ -161,7 +171,7 @@ impl Ring {
                 0,
                 &staging.frame,
                 0,
-                size.0 as u64 * size.1 as u64 * 4,
+                size.0 as u64 * size.1 as u64 * if self.pq { 8 } else { 4 },
             );
         }
         let submission = ctx.queue.submit([encoder.finish()]);
@@ -250,15 +260,33 @@ impl Ring {
                 .get_mapped_range()
                 .map_err(|e| GpuError::Readback(e.to_string()))?;
             // Buffers are at least 16 bytes: a frame under 4 pixels has padding.
-            let pixels = view
-                .chunks_exact(4)
-                .take(ticket.size.0 as usize * ticket.size.1 as usize)
-                .map(|c| [c[0], c[1], c[2]])
-                .collect();
-            Some(Rgb8Image {
-                width: ticket.size.0,
-                height: ticket.size.1,
-                pixels,
+            let (width, height) = ticket.size;
+            let n = width as usize * height as usize;
+            Some(if self.pq {
+                let pixels = view
+                    .chunks_exact(8)
+                    .take(n)
+                    .map(|c| {
+                        let word = |i: usize| u16::from_le_bytes([c[i], c[i + 1]]);
+                        [word(0), word(2), word(4)]
+                    })
+                    .collect();
+                Frame::Pq16(Image {
+                    width,
+                    height,
+                    pixels,
+                })
+            } else {
+                let pixels = view
+                    .chunks_exact(4)
+                    .take(n)
+                    .map(|c| [c[0], c[1], c[2]])
+                    .collect();
+                Frame::Rgb8(Image {
+                    width,
+                    height,
+                    pixels,
+                })
             })
         } else {
             None

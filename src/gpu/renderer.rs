@@ -81,6 +81,16 @@ impl<'a> GpuRenderer<'a> {
         config: GpuConfig,
         capacity: (u32, u32),
     ) -> Result<GpuRenderer<'a>, GpuError> {
+        if pipeline.encoding == crate::scene::Encoding::Pq
+            && plan.contains("encode")
+            && pipeline.operator.display_levels().is_none()
+        {
+            return Err(crate::plan::PlanError::NoParameters {
+                stage: "encode",
+                what: "the display levels a PQ frame needs (an operator that maps onto a display of known peak: bt2390)",
+            }
+            .into());
+        }
         let requested = config;
         let (config, notes) = config.in_effect(input.max_component(), &plan, ctx.traits());
         let (width, height) = input.size();
@@ -137,7 +147,6 @@ impl<'a> GpuRenderer<'a> {
             extent,
             ..
         } = wiring;
-        let frame_bytes = capacity.0 as u64 * capacity.1 as u64 * 4;
         Ok(GpuRenderer {
             ctx,
             plan,
@@ -155,7 +164,12 @@ impl<'a> GpuRenderer<'a> {
             taa,
             odd: std::sync::atomic::AtomicBool::new(false),
             outputs,
-            ring: Ring::new(ctx, frame_bytes, queries.as_ref().map(|q| q.slot_bytes())),
+            ring: Ring::new(
+                ctx,
+                capacity.0 as u64 * capacity.1 as u64,
+                pipeline.encoding,
+                queries.as_ref().map(|q| q.slot_bytes()),
+            ),
             stats,
             frame_buf: frame,
             queries,

@@ -41,6 +41,10 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../shaders/shared/upsample.wgsl"),
     ),
     (
+        "shared/pq.wgsl",
+        include_str!("../../shaders/shared/pq.wgsl"),
+    ),
+    (
         "shared/encode.wgsl",
         include_str!("../../shaders/shared/encode.wgsl"),
     ),

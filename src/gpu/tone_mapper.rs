@@ -36,7 +36,8 @@ pub struct ToneMapperSettings {
     /// The operator (`Operator::named("agx", &[])`, or a caller's own after
     /// `operators::register`).
     pub operator: Operator,
-    /// The display encoding: the sRGB transfer or a gamma.
+    /// The display encoding: the sRGB transfer or a gamma (a PQ encoding is
+    /// refused by [`ToneMapper::record`]: its output texture is 8-bit).
     pub encoding: Encoding,
 }
 
@@ -127,6 +128,11 @@ impl ToneMapper {
         input: &wgpu::Texture,
         output: &wgpu::Texture,
     ) -> Result<(), GpuError> {
+        if self.settings.encoding == Encoding::Pq {
+            return Err(GpuError::Texture(
+                "encoding pq: a PQ frame is 16-bit, and the tone mapper writes an Rgba8Unorm texture; use the sRGB transfer or a gamma".into(),
+            ));
+        }
         let reuse = self
             .bound
             .as_ref()

@@ -185,7 +185,13 @@ impl<'a, 'p> Wiring<'a, 'p> {
                 "tonegate.luminance_stats",
                 std::mem::size_of::<GpuStats>() as u64,
             ),
-            frame: storage_buffer(ctx, "tonegate.encode", width as u64 * height as u64 * 4),
+            frame: storage_buffer(
+                ctx,
+                "tonegate.encode",
+                width as u64
+                    * height as u64
+                    * super::encode::frame_bytes_per_pixel(pipeline.encoding),
+            ),
             extent,
             environment,
             outputs: Vec::new(),
@@ -411,6 +417,7 @@ impl<'p> Wiring<'_, 'p> {
                     ctx,
                     format,
                     self.pipeline.encoding,
+                    self.pipeline.operator.display_levels(),
                     &base,
                     &self.frame,
                     &self.extent,

@@ -41,7 +41,7 @@ pub use self::validate::{
 
 use self::atomic::write_atomically;
 use self::error::{catch_decoder_panic, hex_prefix};
-use crate::image::{HdrImage, Rgb8Image};
+use crate::image::{Frame, HdrImage, Rgb8Image};
 
 /// The HDR file formats `load_hdr` reads.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -267,6 +267,67 @@ pub fn write_bytes_atomically(path: &Path, bytes: &[u8]) -> Result<(), HdrIoErro
 /// Encodes an 8-bit RGB PNG in memory (for HTTP responses and hashing).
 pub fn encode_png8(img: &Rgb8Image) -> Result<Vec<u8>, HdrIoError> {
     png::encode_png8(img)
+}
+
+/// What a PQ frame's PNG says of itself: BT.2100 PQ. The display's levels
+/// are the scene's, so no mDCV or cLLI is written.
+const PQ_FRAME_PNG: HdrPngInfo = HdrPngInfo {
+    cicp: Cicp::BT2100_PQ,
+    mastering: None,
+    light_level: None,
+};
+
+/// A frame's PNG in memory: 8-bit RGB, or 16-bit RGB whose cICP chunk says
+/// BT.2100 PQ.
+pub fn encode_frame_png(frame: &Frame) -> Result<Vec<u8>, HdrIoError> {
+    match frame {
+        Frame::Rgb8(img) => png::encode_png8(img),
+        Frame::Pq16(img) => encode_hdr_png(img, &PQ_FRAME_PNG),
+    }
+}
+
+/// Writes a frame's PNG ([`encode_frame_png`]) to `path`, whole or not at all.
+pub fn write_frame_png(path: &Path, frame: &Frame) -> Result<(), HdrIoError> {
+    match frame {
+        Frame::Rgb8(img) => png::write_png8(path, img),
+        Frame::Pq16(img) => write_hdr_png(path, img, &PQ_FRAME_PNG),
+    }
+}
+
+/// Reads a frame's PNG: an 8-bit PNG as an 8-bit frame, a 16-bit one as a
+/// PQ frame when its cICP chunk says BT.2100 PQ (and refused otherwise:
+/// 16-bit codes of another transfer are not a PQ frame).
+pub fn read_frame_png(path: &Path) -> Result<Frame, HdrIoError> {
+    let file = path.display().to_string();
+    let io = |source| HdrIoError::Io {
+        file: file.clone(),
+        action: "read",
+        source,
+    };
+    // The IHDR chunk comes first: its bit depth is byte 24.
+    let mut head = [0u8; 25];
+    let depth = {
+        let mut f = File::open(path).map_err(io)?;
+        let n = f.read(&mut head).map_err(io)?;
+        (n == head.len()).then_some(head[24])
+    };
+    if depth != Some(16) {
+        return png::read_png8(path).map(Frame::Rgb8);
+    }
+    let image = png::read_png16(path)?;
+    let bytes = std::fs::read(path).map_err(io)?;
+    let chunks = read_hdr_png_info(&bytes, &file)?;
+    if chunks.cicp != Some(Cicp::BT2100_PQ) {
+        return Err(HdrIoError::Unsupported {
+            file,
+            format: "PNG",
+            detail: format!(
+                "a 16-bit frame must be BT.2100 PQ (cICP primaries 9, transfer 16), and this one's cICP is {:?}",
+                chunks.cicp
+            ),
+        });
+    }
+    Ok(Frame::Pq16(image))
 }
 
 #[cfg(test)]

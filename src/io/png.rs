@@ -18,12 +18,10 @@ use image::{DynamicImage, ExtendedColorType, ImageEncoder};
 use super::atomic::write_atomically;
 use super::error::{catch_decoder_panic, from_image, HdrIoError};
 use super::validate::{check_dimensions, DEFAULT_MAX_PIXELS};
+pub use crate::image::Rgb16Image;
 use crate::image::{Image, Rgb8Image};
 
 const FORMAT: &str = "PNG";
-
-/// A 16-bit-per-channel RGB image, as written by `write_png16`.
-pub type Rgb16Image = Image<[u16; 3]>;
 
 pub(crate) fn read_png8(path: &Path) -> Result<Rgb8Image, HdrIoError> {
     let file = path.display().to_string();

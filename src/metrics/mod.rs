@@ -13,6 +13,7 @@
 
 pub mod basic;
 pub mod flip;
+pub mod frames;
 pub mod hdr;
 pub mod hdr_flip;
 pub mod hdr_input;
@@ -28,6 +29,10 @@ mod ssim_kernel;
 pub mod visual;
 
 pub use basic::{fraction_over, max_abs_diff, mean_abs_diff, mse, psnr, rmse, snr};
+pub use frames::{
+    compare_frames, frame_diff_heatmap, frame_flip, frame_fraction_over, frame_max_abs_diff,
+    frame_ssim,
+};
 pub use raster::Raster;
 pub use ssim::{mean_ssim, ssim, Ssim, SSIM_WINDOW};
 pub use visual::{diff_heatmap, heatmap_colour, ssim_map_image, HEATMAP_RAMP};
@@ -47,7 +52,8 @@ then averaged over channels";
 pub const FLIP_DEFINITION: &str = "FLIP (Andersson et al. 2020), NVIDIA's C++ implementation \
 through the nv-flip crate, LDR, on the 8-bit sRGB frames at 67.02 pixels per degree (a 0.7 m \
 wide 4K display seen from 0.7 m): flip_mean is the mean of the per-pixel map, \
-max_flip_percentile the weighted percentile of FLIP's 100-bucket histogram";
+max_flip_percentile the weighted percentile of FLIP's 100-bucket histogram; on 16-bit \
+PQ frames, HDR-FLIP (ACES, automatic exposures) of the decoded light in BT.709 cd/m²";
 
 /// Why two images could not be compared.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
@@ -131,7 +137,7 @@ pub struct Metrics {
     /// Mean SSIM as [`SSIM_DEFINITION`] states.
     pub ssim: f64,
     /// Largest absolute sample difference, in LSB.
-    pub max_abs_diff: u8,
+    pub max_abs_diff: u16,
     /// Mean absolute sample difference, in LSB.
     pub mean_abs_diff: f64,
     /// Fraction of pixels with any channel off by more than 1 LSB.
@@ -139,8 +145,17 @@ pub struct Metrics {
     /// Mean FLIP error ([`flip`], NVIDIA's implementation) at
     /// [`flip::DEFAULT_PPD`]; 0 for identical images, 1 at most.
     pub flip_mean: f64,
+    /// Bits per sample of the frames compared: 8, or 16 for PQ frames,
+    /// whose MSE, PSNR and LSB counts are in 16-bit codes and whose FLIP is
+    /// HDR-FLIP of the decoded light ([`frames`]).
+    #[serde(default = "eight_bits")]
+    pub bits: u32,
     /// Which SSIM this is; tools disagree, so the report says.
     pub ssim_definition: String,
+}
+
+fn eight_bits() -> u32 {
+    8
 }
 
 /// Compares `test` (the image under test) with `reference` (the golden).
@@ -170,10 +185,11 @@ pub fn compare_with_flip(
         psnr: sums.psnr(),
         snr: sums.snr(),
         ssim,
-        max_abs_diff: sums.max_abs_diff,
+        max_abs_diff: u16::from(sums.max_abs_diff),
         mean_abs_diff: sums.mean_abs_diff(),
         fraction_over_1lsb: fraction_over(test, reference, 1)?,
         flip_mean: flip.mean(),
+        bits: 8,
         ssim_definition: SSIM_DEFINITION.to_owned(),
     };
     Ok((metrics, flip))

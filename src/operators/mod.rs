@@ -176,6 +176,23 @@ pub struct DisplayLevels {
     pub peak: f64,
 }
 
+impl DisplayLevels {
+    /// One display-relative BT.709 pixel as BT.2020 light on this display,
+    /// cd/m²: black + clamp(v, 0, 1)·(peak − black) (NaN as 0), then `m`
+    /// (BT.709 → BT.2020). What a PQ or HLG encoding starts from.
+    pub fn bt2020_nits(&self, m: &crate::color::Mat3, c: [f64; 3]) -> [f64; 3] {
+        let DisplayLevels { black, peak } = *self;
+        let light = c.map(|v| {
+            let v = if v > 0.0 { v.min(1.0) } else { 0.0 };
+            black + v * (peak - black)
+        });
+        // Each row of the matrix is non-negative and sums to 1, so a colour
+        // within [black, peak] stays within it: the clamp only takes off
+        // rounding (white came out 1e-13 above the peak).
+        crate::color::apply(m, light).map(|v| v.clamp(0.0, peak))
+    }
+}
+
 impl std::fmt::Debug for dyn ToneOperator {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.name())

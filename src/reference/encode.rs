@@ -1,6 +1,8 @@
-//! `encode`: display encoding to 8 bits.
+//! `encode`: display encoding to 8 bits, or to 16-bit PQ.
 
-use crate::image::{LinearImage, Rgb8Image};
+use crate::color::{bt709_to_bt2020, code16, pq_encode, Mat3};
+use crate::image::{Frame, LinearImage, Rgb8Image};
+use crate::operators::DisplayLevels;
 use crate::scene::Encoding;
 
 /// The sRGB OETF (IEC 61966-2-1), for v in [0, 1].
@@ -17,7 +19,9 @@ pub fn srgb_oetf(v: f64) -> f64 {
 pub fn encode_channel(v: f64, encoding: Encoding) -> u8 {
     let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
     let e = match encoding {
-        Encoding::Srgb => srgb_oetf(v),
+        // PQ frames are 16-bit and absolute ([`PqEncoder`]); an 8-bit view
+        // of one is the display-relative image under the sRGB transfer.
+        Encoding::Srgb | Encoding::Pq => srgb_oetf(v),
         Encoding::Gamma(g) => libm::pow(v, 1.0 / g.get()),
     };
     (255.0 * e + 0.5).floor().clamp(0.0, 255.0) as u8
@@ -64,6 +68,48 @@ impl Encoder {
 pub fn encode(img: &LinearImage, encoding: Encoding) -> Rgb8Image {
     let encoder = Encoder::new(encoding);
     img.par_map(|p| p.map(|v| encoder.channel(v)))
+}
+
+/// A PQ frame's pixel (docs/display.md#pq-frames): the display-relative
+/// BT.709 value on the display of `levels` ([`DisplayLevels::bt2020_nits`]),
+/// SMPTE ST 2084's inverse EOTF, 16-bit full-range codes.
+pub struct PqEncoder {
+    levels: DisplayLevels,
+    m: Mat3,
+}
+
+impl PqEncoder {
+    pub fn new(levels: DisplayLevels) -> Self {
+        Self {
+            levels,
+            m: bt709_to_bt2020(),
+        }
+    }
+
+    /// The codes of one display-relative pixel.
+    pub fn pixel(&self, c: [f64; 3]) -> [u16; 3] {
+        self.levels
+            .bt2020_nits(&self.m, c)
+            .map(|v| code16(pq_encode(v)))
+    }
+}
+
+/// `encode`'s frame of `img`: 8-bit, or 16-bit PQ for the display of
+/// `levels` (which a PQ encoding needs; `None` is refused with the reason).
+pub fn encode_frame(
+    img: &LinearImage,
+    encoding: Encoding,
+    levels: Option<DisplayLevels>,
+) -> Result<Frame, &'static str> {
+    match encoding {
+        Encoding::Pq => {
+            let pq = PqEncoder::new(levels.ok_or(
+                "the display levels a PQ frame needs (an operator that maps onto a display of known peak: bt2390)",
+            )?);
+            Ok(Frame::Pq16(img.par_map(|p| pq.pixel(p))))
+        }
+        _ => Ok(Frame::Rgb8(encode(img, encoding))),
+    }
 }
 
 #[cfg(test)]

@@ -16,7 +16,7 @@ pub mod taa_sobel;
 pub mod tonemap;
 
 use crate::conventions::{rotation_matrix, Camera};
-use crate::image::{HdrImage, LinearImage, Rgb8Image};
+use crate::image::{Frame, HdrImage, LinearImage, Rgb8Image};
 use crate::operators::Tone;
 use crate::plan::{BloomSource, PlanError, Stage, StagePlan};
 use crate::scene::{Bloom, Encoding, Grade, Operator, Scene};
@@ -64,8 +64,8 @@ pub struct FrameOutputs {
     pub grade_mean: Option<f64>,
     /// Linear display-referred frame entering `encode`.
     pub display: LinearImage,
-    /// `encode`'s 8-bit frame.
-    pub frame: Rgb8Image,
+    /// `encode`'s frame (8-bit, or 16-bit PQ).
+    pub frame: Frame,
 }
 
 /// Summary of a frame for reports.
@@ -124,7 +124,7 @@ struct Made {
     grade_mean: Option<f64>,
     /// `None` when no stage after `tonemap` changed the image.
     display: Option<LinearImage>,
-    frame: Option<Rgb8Image>,
+    frame: Option<Frame>,
 }
 
 /// Runs `plan`'s stages on `hdr`. Without `keep_hdr`, `tonemap` works in
@@ -251,13 +251,17 @@ fn run_stages_until(
                 display = Some(grade::grade(base, g, grade_mean.unwrap_or(0.0)));
             }
             Stage::Encode => {
-                frame = Some(encode::encode(
-                    display
-                        .as_ref()
-                        .or(toned.as_ref())
-                        .ok_or_else(tonemap_first)?,
-                    p.encoding,
-                ));
+                frame = Some(
+                    encode::encode_frame(
+                        display
+                            .as_ref()
+                            .or(toned.as_ref())
+                            .ok_or_else(tonemap_first)?,
+                        p.encoding,
+                        p.operator.display_levels(),
+                    )
+                    .map_err(|what| PlanError::NoParameters { stage: name, what })?,
+                );
             }
         }
     }

@@ -74,13 +74,28 @@ impl Grade {
     }
 }
 
-/// Display encoding of the final 8-bit frame.
+/// Display encoding of the final frame.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Encoding {
-    /// The sRGB OETF (piecewise: linear below 0.0031308).
+    /// The sRGB OETF (piecewise: linear below 0.0031308), 8 bits.
     #[default]
     Srgb,
-    /// A plain 1/γ power, γ default 2.2 (the image-processing lecture).
+    /// A plain 1/γ power, γ default 2.2 (the image-processing lecture), 8 bits.
     Gamma(Positive),
+    /// BT.2100 PQ, 16 bits (docs/display.md#pq-frames): the operator's
+    /// display-relative output taken to cd/m² on the display it maps onto,
+    /// BT.709 → BT.2020, SMPTE ST 2084. Only for an operator with display
+    /// levels (`bt2390`).
+    Pq,
+}
+
+impl Encoding {
+    /// Bits per sample of the frames it makes.
+    pub fn bits(self) -> u32 {
+        match self {
+            Encoding::Srgb | Encoding::Gamma(_) => 8,
+            Encoding::Pq => 16,
+        }
+    }
 }

@@ -240,6 +240,13 @@ impl Scene {
                 ));
             }
         }
+        if self.encoding == Encoding::Pq && self.operator.display_levels().is_none() {
+            return Err(format!(
+                "{}: PQ frames are absolute cd/m², and operator {}'s output is relative to an SDR display's white; use an operator that maps onto a display of known peak (bt2390), or encoding \"srgb\"",
+                at("encoding"),
+                self.operator.name()
+            ));
+        }
         for c in &self.checks {
             c.validate()
                 .map_err(|message| format!("{}: {message}", at("checks")))?;

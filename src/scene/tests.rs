@@ -225,3 +225,17 @@ fn size_parses_from_command_line_form() {
     assert!("320".parse::<Size>().is_err());
     assert!("0x5".parse::<Size>().is_err());
 }
+
+#[test]
+fn pq_frames_need_an_operator_with_display_levels() {
+    let text = MINIMAL.replace("frames = 2", "frames = 2\nencoding = \"pq\"");
+    let e = parse(&text).unwrap_err().to_string();
+    assert!(
+        e.contains("encoding") && e.contains("line") && e.contains("bt2390"),
+        "{e}"
+    );
+    let ok = format!("{text}\n[operator]\nkind = \"bt2390\"\ntarget_peak = 400.0\n");
+    let s = parse(&ok).unwrap();
+    assert_eq!((s.encoding, s.encoding.bits()), (Encoding::Pq, 16));
+    assert_eq!(Encoding::Srgb.bits(), 8);
+}

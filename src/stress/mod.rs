@@ -102,7 +102,7 @@ pub struct Row {
     pub exception: Option<String>,
     /// Largest 8-bit difference from the CPU's frame (GPU rows).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub max_lsb_vs_cpu: Option<u8>,
+    pub max_lsb_vs_cpu: Option<u16>,
     /// Finite, within its bound, and refused exactly when it must be.
     pub passed: bool,
 }
@@ -355,8 +355,7 @@ pub fn run(cases: &[Case], ctx: Option<&GpuContext>, reduction: ReductionMethod)
                             gpu.max_rel_error = Some(err);
                             gpu.ms = out.timings.iter().map(|t| t.ms).sum();
                             gpu.max_lsb_vs_cpu = out.frame.as_ref().and_then(|f| {
-                                crate::metrics::max_abs_diff(f.raster(), reference.frame.raster())
-                                    .ok()
+                                crate::metrics::frame_max_abs_diff(f, &reference.frame).ok()
                             });
                             gpu.observed = format!(
                                 "{}{}{}",

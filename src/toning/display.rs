@@ -6,7 +6,7 @@
 //! quantised to 16 bits, in a PNG whose cICP chunk says so (with mDCV and
 //! cLLI for PQ).
 
-use crate::color::{apply, bt709_to_bt2020, hlg_inverse_eotf, pq_encode, Mat3, BT709_XY, D65_XY};
+use crate::color::{bt709_to_bt2020, hlg_inverse_eotf, pq_encode, Mat3, BT709_XY, D65_XY};
 use crate::image::HdrImage;
 use crate::io::{Cicp, HdrPngInfo, LightLevel, Mastering, Rgb16Image};
 use crate::operators::{DisplayLevels, Operator};
@@ -96,21 +96,13 @@ pub struct HdrReport {
     pub max_fall: f64,
 }
 
-/// The 16-bit code value of a signal in [0, 1] (full range).
-pub fn code16(signal: f64) -> u16 {
-    (signal.clamp(0.0, 1.0) * 65535.0 + 0.5).floor() as u16
-}
+pub use crate::color::code16;
 
 impl HdrOutput {
     /// One display-relative BT.709 pixel as BT.2020 light on the display,
-    /// cd/m²: black + clamp(v, 0, 1)·(peak − black), then the primaries.
+    /// cd/m² ([`DisplayLevels::bt2020_nits`]).
     pub fn nits(&self, m: &Mat3, c: [f64; 3]) -> [f64; 3] {
-        let DisplayLevels { black, peak } = self.levels;
-        let light = c.map(|v| black + v.clamp(0.0, 1.0) * (peak - black));
-        // Each row of the matrix is non-negative and sums to 1, so a colour
-        // within [black, peak] stays within it: the clamp only takes off
-        // rounding (white came out 1e-13 above the peak).
-        apply(m, light).map(|v| v.clamp(0.0, peak))
+        self.levels.bt2020_nits(m, c)
     }
 
     /// The signal (in [0, 1]) of BT.2020 light `nits` on this display.

@@ -295,10 +295,13 @@ pub fn tone_map_until<'i>(
                 }
                 OutputKind::Encoded => {
                     let out = crate::reference::render_flat_until(img, pipeline, stop)?;
-                    Ok(out.map(|(plan, out)| Toned {
-                        report: report(cpu, TonePath::Staged, &plan, out.stats, out.tone),
-                        image: TonedImage::Encoded(out.frame),
-                    }))
+                    out.map(|(plan, out)| {
+                        Ok(Toned {
+                            report: report(cpu, TonePath::Staged, &plan, out.stats, out.tone),
+                            image: TonedImage::Encoded(eight_bit(out.frame)?),
+                        })
+                    })
+                    .transpose()
                 }
             }
         }
@@ -357,7 +360,7 @@ fn gpu_flat<'i>(
 
     let image = match (display, out.frame) {
         (Some(display), _) => TonedImage::Linear(display),
-        (None, Some(frame)) => TonedImage::Encoded(frame),
+        (None, Some(frame)) => TonedImage::Encoded(eight_bit(frame)?),
         (None, None) => {
             return Err(crate::gpu::GpuError::Readback("the frame was not read back".into()).into())
         }
@@ -367,5 +370,16 @@ fn gpu_flat<'i>(
         stats: s.luminance_stats(),
         tone,
         image,
+    })
+}
+
+/// A tone-map's encoded frame, which its settings make 8-bit (PQ and HLG
+/// files are encoded from the display image instead).
+fn eight_bit(frame: crate::image::Frame) -> Result<Rgb8Image> {
+    let kind = frame.kind();
+    frame.into_rgb8().ok_or_else(|| {
+        Error::Invalid(format!(
+            "the tone-map made a {kind} frame where an 8-bit one was asked for"
+        ))
     })
 }

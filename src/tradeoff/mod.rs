@@ -11,7 +11,7 @@ pub use knobs::{sweep, taa_knobs, with_operator_knob, with_taa, Knobs, OperatorK
 
 use crate::gpu::{GpuConfig, GpuContext};
 use crate::history::TradeoffRecord;
-use crate::metrics::compare;
+use crate::metrics::compare_frames;
 use crate::perf::quantile;
 use crate::render::{scene_environment, RenderError, SceneRenderer};
 use crate::scene::{Factor, Positive, Radius, Scene};
@@ -184,12 +184,12 @@ pub fn measure_scene(
                 continue;
             };
             let out = r.frame(n).map_err(failed)?;
-            let m = compare(out.image.raster(), reference.image.raster()).map_err(|source| {
-                TradeoffError::Metrics {
+            let m = compare_frames(&out.image, &reference.image)
+                .map(|(m, _)| m)
+                .map_err(|source| TradeoffError::Metrics {
                     scene: scene.name.clone(),
                     source,
-                }
-            })?;
+                })?;
             psnr = psnr.min(m.psnr);
             ssim = ssim.min(m.ssim);
             // The adaptation luminance, for the operators that have one.

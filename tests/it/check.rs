@@ -7,6 +7,7 @@ use std::path::Path;
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 use tonegate::history::{History, RunStatus};
+use tonegate::image::{Frame, Rgb16Image};
 
 use common::{repo, tonegate};
 
@@ -200,6 +201,22 @@ fn a_tone_mapper_two_percent_too_bright_fails_with_artifacts_and_junit_failures(
         img.raster().samples.iter().map(|&v| v as u64).sum()
     };
     assert!(sum(&read("actual")) > sum(&read("golden")));
+    // The scene of 16-bit PQ frames fails too (its PSNR bound is the only
+    // 80 dB one), and its frames' artifacts are PQ frames, the actual one
+    // brighter.
+    assert!(out.contains("FAIL PSNR >= 80 dB"), "{out}");
+    let pq = |kind: &str| {
+        let name = names
+            .iter()
+            .find(|n| n.starts_with("sky-bt2390-pq-000-") && n.ends_with(&format!("-{kind}.png")))
+            .unwrap_or_else(|| panic!("no sky-bt2390-pq {kind} artifact in {names:?}"));
+        tonegate::io::read_frame_png(&art.join(name)).unwrap()
+    };
+    let (Frame::Pq16(actual), Frame::Pq16(golden)) = (pq("actual"), pq("golden")) else {
+        panic!("the PQ scene's artifacts are not 16-bit PQ frames");
+    };
+    let sum16 = |img: &Rgb16Image| -> u64 { img.pixels.iter().flatten().map(|&v| v as u64).sum() };
+    assert!(sum16(&actual) > sum16(&golden));
     let xml = std::fs::read_to_string(&junit).unwrap();
     assert!(xml.contains("<failure"), "{xml}");
     assert!(xml.contains("worst PSNR"), "{xml}");

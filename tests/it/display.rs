@@ -302,3 +302,76 @@ async fn the_api_writes_pq_and_refuses_what_has_no_meaning() {
     let body = r.text().await.unwrap();
     assert!(body.contains("display"), "{body}");
 }
+
+/// A scene's PQ frames (docs/display.md#pq-frames) are encoded by the same
+/// arithmetic as the PQ output file: on the lock's colours and displays,
+/// `PqEncoder` gives colour-science's code values.
+#[test]
+fn pq_frames_encode_to_the_locked_pq_codes() {
+    use tonegate::reference::encode::PqEncoder;
+    let v = vectors();
+    let inputs = triples(&v["inputs"]);
+    let mut checked = 0;
+    for case in v["cases"].as_array().unwrap() {
+        if case["transfer"] != "PQ" {
+            continue;
+        }
+        let pq = PqEncoder::new(DisplayLevels {
+            black: case["black_nits"].as_f64().unwrap(),
+            peak: case["peak_nits"].as_f64().unwrap(),
+        });
+        let (signal, codes) = (triples(&case["signal"]), triples(&case["codes"]));
+        for (i, c) in inputs.iter().enumerate() {
+            let got = pq.pixel(*c);
+            for k in 0..3 {
+                // A value on a rounding boundary may round either way.
+                let scaled = signal[i][k].clamp(0.0, 1.0) * 65535.0;
+                if (scaled - scaled.floor() - 0.5).abs() < 1e-6 {
+                    continue;
+                }
+                assert_eq!(
+                    f64::from(got[k]),
+                    codes[i][k],
+                    "{} {c:?} channel {k}",
+                    case["name"]
+                );
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked > 1000, "{checked}");
+}
+
+/// A PQ frame's PNG holds its codes and says BT.2100 PQ; a 16-bit PNG that
+/// does not say so is not taken for a PQ frame.
+#[test]
+fn a_pq_frame_png_reads_back_and_a_16_bit_png_of_no_pq_is_refused() {
+    use tonegate::image::{Frame, Rgb16Image};
+    let dir = tempfile::tempdir().unwrap();
+    let img = Rgb16Image::from_fn(37, 5, |x, y| {
+        [x as u16 * 1700, y as u16 * 13_000 + 7, 65535 - x as u16]
+    });
+    let path = dir.path().join("000.png");
+    tonegate::io::write_frame_png(&path, &Frame::Pq16(img.clone())).unwrap();
+    assert_eq!(
+        tonegate::io::read_frame_png(&path).unwrap(),
+        Frame::Pq16(img.clone())
+    );
+    let bytes = std::fs::read(&path).unwrap();
+    let chunks = tonegate::io::read_hdr_png_info(&bytes, "000.png").unwrap();
+    assert_eq!(chunks.cicp, Some(tonegate::io::Cicp::BT2100_PQ));
+    // The same codes as a plain 16-bit PNG: refused, saying why.
+    let plain = dir.path().join("plain.png");
+    tonegate::io::write_png16(&plain, &img).unwrap();
+    let e = tonegate::io::read_frame_png(&plain)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("plain.png") && e.contains("PQ"), "{e}");
+    // An 8-bit frame reads back as one.
+    let eight = tonegate::image::Rgb8Image::filled(3, 2, [1, 2, 3]);
+    tonegate::io::write_frame_png(&plain, &Frame::Rgb8(eight.clone())).unwrap();
+    assert_eq!(
+        tonegate::io::read_frame_png(&plain).unwrap(),
+        Frame::Rgb8(eight)
+    );
+}

@@ -11,8 +11,9 @@ use tonegate::gpu::{
     AdapterChoice, Execution, GpuConfig, GpuContext, GpuInput, GpuRenderer, HdrFormat,
     ReductionMethod,
 };
+use tonegate::image::Frame;
 use tonegate::image::LinearImage;
-use tonegate::metrics::{compare, fraction_over};
+use tonegate::metrics::{compare_frames, frame_fraction_over};
 use tonegate::plan::{Stage, StagePlan};
 use tonegate::reference::{self, luminance_stats, scene_camera, tonemap, Pipeline};
 use tonegate::render::scene_environment;
@@ -34,6 +35,37 @@ fn suite() -> Vec<Scene> {
     all.into_iter()
         .filter(|s| s.taa_active().is_none())
         .collect()
+}
+
+/// The share of PQ pixels whose codes may differ by 1 between the GPU's
+/// f32 encode and the f64 one of the same display image. The GPU's ST 2084
+/// (shaders/shared/pq.wgsl) carries a few f32 roundings into the signal,
+/// a few hundredths of a 16-bit code, so samples that close to a rounding
+/// boundary land on its other side: 1.75 % of `sky-bt2390-pq`'s pixels on
+/// llvmpipe (2026-11-26; 21.9 % with the textbook formula, whose q^m2
+/// multiplies q's rounding by 78.8). 5 % leaves room for another adapter's
+/// pow and exp, which WGSL lets be a few ULP less exact.
+const PQ_ENCODE_DIFFER: f64 = 0.05;
+
+/// Samples that differ between two frames of one depth and size.
+fn differing_samples(a: &Frame, b: &Frame) -> usize {
+    fn count<P: AsRef<[T]>, T: PartialEq>(a: &[P], b: &[P]) -> usize {
+        a.iter()
+            .zip(b)
+            .map(|(p, q)| {
+                p.as_ref()
+                    .iter()
+                    .zip(q.as_ref())
+                    .filter(|(x, y)| x != y)
+                    .count()
+            })
+            .sum()
+    }
+    match (a, b) {
+        (Frame::Rgb8(a), Frame::Rgb8(b)) => count(&a.pixels, &b.pixels),
+        (Frame::Pq16(a), Frame::Pq16(b)) => count(&a.pixels, &b.pixels),
+        _ => panic!("frames of two depths: {} and {}", a.kind(), b.kind()),
+    }
 }
 
 /// A renderer of `img` as a flat image (no sphere stage) with `pipeline`'s
@@ -120,8 +152,8 @@ fn final_frames_match_the_cpu_render_of_the_same_scene() {
             let gpu = r.render(true).unwrap();
             let frame = gpu.frame.unwrap();
             let cpu = reference::render_frame(&scene, &env, n, 1).unwrap();
-            let m = compare(frame.raster(), cpu.frame.raster()).unwrap();
-            let over = fraction_over(frame.raster(), cpu.frame.raster(), 1).unwrap();
+            let m = compare_frames(&frame, &cpu.frame).map(|(m, _)| m).unwrap();
+            let over = frame_fraction_over(&frame, &cpu.frame, 1).unwrap();
             assert!(
                 m.psnr >= 50.0 && over <= 0.001,
                 "{} frame {n}: PSNR {:.2} dB, {:.4} % of pixels off by more than 1 LSB (max {})",
@@ -137,7 +169,12 @@ fn final_frames_match_the_cpu_render_of_the_same_scene() {
                 n,
             )
             .unwrap();
-            golden_psnr.push(compare(frame.raster(), golden.raster()).unwrap().psnr);
+            golden_psnr.push(
+                compare_frames(&frame, &golden)
+                    .map(|(m, _)| m)
+                    .unwrap()
+                    .psnr,
+            );
         }
         // Against the 16-spp goldens: the plain path's aliasing, reported.
         let mean = golden_psnr.iter().sum::<f64>() / golden_psnr.len() as f64;
@@ -316,13 +353,28 @@ fn each_stage_matches_its_reference_on_the_same_input() {
                 "{name}: display is the last stage's output"
             );
             // encode: same rounding rule; only values within f32 rounding of a
-            // quantisation boundary may differ, by 1 LSB.
-            let cpu_frame = reference::encode::encode(&gpu_display, pipeline.encoding);
+            // quantisation boundary may differ, by 1 LSB (one 16-bit code
+            // for PQ, whose share of such values is PQ_ENCODE_DIFFER).
+            let cpu_frame = reference::encode::encode_frame(
+                &gpu_display,
+                pipeline.encoding,
+                pipeline.operator.display_levels(),
+            )
+            .unwrap();
             let frame = gpu.frame.unwrap();
-            let m = compare(frame.raster(), cpu_frame.raster()).unwrap();
-            let over = fraction_over(frame.raster(), cpu_frame.raster(), 0).unwrap();
+            let m = compare_frames(&frame, &cpu_frame).map(|(m, _)| m).unwrap();
+            let over = frame_fraction_over(&frame, &cpu_frame, 0).unwrap();
+            let allowed = match frame {
+                Frame::Rgb8(_) => 1e-4,
+                Frame::Pq16(_) => PQ_ENCODE_DIFFER,
+            };
+            println!(
+                "{name} encode: max {} code(s), {:.4} % of pixels differ",
+                m.max_abs_diff,
+                over * 100.0
+            );
             assert!(
-                m.max_abs_diff <= 1 && over <= 1e-4,
+                m.max_abs_diff <= 1 && over <= allowed,
                 "{name} encode: max {} , {:.5} % differ",
                 m.max_abs_diff,
                 over * 100.0
@@ -443,7 +495,7 @@ fn a_wrong_gpu_render_fails_the_comparison() {
     let r = common::scene_renderer(&ctx, &scene, &env, GpuConfig::default());
     r.set_rotation(&rotation_matrix(scene.rotation.axis, scene.angle(3)));
     let frame = r.render(true).unwrap().frame.unwrap();
-    let over = fraction_over(frame.raster(), cpu.frame.raster(), 1).unwrap();
+    let over = frame_fraction_over(&frame, &cpu.frame, 1).unwrap();
     assert!(over > 0.001, "a 2 % key error went unnoticed ({over})");
 }
 
@@ -468,7 +520,7 @@ fn half_float_intermediates_render_within_a_few_lsb_where_in_range() {
     r.set_rotation(&rotation_matrix(scene.rotation.axis, scene.angle(2)));
     let frame = r.render(true).unwrap().frame.unwrap();
     let cpu = reference::render_frame(&scene, &env, 2, 1).unwrap();
-    let over = fraction_over(frame.raster(), cpu.frame.raster(), 2).unwrap();
+    let over = frame_fraction_over(&frame, &cpu.frame, 2).unwrap();
     assert!(
         over <= 0.01,
         "{:.3} % of pixels off by more than 2 LSB",
@@ -564,7 +616,7 @@ fn hardware_filtering_is_an_option_with_its_error_measured() {
         r.set_rotation(&rotation_matrix(scene.rotation.axis, scene.angle(n)));
         let frame = r.render(true).unwrap().frame.unwrap();
         let cpu = reference::render_frame(&scene, &env, n, 1).unwrap();
-        let m = compare(frame.raster(), cpu.frame.raster()).unwrap();
+        let m = compare_frames(&frame, &cpu.frame).map(|(m, _)| m).unwrap();
         println!(
             "{:<36} hardware filter vs CPU 1 spp: PSNR {:.2} dB, max {}",
             scene.name, m.psnr, m.max_abs_diff
@@ -574,8 +626,8 @@ fn hardware_filtering_is_an_option_with_its_error_measured() {
             let manual = common::scene_renderer(&ctx, &scene, &env, GpuConfig::default());
             manual.set_rotation(&rotation_matrix(scene.rotation.axis, scene.angle(n)));
             let manual = manual.render(true).unwrap().frame.unwrap();
-            let d = compare(frame.raster(), manual.raster()).unwrap();
-            let differ = fraction_over(frame.raster(), manual.raster(), 0).unwrap();
+            let d = compare_frames(&frame, &manual).map(|(m, _)| m).unwrap();
+            let differ = frame_fraction_over(&frame, &manual, 0).unwrap();
             println!(
                 "    vs the manual filter: max {} LSB, {:.4} % of pixels differ",
                 d.max_abs_diff,
@@ -723,22 +775,17 @@ fn fused_execution_renders_the_staged_frames() {
             let timed: Vec<&str> = out.timings.iter().map(|t| t.stage.as_str()).collect();
             assert_eq!(timed, names);
             let b = out.frame.unwrap();
-            let m = compare(b.raster(), a.raster()).unwrap();
+            let m = compare_frames(&b, &a).map(|(m, _)| m).unwrap();
             assert!(
                 m.max_abs_diff <= if exact { 0 } else { 1 },
                 "{} frame {n}: fused differs from staged by {} LSB",
                 scene.name,
                 m.max_abs_diff
             );
-            differing += a
-                .pixels
-                .iter()
-                .zip(&b.pixels)
-                .map(|(p, q)| (0..3).filter(|&c| p[c] != q[c]).count())
-                .sum::<usize>();
+            differing += differing_samples(&a, &b);
             let cpu = reference::render_frame(&scene, &env, n, 1).unwrap();
-            let m = compare(b.raster(), cpu.frame.raster()).unwrap();
-            let over = fraction_over(b.raster(), cpu.frame.raster(), 1).unwrap();
+            let m = compare_frames(&b, &cpu.frame).map(|(m, _)| m).unwrap();
+            let over = frame_fraction_over(&b, &cpu.frame, 1).unwrap();
             assert!(
                 m.psnr >= 50.0 && over <= 0.001,
                 "{} frame {n} fused vs CPU: PSNR {:.2} dB, {:.4} % over 1 LSB",
@@ -817,10 +864,11 @@ fn subnormal_luminance_is_toned_to_zero_on_both_renderers() {
         }
         assert!(zeroed > 500, "{operator:?}: only {zeroed} subnormal pixels");
         let frame = gpu.frame.unwrap();
+        let (frame, cpu_frame) = (frame.as_rgb8().unwrap(), cpu.frame.as_rgb8().unwrap());
         let worst = frame
             .as_bytes()
             .iter()
-            .zip(cpu.frame.as_bytes())
+            .zip(cpu_frame.as_bytes())
             .map(|(a, b)| a.abs_diff(*b))
             .max()
             .unwrap();
@@ -1222,7 +1270,7 @@ fn the_render_command_writes_every_frame_in_order() {
         assert_eq!(listed[n as usize]["frame"], n);
         assert!(listed[n as usize]["stats"]["weighted_log_average"].is_number());
         let file = dir.path().join(tonegate::golden::frame_file(n));
-        let written = tonegate::io::read_png8(&file).unwrap();
+        let written = tonegate::io::read_frame_png(&file).unwrap();
         assert!(
             written == serial.frame(n).unwrap().image,
             "frame {n}: the written PNG is not the frame"

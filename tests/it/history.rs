@@ -201,6 +201,7 @@ fn a_version_1_file_is_migrated_without_losing_its_runs() {
             mean_abs_diff,
             fraction_over_1lsb: 0.01,
             flip_mean: 0.002,
+            bits: 8,
             ssim_definition: String::new(),
         },
         fraction_over: BTreeMap::new(),

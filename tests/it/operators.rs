@@ -224,7 +224,7 @@ fn every_operators_gpu_curve_matches_its_f64_curve() {
         );
         // The encoded frames: at most 1 LSB apart anywhere.
         let frame = out.frame.unwrap();
-        let diff = tonegate::metrics::max_abs_diff(frame.raster(), cpu.frame.raster()).unwrap();
+        let diff = tonegate::metrics::frame_max_abs_diff(&frame, &cpu.frame).unwrap();
         assert!(diff <= 1, "{op:?}: frames {diff} LSB apart");
         eprintln!("{}: worst {worst:.3} of the bound, {diff} LSB", op.name());
     }

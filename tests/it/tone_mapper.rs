@@ -132,7 +132,14 @@ fn tonegate_frame(ctx: &GpuContext, img: &HdrImage, op: &Operator, encoding: Enc
         GpuConfig::default(),
     )
     .unwrap();
-    r.render(true).unwrap().frame.unwrap().as_bytes().to_vec()
+    r.render(true)
+        .unwrap()
+        .frame
+        .unwrap()
+        .as_rgb8()
+        .unwrap()
+        .as_bytes()
+        .to_vec()
 }
 
 fn night_and_ramp() -> HdrImage {
@@ -277,4 +284,17 @@ fn textures_the_tone_mapper_cannot_use_are_refused_with_the_reason() {
     mapper.record(&mut encoder, &good_in, &good_out).unwrap();
     queue.submit([encoder.finish()]);
     device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
+    // PQ frames are 16-bit: not into an 8-bit texture, even from an
+    // operator that has display levels.
+    let mut pq = ToneMapper::new(
+        &device,
+        &queue,
+        ToneMapperSettings {
+            operator: tonegate::scene::Operator::named("bt2390", &[]).unwrap(),
+            encoding: tonegate::scene::Encoding::Pq,
+        },
+    );
+    let mut encoder = device.create_command_encoder(&Default::default());
+    let e = pq.record(&mut encoder, &good_in, &good_out).unwrap_err();
+    assert!(e.to_string().contains("encoding pq"), "{e}");
 }

@@ -18,6 +18,7 @@ fn frame(n: u32, psnr: f64) -> FrameResult {
             mean_abs_diff: 0.0,
             fraction_over_1lsb: 0.0,
             flip_mean: 0.0,
+            bits: 8,
             ssim_definition: String::new(),
         },
         fraction_over: BTreeMap::new(),
@@ -144,12 +145,12 @@ fn judged_after(checks: &[CheckSpec], frame: Rgb8Image, earlier: &[SceneResult])
         adapter: "test".into(),
         spp: 16,
         plan: vec!["encode"],
-        frames: vec![frame],
+        frames: vec![frame.into()],
         timings: Vec::new(),
         fps: None,
         options: Vec::new(),
     };
-    judge(on, rendered, vec![gradient()]).unwrap().0
+    judge(on, rendered, vec![gradient().into()]).unwrap().0
 }
 
 #[test]
