@@ -1,9 +1,9 @@
 //! The report's metrics of two encoded frames at either depth
 //! (docs/metrics.md#pq-frames).
 //!
-//! 8-bit frames go through [`compare_with_flip`](super::compare_with_flip)
-//! as they always have. 16-bit PQ frames are measured on their codes with
-//! the same definitions scaled to 16 bits:
+//! 8-bit frames go through [`compare_with_flip`] as they always have.
+//! 16-bit PQ frames are measured on their codes with the same definitions
+//! scaled to 16 bits:
 //! - MSE, RMSE, mean and maximum difference and the fraction over k LSB in
 //!   16-bit codes, from exact integer sums;
 //! - PSNR 10·log10(65535²/MSE);
