@@ -16,6 +16,7 @@
 
 use super::flip::{Flip, DEFAULT_PPD};
 use super::hdr_flip::{hdr_flip, HdrFlipOptions};
+use super::hdr_input::check_hdr_sizes;
 use super::ssim::{ssim_mapped, Ssim};
 use super::{
     compare_with_flip, fraction_over, heatmap_colour, Metrics, MetricsError, SSIM_DEFINITION,
@@ -39,7 +40,7 @@ pub fn frame_fraction_over(test: &Frame, reference: &Frame, k: u8) -> Result<f64
     match (test, reference) {
         (Frame::Rgb8(t), Frame::Rgb8(r)) => fraction_over(t.raster(), r.raster(), k),
         (Frame::Pq16(t), Frame::Pq16(r)) => {
-            check_size(t, r)?;
+            check_hdr_sizes(t, r)?;
             Ok(Sums16::of(t, r, u16::from(k)).over as f64 / t.pixels.len() as f64)
         }
         _ => Err(depth_mismatch(test, reference)),
@@ -53,7 +54,7 @@ pub fn frame_max_abs_diff(test: &Frame, reference: &Frame) -> Result<u16, Metric
             super::max_abs_diff(t.raster(), r.raster()).map(u16::from)
         }
         (Frame::Pq16(t), Frame::Pq16(r)) => {
-            check_size(t, r)?;
+            check_hdr_sizes(t, r)?;
             Ok(Sums16::of(t, r, 1).max_abs_diff)
         }
         _ => Err(depth_mismatch(test, reference)),
@@ -66,7 +67,7 @@ pub fn frame_ssim(test: &Frame, reference: &Frame) -> Result<Ssim, MetricsError>
     match (test, reference) {
         (Frame::Rgb8(t), Frame::Rgb8(r)) => super::ssim(t.raster(), r.raster()),
         (Frame::Pq16(t), Frame::Pq16(r)) => {
-            check_size(t, r)?;
+            check_hdr_sizes(t, r)?;
             let mut sum: Option<Ssim> = None;
             for c in 0..3 {
                 let s = ssim_mapped(&t.pixels, &r.pixels, t.width, t.height, &|p: &[u16; 3]| {
@@ -98,7 +99,7 @@ pub fn frame_flip(test: &Frame, reference: &Frame) -> Result<Flip, MetricsError>
     match (test, reference) {
         (Frame::Rgb8(t), Frame::Rgb8(r)) => super::flip::flip(t.raster(), r.raster(), DEFAULT_PPD),
         (Frame::Pq16(t), Frame::Pq16(r)) => {
-            check_size(t, r)?;
+            check_hdr_sizes(t, r)?;
             Ok(hdr_flip(&pq16_light(t), &pq16_light(r), &HdrFlipOptions::default())?.0)
         }
         _ => Err(depth_mismatch(test, reference)),
@@ -112,7 +113,7 @@ pub fn frame_diff_heatmap(test: &Frame, reference: &Frame) -> Result<Rgb8Image, 
     match (test, reference) {
         (Frame::Rgb8(t), Frame::Rgb8(r)) => super::diff_heatmap(t.raster(), r.raster()),
         (Frame::Pq16(t), Frame::Pq16(r)) => {
-            check_size(t, r)?;
+            check_hdr_sizes(t, r)?;
             Ok(Rgb8Image {
                 width: t.width,
                 height: t.height,
@@ -140,31 +141,6 @@ fn depth_mismatch(test: &Frame, reference: &Frame) -> MetricsError {
             reference.kind()
         ),
     }
-}
-
-fn check_size(test: &Rgb16Image, reference: &Rgb16Image) -> Result<(), MetricsError> {
-    if (test.width, test.height) != (reference.width, reference.height) {
-        return Err(MetricsError::SizeMismatch {
-            test_width: test.width,
-            test_height: test.height,
-            reference_width: reference.width,
-            reference_height: reference.height,
-        });
-    }
-    let n = test.width as usize * test.height as usize;
-    for (role, image) in [("image under test", test), ("reference", reference)] {
-        if image.pixels.len() != n || n == 0 {
-            return Err(MetricsError::BadSampleLength {
-                role,
-                width: image.width,
-                height: image.height,
-                channels: 3,
-                expected: n as u128 * 3,
-                actual: image.pixels.len() * 3,
-            });
-        }
-    }
-    Ok(())
 }
 
 /// Exact integer totals over a pair of 16-bit frames: 65535² × 2³² samples
@@ -231,7 +207,7 @@ fn compare_pq16(
     test: &Rgb16Image,
     reference: &Rgb16Image,
 ) -> Result<(Metrics, Flip), MetricsError> {
-    check_size(test, reference)?;
+    check_hdr_sizes(test, reference)?;
     let (width, height) = (test.width, test.height);
     // SSIM first, as for 8-bit frames: it refuses small frames.
     let mut ssim = 0.0;

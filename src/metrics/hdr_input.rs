@@ -4,7 +4,7 @@
 //! (`hdr`) import from here, never from each other.
 
 use super::MetricsError;
-use crate::image::HdrImage;
+use crate::image::{HdrImage, Image};
 use rayon::prelude::*;
 
 /// The images HDR metrics take.
@@ -36,8 +36,12 @@ pub(crate) fn non_finite(role: &'static str, img: &HdrImage) -> Option<MetricsEr
 
 /// The size half of [`check_hdr_pair`]: equal sizes, pixels present. For
 /// metrics that find a non-finite value in a pass they make anyway (its
-/// result is then NaN) and only then look for where it is.
-pub(crate) fn check_hdr_sizes(test: &HdrImage, reference: &HdrImage) -> Result<(), MetricsError> {
+/// result is then NaN) and only then look for where it is, and for 16-bit
+/// frames, whose codes are all finite.
+pub(crate) fn check_hdr_sizes<P>(
+    test: &Image<P>,
+    reference: &Image<P>,
+) -> Result<(), MetricsError> {
     if (test.width, test.height) != (reference.width, reference.height) {
         return Err(MetricsError::SizeMismatch {
             test_width: test.width,
