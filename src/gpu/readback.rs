@@ -54,8 +54,9 @@ pub struct Ticket {
 /// The staging slots and which of them a frame not yet collected holds.
 pub(super) struct Ring {
     staging: Vec<Staging>,
-    /// The frame is 16-bit PQ, two words a pixel (else RGBA8, one).
-    pq: bool,
+    /// Bytes a pixel of the packed frame: 8 for 16-bit PQ (two words), 4
+    /// for RGBA8.
+    bytes_per_pixel: u64,
     busy: std::sync::Mutex<[bool; FRAMES_IN_FLIGHT]>,
     submitted: std::sync::atomic::AtomicUsize,
 }
@@ -70,9 +71,10 @@ impl Ring {
         encoding: crate::scene::Encoding,
         timing_bytes: Option<u64>,
     ) -> Ring {
-        let frame_bytes = pixels * super::encode::frame_bytes_per_pixel(encoding);
+        let bytes_per_pixel = super::encode::frame_bytes_per_pixel(encoding);
+        let frame_bytes = pixels * bytes_per_pixel;
         Ring {
-            pq: encoding == crate::scene::Encoding::Pq,
+            bytes_per_pixel,
             staging: (0..FRAMES_IN_FLIGHT)
                 .map(|_| Staging {
                     stats: read_buffer(
@@ -171,7 +173,7 @@ impl Ring {
                 0,
                 &staging.frame,
                 0,
-                size.0 as u64 * size.1 as u64 * if self.pq { 8 } else { 4 },
+                size.0 as u64 * size.1 as u64 * self.bytes_per_pixel,
             );
         }
         let submission = ctx.queue.submit([encoder.finish()]);
@@ -262,7 +264,7 @@ impl Ring {
             // Buffers are at least 16 bytes: a frame under 4 pixels has padding.
             let (width, height) = ticket.size;
             let n = width as usize * height as usize;
-            Some(if self.pq {
+            Some(if self.bytes_per_pixel == 8 {
                 let pixels = view
                     .chunks_exact(8)
                     .take(n)

@@ -17,12 +17,12 @@
 use super::flip::{Flip, DEFAULT_PPD};
 use super::hdr_flip::{hdr_flip, HdrFlipOptions};
 use super::hdr_input::check_hdr_sizes;
-use super::ssim::{ssim_mapped, Ssim};
+use super::ssim::{mean_ssim_mapped, ssim_mapped, Ssim};
 use super::{
     compare_with_flip, fraction_over, heatmap_colour, Metrics, MetricsError, SSIM_DEFINITION,
 };
 use crate::color::{apply, bt709_to_bt2020, inverse, pq_decode};
-use crate::image::{Frame, HdrImage, Rgb16Image, Rgb8Image};
+use crate::image::{Frame, HdrImage, Image, Rgb16Image, Rgb8Image};
 use rayon::prelude::*;
 
 /// The report's metrics of `test` against `reference`, and the FLIP map
@@ -68,26 +68,9 @@ pub fn frame_ssim(test: &Frame, reference: &Frame) -> Result<Ssim, MetricsError>
         (Frame::Rgb8(t), Frame::Rgb8(r)) => super::ssim(t.raster(), r.raster()),
         (Frame::Pq16(t), Frame::Pq16(r)) => {
             check_hdr_sizes(t, r)?;
-            let mut sum: Option<Ssim> = None;
-            for c in 0..3 {
-                let s = ssim_mapped(&t.pixels, &r.pixels, t.width, t.height, &|p: &[u16; 3]| {
-                    f64::from(p[c]) / 257.0
-                })?;
-                sum = Some(match sum {
-                    None => s,
-                    Some(mut acc) => {
-                        acc.mean += s.mean;
-                        for (a, b) in acc.map.pixels.iter_mut().zip(&s.map.pixels) {
-                            *a += b;
-                        }
-                        acc
-                    }
-                });
-            }
-            let mut s = sum.expect("three channels");
-            s.mean /= 3.0;
-            s.map.pixels.iter_mut().for_each(|v| *v /= 3.0);
-            Ok(s)
+            let (mean, map) = ssim16(t, r, true)?;
+            let map = map.unwrap_or_else(|| Image::filled(t.width, t.height, 0.0));
+            Ok(Ssim { mean, map })
         }
         _ => Err(depth_mismatch(test, reference)),
     }
@@ -193,6 +176,33 @@ impl Sums16 {
     }
 }
 
+/// SSIM of two 16-bit frames: each channel's codes over 257 on SSIM's
+/// 0..255 scale (scikit-image's at `data_range=65535`), the mean over the
+/// channels; with the per-pixel map, averaged the same way, when `with_map`.
+fn ssim16(
+    test: &Rgb16Image,
+    reference: &Rgb16Image,
+    with_map: bool,
+) -> Result<(f64, Option<Image<f64>>), MetricsError> {
+    let (width, height) = (test.width, test.height);
+    let mut mean = 0.0;
+    let mut map = with_map.then(|| Image::filled(width, height, 0.0));
+    for c in 0..3 {
+        let f = |p: &[u16; 3]| f64::from(p[c]) / 257.0;
+        match &mut map {
+            Some(map) => {
+                let s = ssim_mapped(&test.pixels, &reference.pixels, width, height, &f)?;
+                mean += s.mean;
+                for (a, b) in map.pixels.iter_mut().zip(&s.map.pixels) {
+                    *a += b / 3.0;
+                }
+            }
+            None => mean += mean_ssim_mapped(&test.pixels, &reference.pixels, width, height, &f)?,
+        }
+    }
+    Ok((mean / 3.0, map))
+}
+
 /// The light a PQ frame's codes decode to, BT.709 cd/m² (negative
 /// components, from colours outside BT.709, taken as 0).
 pub fn pq16_light(frame: &Rgb16Image) -> HdrImage {
@@ -208,18 +218,8 @@ fn compare_pq16(
     reference: &Rgb16Image,
 ) -> Result<(Metrics, Flip), MetricsError> {
     check_hdr_sizes(test, reference)?;
-    let (width, height) = (test.width, test.height);
     // SSIM first, as for 8-bit frames: it refuses small frames.
-    let mut ssim = 0.0;
-    for c in 0..3 {
-        ssim += super::ssim::mean_ssim_mapped(
-            &test.pixels,
-            &reference.pixels,
-            width,
-            height,
-            &|p: &[u16; 3]| f64::from(p[c]) / 257.0,
-        )?;
-    }
+    let (ssim, _) = ssim16(test, reference, false)?;
     let (flip, _) = hdr_flip(
         &pq16_light(test),
         &pq16_light(reference),
@@ -241,7 +241,7 @@ fn compare_pq16(
             10.0 * libm::log10(65535.0 * 65535.0 / mse)
         },
         snr,
-        ssim: ssim / 3.0,
+        ssim,
         max_abs_diff: s.max_abs_diff,
         mean_abs_diff: s.abs_error as f64 / s.samples as f64,
         fraction_over_1lsb: s.over as f64 / test.pixels.len() as f64,
