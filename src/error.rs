@@ -19,6 +19,7 @@ pub enum Error {
         source: std::io::Error,
     },
     /// No usable adapter, or the GPU failed.
+    #[cfg(feature = "gpu")]
     #[error(transparent)]
     Gpu(#[from] crate::gpu::GpuError),
     /// A renderer met a plan it cannot execute (a tonegate bug).
@@ -28,15 +29,19 @@ pub enum Error {
     #[error(transparent)]
     Scene(#[from] crate::scene::SceneError),
     /// A scene could not be rendered (its environment, the GPU, the reference).
+    #[cfg(feature = "gpu")]
     #[error(transparent)]
     Render(#[from] crate::render::RenderError),
     /// The goldens could not be read or written.
+    #[cfg(feature = "gpu")]
     #[error(transparent)]
     Golden(#[from] crate::golden::GoldenError),
     /// The history database could not be opened, read or written.
+    #[cfg(feature = "history")]
     #[error(transparent)]
     History(#[from] crate::history::HistoryError),
     /// A trade-off sweep could not measure a configuration.
+    #[cfg(all(feature = "gpu", feature = "history"))]
     #[error(transparent)]
     Tradeoff(#[from] crate::tradeoff::TradeoffError),
     /// A report could not be written as JSON.
@@ -46,6 +51,7 @@ pub enum Error {
         source: serde_json::Error,
     },
     /// The JUnit report could not be written.
+    #[cfg(feature = "history")]
     #[error("writing JUnit XML: {0}")]
     Junit(#[from] quick_junit::SerializeError),
     /// The server could not start, or stopped serving.

@@ -4,6 +4,13 @@
 //! shared contract both renderers execute; `metrics` and `check` judge the
 //! outputs; `gate` runs the CI gate over a suite; `server` serves the history.
 //! ARCHITECTURE.md draws the layers. The command line lives in the binary.
+//!
+//! Cargo features (all on by default) follow the layers: without any, the
+//! crate is the CPU reference, the metrics, the file formats, scenes,
+//! suites, plans and the parsers of what a client sends; `gpu` adds the
+//! wgpu renderer and what runs on it, `history` the run store (and with
+//! `gpu` the gate), `postgres` and `s3` a fleet's history and artifact
+//! store, `server` the HTTP API and the runner, `cli` the binary.
 
 pub mod changepoint;
 pub mod check;
@@ -12,9 +19,13 @@ pub mod conventions;
 pub mod env;
 pub mod error;
 pub mod fuzzing;
+#[cfg(all(feature = "gpu", feature = "history"))]
 pub mod gate;
+#[cfg(feature = "gpu")]
 pub mod golden;
+#[cfg(feature = "gpu")]
 pub mod gpu;
+#[cfg(feature = "history")]
 pub mod history;
 pub mod image;
 pub mod io;
@@ -25,14 +36,21 @@ pub mod perf;
 pub mod plan;
 pub mod progress;
 pub mod reference;
+#[cfg(feature = "gpu")]
 pub mod render;
+pub mod request;
+#[cfg(feature = "server")]
 pub mod runner;
 pub mod scene;
+#[cfg(feature = "server")]
 pub mod server;
+#[cfg(feature = "gpu")]
 pub mod stress;
 pub mod suite;
 pub mod toning;
+#[cfg(all(feature = "gpu", feature = "history"))]
 pub mod tradeoff;
 
 pub use error::{Error, Result};
+#[cfg(feature = "gpu")]
 pub use gpu::{ToneMapper, ToneMapperSettings};

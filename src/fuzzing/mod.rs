@@ -17,7 +17,7 @@ pub const NAME: &str = "fuzz-input";
 
 /// The server's pixel limit: the one a hostile upload meets.
 fn max_pixels() -> u64 {
-    crate::server::Limits::default().max_pixels
+    crate::request::MAX_UPLOAD_PIXELS
 }
 
 fn names_the_input(message: &str) {
@@ -120,9 +120,9 @@ pub fn suite(data: &[u8]) {
     }
 }
 
-fn api_error(e: &crate::server::error::ApiError) {
+fn api_error(e: &crate::request::ApiError) {
     assert!(
-        e.detail.chars().count() <= crate::server::error::MAX_DETAIL + 1,
+        e.detail.chars().count() <= crate::request::error::MAX_DETAIL + 1,
         "a detail of {} characters",
         e.detail.chars().count()
     );
@@ -140,7 +140,7 @@ fn api_error(e: &crate::server::error::ApiError) {
 pub fn tonemap_params(data: &[u8]) {
     let text = String::from_utf8_lossy(data);
     let (query, form) = text.split_once('\n').unwrap_or((&text, ""));
-    let mut pairs = match crate::server::tonemap::query_pairs(Some(query)) {
+    let mut pairs = match crate::request::params::query_pairs(Some(query)) {
         Ok(p) => p,
         Err(e) => return api_error(&e),
     };
@@ -148,11 +148,11 @@ pub fn tonemap_params(data: &[u8]) {
         let (k, v) = l.split_once('=').unwrap_or((l, ""));
         (k.to_owned(), v.to_owned())
     }));
-    let headers = axum::http::HeaderMap::new();
-    match crate::server::tonemap::parse_params(pairs, &headers) {
+    let headers = http::HeaderMap::new();
+    match crate::request::tonemap::parse_params(pairs, &headers) {
         Ok((_, settings)) => {
             if let Err(e) = settings.resolve() {
-                api_error(&crate::server::error::ApiError::of_crate(&e));
+                api_error(&crate::request::ApiError::of_crate(&e));
             }
         }
         Err(e) => api_error(&e),
@@ -165,25 +165,17 @@ pub const BOUNDARY: &str = "fuzzboundary";
 /// A multipart `POST /tonemap` body (boundary [`BOUNDARY`]), read as the
 /// handler reads it: its file field, and its text fields as parameters.
 pub fn multipart(data: &[u8]) {
-    let req = axum::http::Request::builder()
-        .method("POST")
-        .uri("/api/v1/tonemap")
-        .header(
-            "content-type",
-            format!("multipart/form-data; boundary={BOUNDARY}"),
-        )
-        .header("content-length", data.len())
-        .body(axum::body::Body::from(data.to_vec()))
-        .expect("a well-formed request");
-    let rt = tokio::runtime::Builder::new_current_thread()
-        .build()
-        .expect("a runtime");
+    let body = futures_util::stream::iter([Ok::<_, crate::request::tonemap::BodyError>(
+        bytes::Bytes::copy_from_slice(data),
+    )]);
+    let content_type = format!("multipart/form-data; boundary={BOUNDARY}");
     let mut pairs = Vec::new();
-    match rt.block_on(crate::server::tonemap::read_multipart(req, &mut pairs)) {
+    let read = crate::request::tonemap::read_multipart(body, &content_type, &mut pairs);
+    match pollster::block_on(read) {
         Ok(file) => {
             assert!(file.len() <= data.len());
-            let headers = axum::http::HeaderMap::new();
-            if let Err(e) = crate::server::tonemap::parse_params(pairs, &headers) {
+            let headers = http::HeaderMap::new();
+            if let Err(e) = crate::request::tonemap::parse_params(pairs, &headers) {
                 api_error(&e);
             }
         }
@@ -193,8 +185,7 @@ pub fn multipart(data: &[u8]) {
 
 /// A `POST /runs` body.
 pub fn runs_json(data: &[u8]) {
-    let adapter = crate::gpu::AdapterChoice::default();
-    if let Err(e) = crate::server::runs::run_request(data, &adapter, Default::default()) {
+    if let Err(e) = crate::request::runs::own_run(data) {
         api_error(&e);
     }
 }

@@ -247,6 +247,7 @@ pub fn numbered_for_sqlite(sql: &str) -> String {
     out
 }
 
+#[cfg(feature = "postgres")]
 /// The shared schema's DDL in PostgreSQL's types: 64-bit integers (the
 /// history binds every integer as one), double precision for REAL, and an
 /// identity column for the runs' INTEGER PRIMARY KEY. Word by word, outside
@@ -295,6 +296,7 @@ mod tests {
         );
     }
 
+    #[cfg(feature = "postgres")]
     #[test]
     fn ddl_types_map_to_postgres_whole_words_only() {
         let pg = ddl_for_postgres(

@@ -15,7 +15,12 @@ pub(crate) mod backend;
 mod fleet;
 mod jobs;
 pub mod matrix;
+#[cfg(feature = "s3")]
 pub mod objects;
+#[cfg(not(feature = "s3"))]
+#[path = "objects_unbuilt.rs"]
+pub mod objects;
+#[cfg(feature = "postgres")]
 mod postgres;
 pub mod query;
 mod reconnect;
@@ -28,7 +33,6 @@ pub use artifacts::{ArtifactStats, Pruned, StoredArtifact, STRAY_GRACE};
 pub use fleet::{ClaimedJob, Expired, RunnerInfo, RunnerRow, MAX_ATTEMPTS};
 pub use jobs::{valid_label, JobRow, JobSpec, LISTED_SCENES, MAX_QUEUED_JOBS};
 pub use objects::{artifact_store, is_store_url, set_artifact_store, Objects};
-pub use postgres::{is_url, redacted};
 pub use reconnect::{last_recovery, set_retry_budget};
 
 pub use query::{RunRow, RunsFilter, TradeoffRow, TrendFilter, TrendPoint};
@@ -59,6 +63,7 @@ pub enum HistoryError {
         source: rusqlite::Error,
     },
     /// The PostgreSQL history could not be reached, read or written.
+    #[cfg(feature = "postgres")]
     #[error("history database {url}: {}", postgres::describe(source))]
     Postgres {
         url: String,
@@ -94,6 +99,7 @@ impl HistoryError {
     /// out, not a fault of the request.
     pub fn unavailable(&self) -> bool {
         match self {
+            #[cfg(feature = "postgres")]
             HistoryError::Postgres { source, .. } => reconnect::connection_lost(source),
             _ => false,
         }
@@ -188,6 +194,40 @@ pub struct RunAdapter {
     pub config: String,
 }
 
+/// Whether `db` names a PostgreSQL database rather than a SQLite file.
+pub fn is_url(db: &str) -> bool {
+    db.starts_with("postgres://") || db.starts_with("postgresql://")
+}
+
+/// The address as errors and the console show it: without a password.
+pub fn redacted(url: &str) -> String {
+    let Some((scheme, rest)) = url.split_once("://") else {
+        return url.to_owned();
+    };
+    match rest.split_once('@') {
+        Some((user, host)) if user.contains(':') => {
+            let name = user.split(':').next().unwrap_or("");
+            format!("{scheme}://{name}:***@{host}")
+        }
+        _ => url.to_owned(),
+    }
+}
+
+/// A connection to the PostgreSQL history at `url`.
+#[cfg(feature = "postgres")]
+fn postgres_backend(url: &str, read_only: bool) -> Result<Box<dyn Backend>, HistoryError> {
+    Ok(Box::new(postgres::Postgres::connect(url, read_only)?))
+}
+
+/// A build without the `postgres` feature refuses a PostgreSQL history.
+#[cfg(not(feature = "postgres"))]
+fn postgres_backend(url: &str, _read_only: bool) -> Result<Box<dyn Backend>, HistoryError> {
+    Err(HistoryError::Invalid(format!(
+        "history database {}: this tonegate was built without the `postgres` feature",
+        redacted(url)
+    )))
+}
+
 /// An open history: a SQLite file or a PostgreSQL database.
 pub struct History {
     db: Box<dyn Backend>,
@@ -203,7 +243,7 @@ impl History {
         let url = path.to_string_lossy();
         if is_url(&url) {
             let h = History {
-                db: Box::new(postgres::Postgres::connect(&url, false)?),
+                db: postgres_backend(&url, false)?,
                 path: redacted(&url).into(),
             };
             h.db.migrate(MIGRATIONS)?;
@@ -255,7 +295,7 @@ impl History {
         let url = path.to_string_lossy();
         if is_url(&url) {
             let h = History {
-                db: Box::new(postgres::Postgres::connect(&url, true)?),
+                db: postgres_backend(&url, true)?,
                 path: redacted(&url).into(),
             };
             h.check_version()?;

@@ -9,25 +9,11 @@
 
 use super::backend::{ddl_for_postgres, Backend, Dialect, Row, Sql, Value};
 use super::reconnect::{connection_lost, Backoff};
-use super::{HistoryError, SCHEMA_VERSION};
+use super::{redacted, HistoryError, SCHEMA_VERSION};
 use bytes::BytesMut;
 use postgres::types::{IsNull, ToSql, Type};
 use postgres::{Client, GenericClient, NoTls};
 use std::sync::{Mutex, MutexGuard};
-
-/// The address as errors and the console show it: without a password.
-pub fn redacted(url: &str) -> String {
-    let Some((scheme, rest)) = url.split_once("://") else {
-        return url.to_owned();
-    };
-    match rest.split_once('@') {
-        Some((user, host)) if user.contains(':') => {
-            let name = user.split(':').next().unwrap_or("");
-            format!("{scheme}://{name}:***@{host}")
-        }
-        _ => url.to_owned(),
-    }
-}
 
 /// What went wrong, in the server's own words when it answered: the client's
 /// Display says only "db error" for those.
@@ -48,11 +34,6 @@ pub fn describe(e: &postgres::Error) -> String {
             None => e.to_string(),
         },
     }
-}
-
-/// Whether `db` names a PostgreSQL database rather than a SQLite file.
-pub fn is_url(db: &str) -> bool {
-    db.starts_with("postgres://") || db.starts_with("postgresql://")
 }
 
 /// Statements PostgreSQL needs beside a shared migration: the identity
@@ -402,6 +383,7 @@ impl Backend for Postgres {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::history::is_url;
 
     #[test]
     fn passwords_are_not_shown() {

@@ -25,6 +25,7 @@ pub fn set_retry_budget(budget: Duration) {
     );
 }
 
+#[cfg(feature = "postgres")]
 fn retry_budget() -> Duration {
     Duration::from_millis(RETRY_BUDGET_MS.load(Ordering::Relaxed))
 }
@@ -35,6 +36,7 @@ pub fn last_recovery() -> Option<Instant> {
     *RECOVERED.lock().unwrap_or_else(|p| p.into_inner())
 }
 
+#[cfg(feature = "postgres")]
 /// Whether an error means the connection, not the statement, failed: the
 /// socket closed, the server refused or dropped the connection (SQLSTATE
 /// class 08), or it is shutting down or starting (57P01 admin shutdown,
@@ -61,6 +63,7 @@ pub fn connection_lost(e: &postgres::Error) -> bool {
     false
 }
 
+#[cfg(feature = "postgres")]
 /// Waits between tries: 50 ms doubling to 2 s, each wait drawn between half
 /// and all of that (so a fleet that lost its database together does not
 /// reconnect in step), until the budget is spent.
@@ -71,6 +74,7 @@ pub(super) struct Backoff {
     tries: u32,
 }
 
+#[cfg(feature = "postgres")]
 impl Backoff {
     pub(super) fn new() -> Backoff {
         let nanos = std::time::SystemTime::now()

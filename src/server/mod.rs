@@ -56,7 +56,7 @@ impl Default for Limits {
         // waiting in each.
         Limits {
             max_body: 128 << 20,
-            max_pixels: 8 << 20,
+            max_pixels: crate::request::MAX_UPLOAD_PIXELS,
             queue: 1,
             timeout: Duration::from_secs(60),
             max_queued_jobs: crate::history::MAX_QUEUED_JOBS,

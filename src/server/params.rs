@@ -5,6 +5,7 @@
 use super::error::ApiError;
 use super::AppState;
 use crate::history::{History, HistoryError};
+pub use crate::request::params::{check_names, from_pairs, renderer_is_cpu, MAX_NAME};
 use axum::http::{header, HeaderValue, StatusCode};
 use axum::response::{IntoResponse, Response};
 use serde::de::DeserializeOwned;
@@ -13,38 +14,6 @@ use serde::Serialize;
 /// Parses a query string, answering 400 with the parameter's name when it is unknown or bad.
 pub fn query<T: DeserializeOwned>(q: Option<String>) -> Result<T, ApiError> {
     from_pairs(q.as_deref().unwrap_or("").as_bytes())
-}
-
-/// Deserialises urlencoded pairs; a bad value's error names its parameter.
-pub fn from_pairs<T: DeserializeOwned>(encoded: &[u8]) -> Result<T, ApiError> {
-    check_names(form_urlencoded::parse(encoded).map(|(k, _)| k))?;
-    let de = serde_urlencoded::Deserializer::new(form_urlencoded::parse(encoded));
-    serde_path_to_error::deserialize(de).map_err(|e| {
-        let path = e.path().to_string();
-        if path == "." || path.is_empty() {
-            ApiError::bad(format!("query: {}", e.inner()))
-        } else {
-            ApiError::bad(format!("{path}: {}", e.inner()))
-        }
-    })
-}
-
-/// The longest parameter name anyone means: longer ones are refused without
-/// being echoed back whole.
-pub const MAX_NAME: usize = 64;
-
-/// Refuses parameter names longer than [`MAX_NAME`].
-pub fn check_names<S: AsRef<str>>(names: impl IntoIterator<Item = S>) -> Result<(), ApiError> {
-    for name in names {
-        let name = name.as_ref();
-        if name.chars().count() > MAX_NAME {
-            return Err(ApiError::bad(format!(
-                "a parameter name of {}; names are at most {MAX_NAME} characters",
-                super::error::clip(name)
-            )));
-        }
-    }
-    Ok(())
 }
 
 /// A run id from the path: a positive integer.
@@ -89,18 +58,6 @@ pub fn limit(given: Option<u32>, default: u32, max: u32) -> Result<u32, ApiError
         )));
     }
     Ok(limit)
-}
-
-/// A `renderer` parameter: gpu (the default) or cpu, as whether it is the CPU.
-pub fn renderer_is_cpu(given: Option<&str>) -> Result<bool, ApiError> {
-    match given {
-        None | Some("gpu") => Ok(false),
-        Some("cpu") => Ok(true),
-        Some(other) => Err(ApiError::bad(format!(
-            "renderer: expected gpu or cpu, got {}",
-            super::error::clip(other)
-        ))),
-    }
 }
 
 /// 202 Accepted with `body`, and a `Location` header pointing at `url`.

@@ -6,6 +6,7 @@ use super::error::{ApiError, ErrorBody};
 use super::params::{accepted, limit, query, read, renderer_is_cpu, run_id};
 use super::AppState;
 use crate::history::{History, HistoryError, JobSpec, RunKind, RunRow, RunStatus};
+use crate::request::runs::{parse_run_request, RunRequest};
 use axum::extract::{RawQuery, State};
 use axum::http::{header, HeaderMap};
 use axum::response::{IntoResponse, Response};
@@ -84,24 +85,6 @@ pub async fn get_run(
     Ok(([(header::CONTENT_TYPE, "application/json")], body).into_response())
 }
 
-/// What `POST /runs` may ask for.
-#[derive(Deserialize, ToSchema, Default)]
-#[serde(deny_unknown_fields)]
-pub struct RunRequest {
-    /// gpu (default) or cpu (the reference itself, to check the gate).
-    pub renderer: Option<String>,
-    /// Samples per pixel (default: each scene's goldens' spp). Not with a
-    /// fleet's queue: its runners render at the scenes' defaults.
-    pub spp: Option<u32>,
-    /// With a shared (PostgreSQL) history: only a runner whose adapter name
-    /// contains this (case-insensitive) takes the run.
-    pub adapter: Option<String>,
-    /// With a shared history: only a runner with this label takes the run.
-    pub label: Option<String>,
-    /// With a shared history: only these scenes of the suite.
-    pub scenes: Option<Vec<String>>,
-}
-
 /// What a `POST /runs` body asks for, as a queued job (a shared history).
 pub fn job_request(body: &[u8], suite: &std::path::Path) -> Result<JobSpec, ApiError> {
     let req = parse_run_request(body)?;
@@ -137,39 +120,21 @@ fn check_queued_scenes(spec: &JobSpec, suite: &std::path::Path) -> Result<(), Ap
     Ok(())
 }
 
-fn parse_run_request(body: &[u8]) -> Result<RunRequest, ApiError> {
-    if body.iter().all(|b| b.is_ascii_whitespace()) {
-        Ok(RunRequest::default())
-    } else {
-        serde_json::from_slice(body).map_err(|e| ApiError::bad(format!("body: {e}")))
-    }
-}
-
 /// What a `POST /runs` body asks for, checked: empty means the defaults.
 pub fn run_request(
     body: &[u8],
     adapter: &crate::gpu::AdapterChoice,
     config: crate::gpu::GpuConfig,
 ) -> Result<(crate::render::Renderer, Option<u32>), ApiError> {
-    let req = parse_run_request(body)?;
-    if req.adapter.is_some() || req.label.is_some() || req.scenes.is_some() {
-        return Err(ApiError::bad(
-            "adapter, label and scenes select a fleet's runner; this server's history is a SQLite file, so its runs are its own (serve --db postgres://... queues them)",
-        ));
-    }
-    let spp = match req.spp {
-        None => None,
-        Some(n @ 1..=256) => Some(n),
-        Some(n) => return Err(ApiError::bad(format!("spp: must be 1 to 256, got {n}"))),
-    };
-    let renderer = match renderer_is_cpu(req.renderer.as_deref())? {
+    let own = crate::request::runs::own_run(body)?;
+    let renderer = match own.cpu {
         true => crate::render::Renderer::Cpu,
         false => crate::render::Renderer::Gpu {
             adapter: adapter.clone(),
             config,
         },
     };
-    Ok((renderer, spp))
+    Ok((renderer, own.spp))
 }
 
 #[derive(Serialize, ToSchema)]

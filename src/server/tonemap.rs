@@ -5,83 +5,15 @@ use super::edge::ApiPath as Path;
 use super::error::{ApiError, ErrorBody};
 use super::queue::{JobParams, ToneOutput};
 use super::AppState;
+use crate::request::params::query_pairs;
+use crate::request::tonemap::parse_params;
 use crate::toning::ToneSettings;
 use axum::body::Bytes;
-use axum::extract::{FromRequest, Multipart, RawQuery, Request, State};
+use axum::extract::{RawQuery, Request, State};
 use axum::http::{header, HeaderMap, HeaderValue, StatusCode};
 use axum::response::{IntoResponse, Response};
 use base64::Engine as _;
 use std::sync::Arc;
-
-/// The parameters `POST /tonemap` takes besides the tone settings.
-pub(crate) struct Extra {
-    gpu: bool,
-    json: bool,
-    sanitize: bool,
-}
-
-/// Splits the request's parameters into the renderer choice and the tone
-/// settings; unknown names and bad values are refused with their name.
-pub(crate) fn parse_params(
-    pairs: Vec<(String, String)>,
-    headers: &HeaderMap,
-) -> Result<(Extra, ToneSettings), ApiError> {
-    super::params::check_names(pairs.iter().map(|(k, _)| k))?;
-    let mut extra = Extra {
-        gpu: true,
-        json: headers
-            .get(header::ACCEPT)
-            .and_then(|v| v.to_str().ok())
-            .is_some_and(|v| v.contains("application/json")),
-        sanitize: false,
-    };
-    let flag = |name: &str, v: &str| match v {
-        "true" | "1" | "yes" | "" => Ok(true),
-        "false" | "0" | "no" => Ok(false),
-        other => Err(ApiError::bad(format!(
-            "{name}: expected true or false, got {}",
-            super::error::clip(other)
-        ))),
-    };
-    let mut seen = std::collections::BTreeSet::new();
-    let mut rest = Vec::new();
-    // The operator's parameters, from the operators' definitions.
-    let mut operator_params = crate::toning::OperatorParams::default();
-    for (k, v) in pairs {
-        if !seen.insert(k.clone()) {
-            return Err(ApiError::bad(format!(
-                "parameter {} is given twice",
-                super::error::clip(&k)
-            )));
-        }
-        match k.as_str() {
-            "gpu" => extra.gpu = flag("gpu", &v)?,
-            "sanitize" => extra.sanitize = flag("sanitize", &v)?,
-            "format" => {
-                extra.json = match v.as_str() {
-                    "json" => true,
-                    "png" => false,
-                    other => {
-                        return Err(ApiError::bad(format!(
-                            "format: expected png or json, got {}",
-                            super::error::clip(other)
-                        )))
-                    }
-                }
-            }
-            name if crate::toning::OperatorParams::takes(name) => operator_params.set(name, v),
-            _ => rest.push((k, v)),
-        }
-    }
-    let encoded = serde_urlencoded::to_string(&rest).map_err(|e| ApiError::bad(e.to_string()))?;
-    let mut settings: ToneSettings = super::params::from_pairs(encoded.as_bytes())?;
-    settings.params = operator_params;
-    Ok((extra, settings))
-}
-
-pub(crate) fn query_pairs(q: Option<&str>) -> Result<Vec<(String, String)>, ApiError> {
-    serde_urlencoded::from_str(q.unwrap_or("")).map_err(|e| ApiError::bad(format!("query: {e}")))
-}
 
 /// Tone-map an HDR image.
 #[utoipa::path(
@@ -220,38 +152,30 @@ fn timed_out(t: std::time::Duration) -> ApiError {
     )
 }
 
-/// The file field of a multipart body; its text fields join the parameters.
-pub(crate) async fn read_multipart(
+/// The file field of a multipart body, under the server's body limit; its
+/// text fields join the parameters.
+async fn read_multipart(
     req: Request,
     pairs: &mut Vec<(String, String)>,
 ) -> Result<Bytes, ApiError> {
-    let mut mp = Multipart::from_request(req, &())
-        .await
-        .map_err(|e| ApiError::bad(format!("multipart: {e}")))?;
-    let mut file = None;
-    while let Some(field) = mp.next_field().await.map_err(|e| multipart_error(&e))? {
-        let name = field.name().unwrap_or("").to_owned();
-        if field.file_name().is_some() || name == "file" {
-            if file.is_some() {
-                return Err(ApiError::bad(
-                    "multipart: more than one file; send one image per request",
-                ));
-            }
-            file = Some(field.bytes().await.map_err(|e| multipart_error(&e))?);
+    let content_type = req
+        .headers()
+        .get(header::CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .unwrap_or("")
+        .to_owned();
+    // The limit DefaultBodyLimit sets, as axum's own Multipart applies it.
+    let body = axum::RequestExt::with_limited_body(req).into_body();
+    let stream = futures_util::TryStreamExt::map_err(body.into_data_stream(), |e| {
+        let over = std::error::Error::source(&e)
+            .is_some_and(|s| s.is::<http_body_util::LengthLimitError>());
+        if over {
+            crate::request::tonemap::BodyError::TooLarge
         } else {
-            let v = field.text().await.map_err(|e| multipart_error(&e))?;
-            pairs.push((name, v));
+            crate::request::tonemap::BodyError::Read(e.to_string())
         }
-    }
-    file.ok_or_else(|| ApiError::bad("multipart: no file field (name it \"file\")"))
-}
-
-fn multipart_error(e: &axum::extract::multipart::MultipartError) -> ApiError {
-    if e.status() == StatusCode::PAYLOAD_TOO_LARGE {
-        ApiError::new(StatusCode::PAYLOAD_TOO_LARGE, "too_large", e.body_text())
-    } else {
-        ApiError::bad(format!("multipart: {}", e.body_text()))
-    }
+    });
+    crate::request::tonemap::read_multipart(stream, &content_type, pairs).await
 }
 
 fn respond(out: ToneOutput, json: bool, settings: &ToneSettings) -> Response {

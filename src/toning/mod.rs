@@ -14,13 +14,17 @@ pub use operator_params::OperatorParams;
 pub use settings::{Preset, Resolved, ToneSettings};
 
 use crate::error::{Error, Result};
+#[cfg(feature = "gpu")]
 use crate::gpu::{GpuConfig, GpuContext, RendererPool};
 use crate::image::{HdrImage, Rgb8Image};
 use crate::io::LoadReport;
+#[cfg(feature = "gpu")]
 use crate::plan::StagePlan;
 use crate::reference::luminance_stats::LuminanceStats;
 use crate::reference::tonemap::ToneParams;
-use crate::reference::{Pipeline, PixelwiseTone};
+#[cfg(feature = "gpu")]
+use crate::reference::Pipeline;
+use crate::reference::PixelwiseTone;
 use serde::Serialize;
 use std::path::Path;
 
@@ -179,6 +183,7 @@ pub struct Toned<'i> {
     pub image: TonedImage<'i>,
 }
 
+#[cfg(feature = "gpu")]
 /// Tone-maps `img` into `want` with the CPU reference, or on the GPU when a
 /// context is given: one image, so the GPU's textures have its own size and
 /// nothing is kept.
@@ -194,6 +199,7 @@ pub fn tone_map<'i>(
         .ok_or_else(|| Error::Invalid("the tone-map stopped before its end".into()))
 }
 
+#[cfg(feature = "gpu")]
 /// [`tone_map`] on renderers kept between images (a server's GPU worker),
 /// asking `stop` between stages (the CPU reference) or before and after the
 /// device's work (the GPU, which runs the plan in one submission): `None`
@@ -308,6 +314,7 @@ pub fn tone_map_until<'i>(
     }
 }
 
+#[cfg(feature = "gpu")]
 /// What the GPU made of a flat image.
 struct GpuToned<'i> {
     plan: StagePlan,
@@ -316,6 +323,7 @@ struct GpuToned<'i> {
     image: TonedImage<'i>,
 }
 
+#[cfg(feature = "gpu")]
 fn gpu_flat<'i>(
     img: &HdrImage,
     pipeline: &Pipeline,
@@ -373,6 +381,7 @@ fn gpu_flat<'i>(
     })
 }
 
+#[cfg(feature = "gpu")]
 /// A tone-map's encoded frame, which its settings make 8-bit (PQ and HLG
 /// files are encoded from the display image instead).
 fn eight_bit(frame: crate::image::Frame) -> Result<Rgb8Image> {

@@ -799,3 +799,105 @@ fn a_signal_after_gpu_work_drains_the_queues_and_exits_zero() {
         assert_eq!(log.matches("tone-map worker stopped").count(), 2, "{log}");
     }
 }
+
+/// A multipart upload is read by multer under the server's body limit: one
+/// sent chunked (no Content-Length to refuse it by) over the limit is 413,
+/// as a raw body is; two files or none are the client's mistake, 400; a
+/// well-formed one is tone-mapped.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn multipart_bodies_are_read_under_the_body_limit() {
+    let dir = tempfile::tempdir().unwrap();
+    let seeded = common::seed_empty(dir.path());
+    let s = start(&seeded, |o| o.limits.max_body = 64 << 10).await;
+    let addr: SocketAddr = s.base.trim_start_matches("http://").parse().unwrap();
+    let hdr = common::hdr_bytes(dir.path(), 32, 16);
+    let part = |name: &str, file: Option<&str>, body: &[u8]| {
+        let mut p = format!("--b0undary\r\nContent-Disposition: form-data; name=\"{name}\"");
+        if let Some(f) = file {
+            p += &format!("; filename=\"{f}\"");
+        }
+        p += "\r\n\r\n";
+        let mut p = p.into_bytes();
+        p.extend_from_slice(body);
+        p.extend_from_slice(b"\r\n");
+        p
+    };
+    let form = |parts: &[Vec<u8>]| {
+        let mut b = parts.concat();
+        b.extend_from_slice(b"--b0undary--\r\n");
+        b
+    };
+    let cases = [
+        (
+            "a file and a field",
+            form(&[
+                part("file", Some("a.hdr"), &hdr),
+                part("key", None, b"0.25"),
+            ]),
+            "200",
+            "",
+        ),
+        (
+            "over the limit",
+            form(&[part("file", Some("a.hdr"), &vec![b'x'; 80 << 10])]),
+            "413",
+            "too_large",
+        ),
+        (
+            "two files",
+            form(&[
+                part("file", Some("a.hdr"), &hdr),
+                part("more", Some("b.hdr"), &hdr),
+            ]),
+            "400",
+            "more than one file",
+        ),
+        (
+            "no file",
+            form(&[part("key", None, b"0.25")]),
+            "400",
+            "no file field",
+        ),
+    ];
+    let answers = tokio::task::spawn_blocking(move || {
+        cases
+            .iter()
+            .map(|(what, body, status, detail)| {
+                // Chunked, 16 KiB a chunk: the server learns the size only
+                // by reading.
+                let mut request = b"POST /api/v1/tonemap?gpu=false HTTP/1.1\r\nHost: t\r\n\
+                    Content-Type: multipart/form-data; boundary=b0undary\r\n\
+                    Transfer-Encoding: chunked\r\nConnection: close\r\n\r\n"
+                    .to_vec();
+                for chunk in body.chunks(16 << 10) {
+                    request.extend_from_slice(format!("{:x}\r\n", chunk.len()).as_bytes());
+                    request.extend_from_slice(chunk);
+                    request.extend_from_slice(b"\r\n");
+                }
+                request.extend_from_slice(b"0\r\n\r\n");
+                let mut sock = TcpStream::connect(addr).unwrap();
+                sock.set_read_timeout(Some(Duration::from_secs(30)))
+                    .unwrap();
+                // The server may answer and close before it has read all.
+                let _ = sock.write_all(&request);
+                let mut text = Vec::new();
+                let _ = sock.read_to_end(&mut text);
+                (
+                    *what,
+                    *status,
+                    *detail,
+                    String::from_utf8_lossy(&text).into_owned(),
+                )
+            })
+            .collect::<Vec<_>>()
+    })
+    .await
+    .unwrap();
+    for (what, status, detail, text) in answers {
+        assert!(
+            text.starts_with(&format!("HTTP/1.1 {status}")),
+            "{what}: {text}"
+        );
+        assert!(text.contains(detail), "{what}: {text}");
+    }
+}

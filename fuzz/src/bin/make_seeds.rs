@@ -132,20 +132,12 @@ fn main() {
         put("exr", &format!("{n}-ours-zip16.exr"), &ours(img, "exr"));
         put("radiance", &format!("{n}.hdr"), &ours(img, "hdr"));
         put("pfm", &format!("{n}.pfm"), &ours(img, "pfm"));
-        let ldr = tonegate::toning::tone_map(
-            img,
-            &tonegate::toning::ToneSettings::default()
-                .resolve()
-                .unwrap()
-                .pipeline(),
-            None,
-            tonegate::toning::OutputKind::Encoded,
-        )
-        .unwrap();
+        let resolved = tonegate::toning::ToneSettings::default().resolve().unwrap();
+        let (_, ldr) = tonegate::reference::render_flat(img, &resolved.pipeline()).unwrap();
         put(
             "png",
             &format!("{n}.png"),
-            &tonegate::io::encode_png8(ldr.image.encoded().unwrap()).unwrap(),
+            &tonegate::io::encode_png8(&ldr.frame.into_rgb8().unwrap()).unwrap(),
         );
     }
     let (_, sky) = &envs[0];

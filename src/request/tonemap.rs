@@ -1,0 +1,151 @@
+//! `POST /tonemap`'s request without the server: its parameters (the
+//! renderer choice, the answer's format and the tone settings) and its
+//! multipart body, read with multer, the parser axum's own extractor uses.
+
+use super::error::ApiError;
+use crate::toning::ToneSettings;
+use bytes::Bytes;
+use futures_util::Stream;
+use http::{header, HeaderMap, StatusCode};
+
+/// The parameters `POST /tonemap` takes besides the tone settings.
+pub struct Extra {
+    /// Render on the GPU (the default) rather than with the CPU reference.
+    pub gpu: bool,
+    /// Answer JSON with the PNG inline rather than the PNG.
+    pub json: bool,
+    /// Set NaN/Inf to 0 instead of refusing the file.
+    pub sanitize: bool,
+}
+
+/// Splits the request's parameters into the renderer choice and the tone
+/// settings; unknown names and bad values are refused with their name.
+pub fn parse_params(
+    pairs: Vec<(String, String)>,
+    headers: &HeaderMap,
+) -> Result<(Extra, ToneSettings), ApiError> {
+    super::params::check_names(pairs.iter().map(|(k, _)| k))?;
+    let mut extra = Extra {
+        gpu: true,
+        json: headers
+            .get(header::ACCEPT)
+            .and_then(|v| v.to_str().ok())
+            .is_some_and(|v| v.contains("application/json")),
+        sanitize: false,
+    };
+    let flag = |name: &str, v: &str| match v {
+        "true" | "1" | "yes" | "" => Ok(true),
+        "false" | "0" | "no" => Ok(false),
+        other => Err(ApiError::bad(format!(
+            "{name}: expected true or false, got {}",
+            super::error::clip(other)
+        ))),
+    };
+    let mut seen = std::collections::BTreeSet::new();
+    let mut rest = Vec::new();
+    // The operator's parameters, from the operators' definitions.
+    let mut operator_params = crate::toning::OperatorParams::default();
+    for (k, v) in pairs {
+        if !seen.insert(k.clone()) {
+            return Err(ApiError::bad(format!(
+                "parameter {} is given twice",
+                super::error::clip(&k)
+            )));
+        }
+        match k.as_str() {
+            "gpu" => extra.gpu = flag("gpu", &v)?,
+            "sanitize" => extra.sanitize = flag("sanitize", &v)?,
+            "format" => {
+                extra.json = match v.as_str() {
+                    "json" => true,
+                    "png" => false,
+                    other => {
+                        return Err(ApiError::bad(format!(
+                            "format: expected png or json, got {}",
+                            super::error::clip(other)
+                        )))
+                    }
+                }
+            }
+            name if crate::toning::OperatorParams::takes(name) => operator_params.set(name, v),
+            _ => rest.push((k, v)),
+        }
+    }
+    let encoded = serde_urlencoded::to_string(&rest).map_err(|e| ApiError::bad(e.to_string()))?;
+    let mut settings: ToneSettings = super::params::from_pairs(encoded.as_bytes())?;
+    settings.params = operator_params;
+    Ok((extra, settings))
+}
+
+/// Why a body's stream stopped short, as the server saw it.
+#[derive(Debug)]
+pub enum BodyError {
+    /// Over the server's body limit.
+    TooLarge,
+    /// The connection failed, or the client stopped sending.
+    Read(String),
+}
+
+impl std::fmt::Display for BodyError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            BodyError::TooLarge => f.write_str("Request payload is too large"),
+            BodyError::Read(e) => write!(f, "reading the body: {e}"),
+        }
+    }
+}
+
+impl std::error::Error for BodyError {}
+
+/// The file field of a multipart body (`content_type` names its boundary);
+/// its text fields join the parameters. One file a request.
+pub async fn read_multipart<S>(
+    body: S,
+    content_type: &str,
+    pairs: &mut Vec<(String, String)>,
+) -> Result<Bytes, ApiError>
+where
+    S: Stream<Item = Result<Bytes, BodyError>> + Send + 'static,
+{
+    let boundary = multer::parse_boundary(content_type).map_err(|_| {
+        ApiError::bad("multipart: Invalid `boundary` for `multipart/form-data` request")
+    })?;
+    let mut mp = multer::Multipart::new(body, boundary);
+    let mut file = None;
+    while let Some(field) = mp.next_field().await.map_err(|e| multipart_error(&e))? {
+        let name = field.name().unwrap_or("").to_owned();
+        if field.file_name().is_some() || name == "file" {
+            if file.is_some() {
+                return Err(ApiError::bad(
+                    "multipart: more than one file; send one image per request",
+                ));
+            }
+            file = Some(field.bytes().await.map_err(|e| multipart_error(&e))?);
+        } else {
+            let v = field.text().await.map_err(|e| multipart_error(&e))?;
+            pairs.push((name, v));
+        }
+    }
+    file.ok_or_else(|| ApiError::bad("multipart: no file field (name it \"file\")"))
+}
+
+/// A body over the limit is 413, as the server answers a raw body over it;
+/// anything else wrong with the form is the client's, 400.
+fn multipart_error(e: &multer::Error) -> ApiError {
+    let too_large = match e {
+        multer::Error::FieldSizeExceeded { .. } | multer::Error::StreamSizeExceeded { .. } => true,
+        multer::Error::StreamReadFailed(inner) => {
+            matches!(inner.downcast_ref::<BodyError>(), Some(BodyError::TooLarge))
+        }
+        _ => false,
+    };
+    if too_large {
+        ApiError::new(
+            StatusCode::PAYLOAD_TOO_LARGE,
+            "too_large",
+            "Request payload is too large",
+        )
+    } else {
+        ApiError::bad(format!("multipart: {e}"))
+    }
+}
