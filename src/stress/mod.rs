@@ -218,10 +218,27 @@ fn load(case: &Case, width_limit: u32) -> Result<(HdrImage, String), String> {
 /// passes its own, so `check --reduction tree` holds the tree to the same
 /// bounds on every case).
 pub fn run(cases: &[Case], ctx: Option<&GpuContext>, reduction: ReductionMethod) -> StressReport {
+    let mut reports = run_reductions(cases, ctx, &[reduction]);
+    reports.pop().unwrap_or_else(|| StressReport {
+        adapter: ctx.map(|c| c.adapter.name.clone()),
+        bound: BOUND,
+        passed: false,
+        cases: Vec::new(),
+    })
+}
+
+/// [`run`] once for each of `reductions`, in their order: a report each,
+/// with the same CPU rows, for the CPU reference renders each case once
+/// (its 8.4 Mpx frame through every pipeline is most of a run's time).
+pub fn run_reductions(
+    cases: &[Case],
+    ctx: Option<&GpuContext>,
+    reductions: &[ReductionMethod],
+) -> Vec<StressReport> {
     let width_limit = ctx
         .map(|c| c.limits.max_texture_dimension_2d)
         .unwrap_or(16384);
-    let mut rows = Vec::new();
+    let mut rows: Vec<Vec<Row>> = vec![Vec::new(); reductions.len()];
     let pipelines = pipelines();
     for case in cases {
         for (pname, scene) in &pipelines {
@@ -292,94 +309,120 @@ pub fn run(cases: &[Case], ctx: Option<&GpuContext>, reduction: ReductionMethod)
                     }
                 }
             }
-            rows.push(cpu);
-            let Some(ctx) = ctx else { continue };
-            let mut gpu = row("gpu");
-            match (&input, &cpu_out) {
-                (Err(e), _) => {
+            for (rows, &reduction) in rows.iter_mut().zip(reductions) {
+                rows.push(cpu.clone());
+                let Some(ctx) = ctx else { continue };
+                rows.push(gpu_row(
+                    row("gpu"),
+                    case,
+                    &input,
+                    &cpu_out,
+                    ctx,
+                    &pipeline,
+                    reduction,
+                ));
+            }
+        }
+    }
+    rows.into_iter()
+        .map(|rows| StressReport {
+            adapter: ctx.map(|c| c.adapter.name.clone()),
+            bound: BOUND,
+            passed: rows.iter().all(|r| r.passed),
+            cases: rows,
+        })
+        .collect()
+}
+
+/// A case's GPU row: rendered with `reduction`, held to the CPU
+/// reference's output `reference` of the same input.
+fn gpu_row(
+    mut gpu: Row,
+    case: &Case,
+    input: &Result<(HdrImage, String), String>,
+    reference: &Option<crate::reference::FrameOutputs>,
+    ctx: &GpuContext,
+    pipeline: &Pipeline,
+    reduction: ReductionMethod,
+) -> Row {
+    let must_refuse = |r: &str| case.refused_by.contains(&r);
+    match (input, reference) {
+        (Err(e), _) => {
+            gpu.observed = format!("refused: {e}");
+            gpu.passed = must_refuse("gpu");
+        }
+        (Ok((img, _)), Some(reference)) => {
+            let config = GpuConfig {
+                hdr_format: if case.f16 {
+                    HdrFormat::Rgba16Float
+                } else {
+                    HdrFormat::Rgba32Float
+                },
+                reduction,
+                ..Default::default()
+            };
+            let plan = StagePlan::build(
+                Input::Flat,
+                pipeline.operator,
+                pipeline.bloom,
+                pipeline.grade,
+            );
+            let rendered = GpuRenderer::new(ctx, plan, GpuInput::Flat(img), pipeline, config)
+                .and_then(|r| {
+                    // The first dispatch of a pipeline compiles it on
+                    // llvmpipe: one warm-up render keeps that out of `ms`.
+                    r.render(false)?;
+                    let out = r.render(true)?;
+                    let toned = r.read_output("tonemap")?;
+                    let display = r.read_output("display")?;
+                    Ok((r.notes.clone(), out, toned, display))
+                });
+            match rendered {
+                Err(e) => {
                     gpu.observed = format!("refused: {e}");
                     gpu.passed = must_refuse("gpu");
                 }
-                (Ok((img, _)), Some(reference)) => {
-                    let config = GpuConfig {
-                        hdr_format: if case.f16 {
-                            HdrFormat::Rgba16Float
-                        } else {
-                            HdrFormat::Rgba32Float
-                        },
-                        reduction,
-                        ..Default::default()
-                    };
-                    let plan = StagePlan::build(
-                        Input::Flat,
-                        pipeline.operator,
-                        pipeline.bloom,
-                        pipeline.grade,
-                    );
-                    let rendered =
-                        GpuRenderer::new(ctx, plan, GpuInput::Flat(img), &pipeline, config)
-                            .and_then(|r| {
-                                // The first dispatch of a pipeline compiles it on
-                                // llvmpipe: one warm-up render keeps that out of `ms`.
-                                r.render(false)?;
-                                let out = r.render(true)?;
-                                let toned = r.read_output("tonemap")?;
-                                let display = r.read_output("display")?;
-                                Ok((r.notes.clone(), out, toned, display))
-                            });
-                    match rendered {
-                        Err(e) => {
-                            gpu.observed = format!("refused: {e}");
-                            gpu.passed = must_refuse("gpu");
-                        }
-                        Ok((notes, out, toned, display)) => {
-                            let s = out.stats;
-                            let got = s.luminance_stats();
-                            let tone = pipeline.operator.gpu_resolved(s.tone);
-                            // Only what the plan measured is compared.
-                            let want = reference.stats;
-                            let mut err = stats_error(&got, &want);
-                            if want.log_average.is_some() || want.weighted_log_average.is_some() {
-                                if let (Some(g), Some(w)) =
-                                    (tone.get("log_average"), reference.tone.get("log_average"))
-                                {
-                                    err = err.max(rel(g, w));
-                                }
-                            }
-                            gpu.finite = [s.log_average, s.weighted_log_average, s.min, s.max]
-                                .iter()
-                                .all(|v| v.is_finite())
-                                && tone.sane()
-                                && toned.as_ref().is_none_or(all_finite)
-                                && display.as_ref().is_none_or(all_finite);
-                            gpu.max_rel_error = Some(err);
-                            gpu.ms = out.timings.iter().map(|t| t.ms).sum();
-                            gpu.max_lsb_vs_cpu = out.frame.as_ref().and_then(|f| {
-                                crate::metrics::frame_max_abs_diff(f, &reference.frame).ok()
-                            });
-                            gpu.observed = format!(
-                                "{}{}{}",
-                                resolved_text(&tone),
-                                if notes.is_empty() { "" } else { "; " },
-                                notes.join("; ")
-                            );
-                            gpu.passed = !must_refuse("gpu") && gpu.finite && err <= gpu.bound;
+                Ok((notes, out, toned, display)) => {
+                    let s = out.stats;
+                    let got = s.luminance_stats();
+                    let tone = pipeline.operator.gpu_resolved(s.tone);
+                    // Only what the plan measured is compared.
+                    let want = reference.stats;
+                    let mut err = stats_error(&got, &want);
+                    if want.log_average.is_some() || want.weighted_log_average.is_some() {
+                        if let (Some(g), Some(w)) =
+                            (tone.get("log_average"), reference.tone.get("log_average"))
+                        {
+                            err = err.max(rel(g, w));
                         }
                     }
-                }
-                (Ok(_), None) => {
-                    gpu.observed = "no CPU reference to compare with".into();
+                    gpu.finite = [s.log_average, s.weighted_log_average, s.min, s.max]
+                        .iter()
+                        .all(|v| v.is_finite())
+                        && tone.sane()
+                        && toned.as_ref().is_none_or(all_finite)
+                        && display.as_ref().is_none_or(all_finite);
+                    gpu.max_rel_error = Some(err);
+                    gpu.ms = out.timings.iter().map(|t| t.ms).sum();
+                    gpu.max_lsb_vs_cpu = out
+                        .frame
+                        .as_ref()
+                        .and_then(|f| crate::metrics::frame_max_abs_diff(f, &reference.frame).ok());
+                    gpu.observed = format!(
+                        "{}{}{}",
+                        resolved_text(&tone),
+                        if notes.is_empty() { "" } else { "; " },
+                        notes.join("; ")
+                    );
+                    gpu.passed = !must_refuse("gpu") && gpu.finite && err <= gpu.bound;
                 }
             }
-            rows.push(gpu);
+        }
+        (Ok(_), None) => {
+            gpu.observed = "no CPU reference to compare with".into();
         }
     }
-    StressReport {
-        adapter: ctx.map(|c| c.adapter.name.clone()),
-        bound: BOUND,
-        passed: rows.iter().all(|r| r.passed),
-        cases: rows,
-    }
+    gpu
 }
 
 /// The table as the console prints it.

@@ -8,20 +8,12 @@
 use crate::common;
 use std::path::PathBuf;
 
-const SYNC: (&str, &str) = (
-    "VK_LAYER_ENABLES",
-    "VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT",
-);
+use common::SYNC_VALIDATION as SYNC;
 
 /// `tonegate` with none of the loader's driver variables: the tests are
 /// about what tonegate finds by itself.
 fn tonegate() -> std::process::Command {
-    let mut c = std::process::Command::new(env!("CARGO_BIN_EXE_tonegate"));
-    c.current_dir(common::repo()).env_remove("TONEGATE_DB");
-    for v in ["VK_ICD_FILENAMES", "VK_DRIVER_FILES", "VK_ADD_DRIVER_FILES"] {
-        c.env_remove(v);
-    }
-    c
+    common::bare_tonegate()
 }
 
 fn run(args: &[&str]) -> std::process::Output {
@@ -52,6 +44,17 @@ fn gate(name: &str, args: &[&str]) -> serde_json::Value {
         .env(SYNC.0, SYNC.1)
         .output()
         .expect("tonegate runs");
+    validated(name, &o, &junit, &json)
+}
+
+/// A gate's run under the validation layer, judged: exit 0, no message
+/// from the layer, no failure in its JUnit; its JSON report.
+fn validated(
+    name: &str,
+    o: &std::process::Output,
+    junit: &std::path::Path,
+    json: &std::path::Path,
+) -> serde_json::Value {
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert_eq!(
         o.status.code(),
@@ -65,13 +68,13 @@ fn gate(name: &str, args: &[&str]) -> serde_json::Value {
         stderr.contains("validation layer (WGPU_VALIDATION): 0 error(s)"),
         "{name}: {stderr}"
     );
-    let xml = std::fs::read_to_string(&junit).unwrap();
+    let xml = std::fs::read_to_string(junit).unwrap();
     assert!(
         xml.contains("<testcase") && !xml.contains("<failure"),
         "{name}: {xml}"
     );
     // An infinite PSNR is the literal 1e999, which serde_json's Value cannot hold.
-    let text = std::fs::read_to_string(&json)
+    let text = std::fs::read_to_string(json)
         .unwrap()
         .replace("1e999", "1e308");
     serde_json::from_str(&text).unwrap_or_else(|e| panic!("{name}: {e}"))
@@ -145,7 +148,9 @@ fn adapters_lists_every_implementation_and_measures_subnormals() {
 
 #[test]
 fn the_gate_passes_on_lavapipe_under_synchronization_validation() {
-    let report = gate("lavapipe-validation", &[]);
+    // The same run as the check tests' gate on the default adapter.
+    let run = common::lavapipe_gate();
+    let report = validated("lavapipe-validation", &run.output, &run.junit, &run.json);
     assert_whole_gate("lavapipe", &report);
     assert_eq!(report["adapter"]["flushes_subnormals"], false);
     // llvmpipe keeps subnormals, so the flush exception does not apply:

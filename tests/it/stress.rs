@@ -176,8 +176,11 @@ fn the_workgroup_tree_holds_every_bound_on_the_reduction_cases() {
         .collect();
     assert_eq!(cases.len(), names.len());
     assert!(ctx.subgroups, "{}", ctx.adapter.name);
-    for method in [ReductionMethod::Tree, ReductionMethod::SubgroupTree] {
-        let report = stress::run(&cases, Some(&ctx), method);
+    // Both trees against one CPU render of each case.
+    let methods = [ReductionMethod::Tree, ReductionMethod::SubgroupTree];
+    let reports = stress::run_reductions(&cases, Some(&ctx), &methods);
+    assert_eq!(reports.len(), methods.len());
+    for (method, report) in methods.into_iter().zip(reports) {
         for row in report.cases.iter().filter(|r| r.renderer == "gpu") {
             assert!(row.finite && row.passed, "{method:?} {row:?}");
             if let Some(e) = row.max_rel_error {

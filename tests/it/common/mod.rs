@@ -146,3 +146,65 @@ pub fn scene_renderer<'a>(
     )
     .unwrap()
 }
+
+/// The whole built-in gate (every scene and the stress rows) on lavapipe,
+/// the default adapter, under the Khronos validation layer with
+/// synchronization validation, recording into a history of its own: run
+/// once per test binary, for every test that asserts on it (the gate's
+/// console, JUnit, JSON and record; the adapter's validation), rather than
+/// once per test. Its files are in out/adapters/.
+pub struct LavapipeGate {
+    pub output: std::process::Output,
+    pub db: PathBuf,
+    pub junit: PathBuf,
+    pub json: PathBuf,
+}
+
+/// `VK_LAYER_ENABLES` for synchronization validation.
+pub const SYNC_VALIDATION: (&str, &str) = (
+    "VK_LAYER_ENABLES",
+    "VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT",
+);
+
+/// `tonegate` with none of the loader's driver variables and no history
+/// from the environment: what tonegate finds by itself.
+pub fn bare_tonegate() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_tonegate"));
+    c.current_dir(repo()).env_remove("TONEGATE_DB");
+    for v in ["VK_ICD_FILENAMES", "VK_DRIVER_FILES", "VK_ADD_DRIVER_FILES"] {
+        c.env_remove(v);
+    }
+    c
+}
+
+pub fn lavapipe_gate() -> &'static LavapipeGate {
+    static GATE: std::sync::OnceLock<LavapipeGate> = std::sync::OnceLock::new();
+    GATE.get_or_init(|| {
+        let out = repo().join("out/adapters");
+        std::fs::create_dir_all(&out).unwrap();
+        let file = |ext: &str| out.join(format!("lavapipe-validation.{ext}"));
+        let (db, junit, json) = (file("sqlite"), file("xml"), file("json"));
+        // A history of this run alone.
+        for f in [&db, &junit, &json, &file("sqlite-wal"), &file("sqlite-shm")] {
+            let _ = std::fs::remove_file(f);
+        }
+        let output = bare_tonegate()
+            .arg("check")
+            .arg("--db")
+            .arg(&db)
+            .arg("--junit")
+            .arg(&junit)
+            .arg("--json")
+            .arg(&json)
+            .env("WGPU_VALIDATION", "1")
+            .env(SYNC_VALIDATION.0, SYNC_VALIDATION.1)
+            .output()
+            .expect("tonegate runs");
+        LavapipeGate {
+            output,
+            db,
+            junit,
+            json,
+        }
+    })
+}
