@@ -4,7 +4,7 @@
 Writes tests/aces2/vectors.json: what OpenColorIO (PyPI opencolorio, pinned in
 requirements.txt) gives for the ACES 2.0 Output Transform "SDR 100 nits
 (Rec.709)" on an sRGB display. Run it through make_vectors.sh; CI regenerates
-the file and requires it to be the committed one (ci/same_vectors.py).
+the file when the lock's inputs change (ci/locks.sh) and requires it to be the committed one (ci/same_vectors.py).
 
 The transform, from OCIO's built-in config CONFIG (ACES 2.0; the ACES 2.1
 config, CONFIG_21, names the same built-in transforms, and the file records

@@ -1,6 +1,7 @@
 //! `aces2` locked to OpenColorIO 2.6's ACES 2.0 SDR output transform
 //! (tests/aces2/vectors.json, regenerated in CI by tests/aces2/make_vectors.sh
-//! from the pinned PyPI opencolorio and required to be the committed file).
+//! from the pinned PyPI opencolorio when the lock's inputs change,
+//! ci/locks.sh, and required to be the committed file).
 
 use serde_json::Value as Json;
 use tonegate::operators::{Operator, Value};

@@ -1,6 +1,7 @@
 //! HDR output: the light, PQ and HLG signals and 16-bit code values locked to
 //! colour-science (tests/display/vectors.json, regenerated in CI by
-//! tests/display/make_vectors.sh from pinned versions), and the 16-bit PNG
+//! tests/display/make_vectors.sh from pinned versions when the lock's inputs
+//! change, ci/locks.sh), and the 16-bit PNG
 //! read back through the real decoders: the same code values and the cICP,
 //! mDCV and cLLI chunks written. Through `tonemap` and `POST /tonemap` too.
 

@@ -1,6 +1,7 @@
 //! The perceptual and HDR metrics locked against their reference
 //! implementations (tests/perceptual/vectors.json, regenerated in CI from the
-//! pinned versions by tests/perceptual/make_vectors.sh):
+//! pinned versions by tests/perceptual/make_vectors.sh when the lock's
+//! inputs change, ci/locks.sh):
 //! FLIP and HDR-FLIP against NVIDIA's flip-evaluator 1.7, PU21 against the
 //! paper's formula in numpy (and scikit-image's SSIM), ΔE_ITP against
 //! colour-science.

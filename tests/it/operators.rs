@@ -1,6 +1,7 @@
 //! The operators locked to their reference implementations
 //! (tests/operators/vectors.json, regenerated in CI from pinned versions by
-//! tests/operators/make_vectors.sh and required to be the committed file):
+//! tests/operators/make_vectors.sh when the lock's inputs change, ci/locks.sh,
+//! and required to be the committed file):
 //!
 //! - `hable`: colour-hdri's `tonemapping_operator_filmic` at its defaults;
 //! - `aces-narkowicz`: Narkowicz's published formula, written out in numpy;
@@ -11,7 +12,7 @@
 //! - `pbr-neutral` also against the Khronos reference GLSL's numbers;
 //! - `bt2390`: libplacebo's `pl_tone_map_sample` (tests/bt2390/vectors.json,
 //!   regenerated in CI by tests/bt2390/make_vectors.sh from Debian's
-//!   libplacebo-dev).
+//!   libplacebo-dev when its inputs change).
 //!
 //! Then every built-in operator's WGSL against its f64 curve, on lavapipe,
 //! for the same inputs.

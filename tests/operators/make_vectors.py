@@ -3,8 +3,8 @@
 
 Writes tests/operators/vectors.json. Run it through make_vectors.sh, which
 pins the versions (requirements.txt for Python, package.json and
-package-lock.json for npm) and installs them; CI regenerates the file and
-requires it to be the committed one (floats to the last bits a CPU can move:
+package-lock.json for npm) and installs them; CI regenerates the file when
+the lock's inputs change (ci/locks.sh) and requires it to be the committed one (floats to the last bits a CPU can move:
 ci/same_vectors.py).
 
 Every operator is applied to the same `inputs`: linear Rec.709 RGB triplets

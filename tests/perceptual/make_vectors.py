@@ -3,8 +3,8 @@
 
 Writes tests/perceptual/vectors.json, which tests/metrics_perceptual.rs checks
 the Rust implementations against. Run it through make_vectors.sh, which pins
-the versions (requirements.txt); CI regenerates the file and requires it to be
-the committed one (floats to the last bits numpy's per-CPU SIMD loops move:
+the versions (requirements.txt); CI regenerates the file when the
+lock's inputs change (ci/locks.sh) and requires it to be the committed one (floats to the last bits numpy's per-CPU SIMD loops move:
 ci/same_vectors.py).
 
 The references, each computed independently of tonegate:

@@ -4,7 +4,7 @@
 Writes tests/skimage/vectors.json, which tests/metrics_skimage.rs checks the
 Rust implementation against. Run it through make_vectors.sh, which pins the
 versions (requirements.txt); the output is committed, and CI regenerates it
-and requires the committed one (ci/same_vectors.py says to what tolerance).
+when the lock's inputs change (ci/locks.sh) and requires the committed one (ci/same_vectors.py says to what tolerance).
 
 Every image pair is generated from a seeded numpy RNG or a formula, so the
 file is reproducible. Images are stored inline as flat row-major, interleaved
