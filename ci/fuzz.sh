@@ -5,7 +5,7 @@
 # server's 8 Mi pixel limit, 96 MiB, plus the decoder's working set).
 #   ci/fuzz.sh [SECONDS] [TARGET ...]
 #   FUZZ_RUNS=N ci/fuzz.sh [TARGET ...]
-# With FUZZ_RUNS (the test command's smoke run), each target runs N inputs
+# With FUZZ_RUNS (CI's smoke run, .ci/run), each target runs N inputs
 # grown from the committed seeds alone with a fixed seed (FUZZ_SEED, default
 # 1), so its reach does not depend on the machine's speed or on inputs left
 # by earlier runs. It is not bit-reproducible: hash-map order in the code
