@@ -25,7 +25,7 @@ done
 # The library without features stays the small tree the fuzz crate and a
 # reference-and-metrics user build: none of the renderer's, the store's or
 # the server's crates.
-tree=$(cargo tree --locked --offline --no-default-features -e normal --prefix none)
+tree=$(cargo tree --locked --no-default-features -e normal --prefix none)
 heavy=$(grep -oE '^(wgpu|naga|rusqlite|postgres|tokio|axum|hyper|object_store|reqwest|utoipa|clap) ' <<<"$tree" \
   | sort -u || true)
 if [ -n "$heavy" ]; then
