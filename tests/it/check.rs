@@ -302,24 +302,28 @@ fn a_scene_with_no_checks_fails() {
     );
 }
 
+/// A recorded run of one scene, grid-static, on the CPU reference at `spp`:
+/// what a test needs of a finished run, without rendering the suite.
+fn record_grid_static(db: &Path, spp: &str) -> Output {
+    tonegate(&[
+        "check",
+        "--db",
+        s(db),
+        "--cpu",
+        "--spp",
+        spp,
+        "--scene",
+        "grid-static",
+    ])
+}
+
 #[test]
 fn kill_9_during_a_check_leaves_a_consistent_database_with_the_run_aborted() {
     let dir = tempfile::tempdir().unwrap();
     let db = dir.path().join("h.sqlite");
     // A finished run first (one scene is a finished run): the kill must
     // not touch it.
-    let o = tonegate(&[
-        "check",
-        "--db",
-        s(&db),
-        "--cpu",
-        "--spp",
-        "16",
-        "--suite",
-        "golden/suite.toml",
-        "--scene",
-        "grid-static",
-    ]);
+    let o = record_grid_static(&db, "16");
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
     let mut child = Command::new(env!("CARGO_BIN_EXE_tonegate"))
         .args(["check", "--db", s(&db)])
@@ -374,16 +378,7 @@ fn history_prints_a_metric_trend_and_refuses_unknown_metrics() {
     // Two runs of the scene the trend is asked for: the history holds what
     // a run recorded, whatever else the suite has.
     for _ in 0..2 {
-        let o = tonegate(&[
-            "check",
-            "--db",
-            s(&db),
-            "--cpu",
-            "--spp",
-            "1",
-            "--scene",
-            "grid-static",
-        ]);
+        let o = record_grid_static(&db, "1");
         assert_eq!(o.status.code(), Some(0), "{}", text(&o));
     }
     let o = tonegate(&[
