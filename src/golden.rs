@@ -148,10 +148,16 @@ pub fn frame_path(root: &Path, scene: &str, n: u32) -> PathBuf {
 
 pub fn load_manifest(root: &Path) -> Result<Manifest, GoldenError> {
     let path = root.join(MANIFEST);
-    let text = std::fs::read_to_string(&path).map_err(|e| GoldenError::Manifest {
+    let manifest_error = |e: std::io::Error| GoldenError::Manifest {
         path: path.clone(),
         detail: e.to_string(),
-    })?;
+    };
+    let mut text = String::new();
+    std::io::Read::read_to_string(
+        &mut crate::io::open_regular(&path).map_err(manifest_error)?,
+        &mut text,
+    )
+    .map_err(manifest_error)?;
     toml::from_str(&text).map_err(|e| GoldenError::Manifest {
         path,
         detail: e.to_string(),

@@ -81,6 +81,30 @@ impl HdrFormat {
     }
 }
 
+/// Opens `path` for reading only if it is a regular file. A FIFO would
+/// block `open` until a writer came (forever, for a mistyped path), and a
+/// device or a folder is no file of ours: each is refused at once. On Unix
+/// the file is opened without blocking, then its type is checked on the
+/// open descriptor, so nothing can swap it in between.
+pub fn open_regular(path: &Path) -> std::io::Result<File> {
+    let mut options = std::fs::OpenOptions::new();
+    options.read(true);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        options.custom_flags(libc::O_NONBLOCK);
+    }
+    let file = options.open(path)?;
+    if file.metadata()?.is_file() {
+        Ok(file)
+    } else {
+        Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "not a regular file (a FIFO, a device or a folder is refused)",
+        ))
+    }
+}
+
 /// Loads an HDR image file and applies the validation policy.
 pub fn load_hdr(path: &Path, opts: &LoadOptions) -> Result<(HdrImage, LoadReport), HdrIoError> {
     let file = path.display().to_string();
@@ -92,7 +116,7 @@ pub fn load_hdr(path: &Path, opts: &LoadOptions) -> Result<(HdrImage, LoadReport
             source,
         }
     };
-    let handle = File::open(path).map_err(io_error("open"))?;
+    let handle = open_regular(path).map_err(io_error("open"))?;
     let len = handle.metadata().map_err(io_error("read"))?.len();
     decode_stream(BufReader::with_capacity(1 << 16, handle), len, &file, opts)
 }
@@ -307,7 +331,7 @@ pub fn read_frame_png(path: &Path) -> Result<Frame, HdrIoError> {
     // The IHDR chunk comes first: its bit depth is byte 24.
     let mut head = [0u8; 25];
     let depth = {
-        let mut f = File::open(path).map_err(io)?;
+        let mut f = open_regular(path).map_err(io)?;
         let n = f.read(&mut head).map_err(io)?;
         (n == head.len()).then_some(head[24])
     };

@@ -97,7 +97,7 @@ fn open(path: &Path, file: &str) -> Result<(File, u64), HdrIoError> {
             source,
         }
     };
-    let handle = File::open(path).map_err(io_error("open"))?;
+    let handle = super::open_regular(path).map_err(io_error("open"))?;
     let len = handle.metadata().map_err(io_error("read"))?.len();
     Ok((handle, len))
 }

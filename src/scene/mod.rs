@@ -104,11 +104,10 @@ pub fn read_text(path: &Path) -> Result<String, SceneError> {
         path: path.to_owned(),
         message,
     };
-    let file = std::fs::File::open(path).map_err(read_err)?;
-    let meta = file.metadata().map_err(read_err)?;
-    if !meta.is_file() {
+    if std::fs::metadata(path).is_ok_and(|m| !m.is_file()) {
         return Err(invalid("is not a regular file".into()));
     }
+    let file = crate::io::open_regular(path).map_err(read_err)?;
     let mut bytes = Vec::new();
     file.take(MAX_TEXT_BYTES + 1)
         .read_to_end(&mut bytes)

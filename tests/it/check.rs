@@ -707,3 +707,60 @@ fn options_that_trade_accuracy_pass_at_their_own_bounds_and_a_fault_still_fails(
         assert_eq!(f16["passed"], false, "{scene}: {f16}");
     }
 }
+
+/// A FIFO named as a scene, a suite, an image or the goldens' manifest is
+/// refused at once with exit 2 and the path, where opening it blocked until
+/// a writer came (`plan` and `check --suite` waited until killed).
+#[test]
+fn a_fifo_in_place_of_a_file_is_refused_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("ff");
+    // And one a PNG by its name, as compare picks the kind by extension.
+    let fifo_png = dir.path().join("ff.png");
+    let made = Command::new("mkfifo")
+        .arg(&fifo)
+        .arg(&fifo_png)
+        .status()
+        .unwrap();
+    assert!(made.success());
+    // A copy of the goldens whose manifest is a FIFO.
+    let golden = dir.path().join("golden");
+    common::copy_dir(&repo().join("golden"), &golden);
+    let manifest = golden.join("manifest.toml");
+    std::fs::remove_file(&manifest).unwrap();
+    assert!(Command::new("mkfifo")
+        .arg(&manifest)
+        .status()
+        .unwrap()
+        .success());
+    let out = dir.path().join("out.png");
+    let suite = golden.join("suite.toml");
+    let runs: [&[&str]; 5] = [
+        &["plan", s(&fifo)],
+        &["check", "--no-history", "--cpu", "--suite", s(&fifo)],
+        &["tonemap", s(&fifo), "-o", s(&out)],
+        &["compare", s(&fifo_png), "golden/grid-static/000.png"],
+        &["golden", "verify", "--suite", s(&suite), "grid-static"],
+    ];
+    for args in runs {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_tonegate"))
+            .args(args)
+            .current_dir(repo())
+            .env_remove("TONEGATE_DB")
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let start = Instant::now();
+        while child.try_wait().unwrap().is_none() {
+            if start.elapsed() > Duration::from_secs(20) {
+                child.kill().unwrap();
+                panic!("{args:?} still waits on the FIFO after 20 s");
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let o = child.wait_with_output().unwrap();
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", text(&o));
+        assert!(text(&o).contains("regular file"), "{args:?}: {}", text(&o));
+    }
+}
