@@ -198,7 +198,7 @@ struct LdrComparison<'p> {
     #[serde(flatten)]
     metrics: tonegate::metrics::Metrics,
     flip: tonegate::metrics::flip::FlipStats,
-    flip_definition: &'static str,
+    flip_definition: String,
 }
 
 fn is_png(path: &Path) -> bool {
@@ -250,11 +250,20 @@ fn compare_ldr(a: &CompareArgs, test: &Path, reference: &Path) -> Result<ExitCod
     // 8-bit frames, or 16-bit PQ ones (a PQ scene's goldens and artifacts).
     let frame_a = tonegate::io::read_frame_png(test)?;
     let frame_b = tonegate::io::read_frame_png(reference)?;
-    let (m, default_flip) = compare_frames(&frame_a, &frame_b)?;
+    let (mut m, default_flip) = compare_frames(&frame_a, &frame_b)?;
+    let mut flip_definition = tonegate::metrics::FLIP_DEFINITION.to_owned();
     let flip = match (a.ppd, &frame_a, &frame_b) {
         (None, ..) => default_flip,
         (Some(ppd), Frame::Rgb8(x), Frame::Rgb8(y)) => {
-            tonegate::metrics::flip::flip(x.raster(), y.raster(), ppd)?
+            // Every figure that says FLIP is at the asked distance: the
+            // metrics' flip_mean and the definition too, not only the map.
+            let flip = tonegate::metrics::flip::flip(x.raster(), y.raster(), ppd)?;
+            m.flip_mean = flip.mean();
+            flip_definition = flip_definition.replace(
+                "at 67.02 pixels per degree (a 0.7 m wide 4K display seen from 0.7 m)",
+                &format!("at {ppd} pixels per degree (compare --ppd)"),
+            );
+            flip
         }
         (Some(_), ..) => {
             return Err(invalid(
@@ -279,7 +288,7 @@ fn compare_ldr(a: &CompareArgs, test: &Path, reference: &Path) -> Result<ExitCod
             reference,
             metrics: m,
             flip: stats,
-            flip_definition: tonegate::metrics::FLIP_DEFINITION,
+            flip_definition,
         };
         write_json(Path::new("-"), "the metrics", &report)?;
     } else {

@@ -67,3 +67,40 @@ fn the_reference_and_the_test_are_named_by_flag_or_by_position() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("one image too many"));
 }
+
+/// `--ppd` moves every figure that says FLIP: the metrics' `flip_mean`, the
+/// FLIP statistics and the definition the report states, not only the map.
+#[test]
+fn ppd_moves_every_flip_figure_of_a_frame_comparison() {
+    let (t, r) = (
+        "golden/sky-reinhard-global/001.png",
+        "golden/sky-reinhard-global/000.png",
+    );
+    let default = json(&[t, r]);
+    let near = json(&[t, r, "--ppd", "30"]);
+    for v in [&default, &near] {
+        assert_eq!(v["flip_mean"], v["flip"]["mean"], "{v}");
+    }
+    // The default distance is 67.0206 ppd (the docs round it to 67.02).
+    let ppd = |v: &serde_json::Value| v["flip"]["ppd"].as_f64().unwrap();
+    assert!((ppd(&default) - 67.02).abs() < 0.01, "{}", ppd(&default));
+    assert_eq!(ppd(&near), 30.0);
+    assert_ne!(default["flip_mean"], near["flip_mean"]);
+    let definition = |v: &serde_json::Value| v["flip_definition"].as_str().unwrap().to_owned();
+    assert!(definition(&default).contains("at 67.02 pixels per degree"));
+    assert!(
+        definition(&near).contains("at 30 pixels per degree")
+            && !definition(&near).contains("67.02"),
+        "{}",
+        definition(&near)
+    );
+    // The console's metrics line follows too.
+    let out = compare(&[t, r, "--ppd", "30"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    let first = text.lines().next().unwrap();
+    let mean = near["flip_mean"].as_f64().unwrap();
+    assert!(
+        first.ends_with(&format!("FLIP {mean:.5}")),
+        "{first} vs {mean}"
+    );
+}
