@@ -15,6 +15,7 @@ use tonegate::gpu::{
 
 mod adapters;
 mod bench;
+mod compare;
 mod fleet;
 mod gate;
 mod golden;
@@ -52,7 +53,7 @@ pub enum Command {
     Tonemap(image::TonemapArgs),
     /// Compare an image with a reference: two 8-bit PNGs (MSE, RMSE, PSNR, SNR, SSIM,
     /// FLIP) or two linear HDR files (HDR-FLIP, PU21, delta E ITP); -t TEST -r REFERENCE.
-    Compare(image::CompareArgs),
+    Compare(compare::CompareArgs),
     /// Print the stage plan of a scene: the stages it needs and nothing else.
     Plan(image::PlanArgs),
     /// Render a scene's frames on the GPU (or --cpu) with per-frame statistics and timings.
@@ -211,7 +212,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         Command::Stress(a) => sweep::stress(a),
         Command::Bench(a) => bench::bench(a),
         Command::Tonemap(a) => image::tonemap(a),
-        Command::Compare(a) => image::compare(a),
+        Command::Compare(a) => compare::compare(a),
         Command::Plan(a) => image::plan(a),
         Command::Render(a) => image::render(a),
         Command::Golden(c) => golden::golden(c),
