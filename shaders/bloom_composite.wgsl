@@ -3,8 +3,6 @@
 //#include shared/upsample.wgsl
 //#include shared/extent.wgsl
 
-override STRENGTH: f32 = 0.5;
-
 @group(0) @binding(0) var toned: texture_2d<f32>;
 @group(0) @binding(1) var bloom: texture_2d<f32>;
 @group(0) @binding(2) var composite_out: texture_storage_2d<HDR_FORMAT, write>;
@@ -15,6 +13,6 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x >= dims.x || id.y >= dims.y) {
         return;
     }
-    let c = textureLoad(toned, id.xy, 0).rgb + STRENGTH * upsample_at(bloom, id.x, id.y, dims, extent.low);
+    let c = bloom_add(textureLoad(toned, id.xy, 0).rgb, upsample_at(bloom, id.x, id.y, dims, extent.low));
     textureStore(composite_out, vec2<i32>(id.xy), vec4<f32>(c, 1.0));
 }

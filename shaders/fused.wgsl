@@ -19,7 +19,6 @@ override BRIGHT_FROM_TONED: bool = false;
 // The tail adds the bloom (bloom_composite); without it, binding 3 is a
 // placeholder nobody reads.
 override BLOOM: bool = false;
-override STRENGTH: f32 = 0.5;
 
 @group(0) @binding(0) var<uniform> config: OperatorConfig;
 // The statistics and resolved curve (luminance_stats, tonemap's resolve).
@@ -62,7 +61,7 @@ fn tail(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     var c = toned(textureLoad(hdr, id.xy, 0).rgb, resolved.tone);
     if (BLOOM) {
-        c = c + STRENGTH * upsample_at(bloom, id.x, id.y, dims, extent.low);
+        c = bloom_add(c, upsample_at(bloom, id.x, id.y, dims, extent.low));
     }
     store_frame(id.y * dims.x + id.x, c);
 }

@@ -23,10 +23,16 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x >= dims.x || id.y >= dims.y) {
         return;
     }
-    let grey = BRIGHTNESS * grade_mean.mean;
-    var v = textureLoad(src, id.xy, 0).rgb * BRIGHTNESS;
+    let v = grade_pixel(textureLoad(src, id.xy, 0).rgb, grade_mean.mean);
+    textureStore(graded_out, vec2<i32>(id.xy), vec4<f32>(v, 1.0));
+}
+
+// One pixel c of a frame whose mean luminance is `mean`.
+fn grade_pixel(c: vec3<f32>, mean: f32) -> vec3<f32> {
+    let grey = BRIGHTNESS * mean;
+    var v = c * BRIGHTNESS;
     v = grey + (v - grey) * CONTRAST;
     let y = luminance_with(v, vec3<f32>(0.2125, 0.7154, 0.0721));
     v = y + (v - y) * SATURATION;
-    textureStore(graded_out, vec2<i32>(id.xy), vec4<f32>(v, 1.0));
+    return v;
 }

@@ -36,7 +36,9 @@ fn pq_signal(nits: vec3<f32>) -> vec3<f32> {
 fn pq_nits(e: vec3<f32>) -> vec3<f32> {
     // s = ln(p) ≥ ln(c1^m2)/m2 = −0.18 where anything is lit; v = 1 − p =
     // −expm1(s) by its series (six terms: the seventh is below 2e-9).
-    let s = max(log(e) * (1.0 / PQ_M2), vec3<f32>(-0.25));
+    // ln of at least 1e-30 (-69, so s = -0.88 before the max): the same s
+    // for every e, and no -Inf at e = 0 for a driver without infinities.
+    let s = max(log(max(e, vec3<f32>(1e-30))) * (1.0 / PQ_M2), vec3<f32>(-0.25));
     let v = -s * (1.0 + s * (1.0 / 2.0 + s * (1.0 / 6.0 + s * (1.0 / 24.0 + s * (1.0 / 120.0 + s * (1.0 / 720.0))))));
     let ratio = max(PQ_ONE_MINUS_C1 - v, vec3<f32>(0.0)) / (PQ_ONE_MINUS_C1 + PQ_C3 * v);
     return 10000.0 * pow(ratio, vec3<f32>(1.0 / PQ_M1));

@@ -31,15 +31,26 @@ struct OperatorConfig {
     _pad2: f32,
 }
 
-// Ld = L/(1+L)·(1 + L/white²), with L/white² taken as (L/white)/white:
-// neither division leaves f32's range for any white f32 can hold, where
-// 1/white² does (white = 1.5e-33 in a frame of subnormals: 1/white² would be
-// +Inf and the brightest pixel would not burn; found by the stress suite).
-// white <= 0, +Inf or NaN means "never burn", as the reference's +Inf.
+// Ld = L/(1+L)·(1 + L/white²), range-safe under every rewrite a driver may
+// apply (docs/stress.md#range-safe-arithmetic): white is clamped to
+// [2^-63, 2^63], so white², 1/white and 1/white² are normal f32s whether
+// the driver evaluates (L/white)/white as written, as L/(white·white) or
+// through reciprocals; and L enters the burn term at most 2^40·white, so
+// L/white² stays under 2^103. Neither clamp changes a displayed pixel: a
+// white under 2^-63 leaves only pixels darker than 2^-63 unburned, and
+// L ≥ 2^40·white burns to white either way. The reference clamps the same
+// (src/operators/reinhard.rs). white <= 0, +Inf or NaN means "never burn",
+// as the reference's +Inf.
+const WHITE_MIN: f32 = 1.0842022e-19;
+const WHITE_MAX: f32 = 9.223372e18;
+const BURN_SPAN: f32 = 1099511627776.0;
+
 fn reinhard_curve(l: f32, white: f32) -> f32 {
     var burn = 0.0;
     if (white > 0.0 && white <= 3.4028235e38) {
-        burn = (l / white) / white;
+        let w = clamp(white, WHITE_MIN, WHITE_MAX);
+        let lc = min(l, w * BURN_SPAN);
+        burn = (lc / w) / w;
     }
     return l / (1.0 + l) * (1.0 + burn);
 }

@@ -1,7 +1,15 @@
 // The bloom's bilinear upsample to the full frame, texel centres aligned,
 // clamped at the edges (reference/bloom_composite.rs); shared by the
 // `bloom_composite` stage and the fused tail (fused.wgsl). `full` is the
-// frame's size and `low_size` the bloom's (shared/extent.wgsl).
+// frame's size and `low_size` the bloom's (shared/extent.wgsl). Then the
+// bloom's addition to the tone-mapped pixel.
+
+override STRENGTH: f32 = 0.5;
+
+// C = C_tone + k·bloom.
+fn bloom_add(toned: vec3<f32>, bloom: vec3<f32>) -> vec3<f32> {
+    return toned + STRENGTH * bloom;
+}
 
 fn upsample_at(
     bloom: texture_2d<f32>,

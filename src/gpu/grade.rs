@@ -4,6 +4,15 @@ use super::stages::{bind_group, dispatch_2d, pipeline, Bind, Dispatch};
 use super::{GpuContext, HdrFormat};
 use crate::scene::Grade;
 
+/// The grade's override constants (shaders/grade.wgsl).
+pub fn grade_constants(g: &Grade) -> [(&'static str, f64); 3] {
+    [
+        ("BRIGHTNESS", g.brightness.get()),
+        ("CONTRAST", g.contrast.get()),
+        ("SATURATION", g.saturation.get()),
+    ]
+}
+
 pub fn grade(
     ctx: &GpuContext,
     format: HdrFormat,
@@ -13,12 +22,7 @@ pub fn grade(
     graded_out: &wgpu::Texture,
     extent: &wgpu::Buffer,
 ) -> Dispatch {
-    let constants = [
-        ("BRIGHTNESS", g.brightness.get()),
-        ("CONTRAST", g.contrast.get()),
-        ("SATURATION", g.saturation.get()),
-    ];
-    let p = pipeline(ctx, "grade", "main", format, &constants);
+    let p = pipeline(ctx, "grade", "main", format, &grade_constants(g));
     let bg = bind_group(
         ctx,
         &p,

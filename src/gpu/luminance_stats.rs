@@ -49,6 +49,27 @@ pub const BLOCK: u32 = 16;
 /// (shaders/luminance_stats.wgsl: TREE_X, TREE_Y·TREE_ROWS).
 pub const TREE_TILE: u32 = 32;
 
+/// The statistics' override constants (shaders/luminance_stats.wgsl).
+pub fn stats_constants(
+    needs: StatsNeeds,
+    weights: [f64; 3],
+    delta: f64,
+) -> [(&'static str, f64); 8] {
+    [
+        ("LUM_R", weights[0]),
+        ("LUM_G", weights[1]),
+        ("LUM_B", weights[2]),
+        ("DELTA", delta),
+        (
+            "NEED_LOG",
+            (needs.log_average || needs.weighted_log_average) as u32 as f64,
+        ),
+        ("NEED_WEIGHTED", needs.weighted_log_average as u32 as f64),
+        ("BLOCK_W", BLOCK as f64),
+        ("BLOCK_H", BLOCK as f64),
+    ]
+}
+
 /// The dispatches that reduce `hdr` into `stats`.
 #[allow(clippy::too_many_arguments)]
 pub fn luminance_stats(
@@ -63,19 +84,7 @@ pub fn luminance_stats(
     extent: &wgpu::Buffer,
 ) -> Vec<Dispatch> {
     let (w, h) = (hdr.width(), hdr.height());
-    let constants = [
-        ("LUM_R", weights[0]),
-        ("LUM_G", weights[1]),
-        ("LUM_B", weights[2]),
-        ("DELTA", delta),
-        (
-            "NEED_LOG",
-            (needs.log_average || needs.weighted_log_average) as u32 as f64,
-        ),
-        ("NEED_WEIGHTED", needs.weighted_log_average as u32 as f64),
-        ("BLOCK_W", BLOCK as f64),
-        ("BLOCK_H", BLOCK as f64),
-    ];
+    let constants = stats_constants(needs, weights, delta);
     let level = |src: (u32, u32), dst: (u32, u32)| {
         let words = [src.0, src.1, dst.0, dst.1];
         uniform_buffer(

@@ -29,6 +29,13 @@ pub use readback::{GpuFrame, Ticket, FRAMES_IN_FLIGHT};
 pub use renderer::GpuRenderer;
 pub use tone_mapper::{ToneMapper, ToneMapperSettings};
 pub use wiring::GpuInput;
+// The stages' override constants, for the range-safety proof
+// (`stress::range_safety`), which evaluates the shaders with them.
+#[cfg(test)]
+pub(crate) use {
+    bloom_bright::bright_constants, encode::encode_constants, grade::grade_constants,
+    luminance_stats::stats_constants,
+};
 
 #[derive(Debug, thiserror::Error)]
 pub enum GpuError {
@@ -45,6 +52,10 @@ pub enum GpuError {
     /// `--adapter NAME` matched nothing.
     #[error("no adapter matches {wanted:?}; available: {available}")]
     AdapterNotFound { wanted: String, available: String },
+    /// The adapter lacks what every stage needs (a GL context without
+    /// compute shaders): a property of the adapter, not a tonegate bug.
+    #[error("{adapter} cannot run tonegate: it has {reason}")]
+    Unsupported { adapter: String, reason: String },
     /// The device could not be created (missing features or limits).
     #[error("cannot open {adapter}: {detail}")]
     Device { adapter: String, detail: String },

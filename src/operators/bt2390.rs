@@ -29,16 +29,16 @@ pub fn pq_encode(nits: f64) -> f64 {
     crate::color::pq_encode(nits.min(PQ_PEAK))
 }
 
-const fn nits(name: &'static str, doc: &'static str, min_open: bool, default: f64) -> Param {
+/// A level in cd/m² up to PQ's 10000. A black may be 0; a peak or a
+/// reference white is at least 1e-3 cd/m² (a thousandth of a candela:
+/// darker than any display's peak), below which the EETF's f32 arithmetic
+/// on a GPU that flushes subnormals no longer gives the reference's codes
+/// (docs/stress.md#range-safe-arithmetic).
+const fn nits(name: &'static str, doc: &'static str, positive: bool, default: f64) -> Param {
     Param {
         name,
         doc,
-        kind: Kind::Number(Range {
-            min: 0.0,
-            min_open,
-            max: PQ_PEAK,
-            max_open: false,
-        }),
+        kind: Kind::Number(Range::closed(if positive { 1e-3 } else { 0.0 }, PQ_PEAK)),
         default: Value::Number(default),
     }
 }

@@ -9,7 +9,7 @@ use super::{Curve, Kind, Param, Range, Resolution, Value, Values};
 pub(super) const EXPOSURE: Param = Param {
     name: "exposure",
     doc: "Gain on the linear input before the curve (1 = as the reference defines it)",
-    kind: Kind::Number(Range::POSITIVE),
+    kind: Kind::Number(Range::GAIN),
     default: Value::Number(1.0),
 };
 

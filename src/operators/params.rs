@@ -85,6 +85,12 @@ impl Range {
         max_open: true,
     };
 
+    /// [1e-6, 1e6]: a gain, key or adaptation luminance. Twelve decades
+    /// cover every real exposure, and keep every intermediate of the GPU's
+    /// f32 arithmetic finite under any rewrite a driver may apply, over the
+    /// stress suite's inputs of up to 1e30 (docs/stress.md#range-safe-arithmetic).
+    pub const GAIN: Range = Range::closed(1e-6, 1e6);
+
     /// [min, max].
     pub const fn closed(min: f64, max: f64) -> Range {
         Range {

@@ -40,12 +40,22 @@ impl ColourPath {
     }
 }
 
+/// The key's range: [1e-6, 100]. Real keys are 0.045-0.72 (Reinhard et al.
+/// 2002); with the adaptation luminance at least δ, the scale key/adaptation
+/// stays under 1e6, so scale·Y stays finite in f32 for inputs up to 1e30
+/// under any rewrite a driver may apply (docs/stress.md#range-safe-arithmetic).
+pub(super) const KEY_RANGE: Range = Range::closed(1e-6, 100.0);
+
+/// A fixed adaptation luminance's range: [δ, 1e6]. A measured
+/// log-average is never below δ = 1e-4 (it is exp of a mean of ln(δ + Y)).
+pub(super) const LOG_AVERAGE_RANGE: Range = Range::closed(DELTA, 1e6);
+
 /// The key a (every Reinhard variant's; `reinhard-auto-key`'s also takes
 /// "auto").
 pub(super) const KEY: Param = Param {
     name: "key",
     doc: "Key a: the display value of the adaptation luminance",
-    kind: Kind::Number(Range::POSITIVE),
+    kind: Kind::Number(KEY_RANGE),
     default: Value::Number(DEFAULT_KEY),
 };
 
@@ -61,7 +71,7 @@ pub(super) const COLOUR: Param = Param {
 pub(super) const LOG_AVERAGE: Param = Param {
     name: "log_average",
     doc: "Fixed adaptation luminance instead of the measured log-average",
-    kind: Kind::Number(Range::POSITIVE),
+    kind: Kind::Number(LOG_AVERAGE_RANGE),
     default: Value::Unset,
 };
 
@@ -88,10 +98,38 @@ pub fn automatic_key(min: f64, log_average: f64, max: f64) -> f64 {
 
 /// The display luminance of scaled luminance L. Written as L/(1+L)·(1+L/W)
 /// rather than L(1+L/W)/(1+L) so that a huge L does not overflow to ∞/∞.
+///
+/// The burn term is clamped as the GPU's must be to stay within f32 under
+/// any rewrite a driver may apply (shaders/shared/reinhard.wgsl,
+/// docs/stress.md#range-safe-arithmetic): Lwhite to [2^-63, 2^63] (W to
+/// [2^-126, 2^126]), and L to at most 2^40·Lwhite inside L/W. Neither
+/// changes a displayed pixel: a pixel at L ≥ Lwhite burns to white either
+/// way, and under Lwhite = 2^-63 only pixels darker than that are left.
 #[inline]
 pub fn reinhard_curve(l: f64, white_sq: f64) -> f64 {
-    l / (1.0 + l) * (1.0 + l / white_sq)
+    if white_sq == f64::INFINITY {
+        return l / (1.0 + l);
+    }
+    let w_sq = white_sq.clamp(WHITE_SQ_MIN, WHITE_SQ_MAX);
+    // l > 2^40·Lwhite, without a square root per pixel.
+    let lc = if l * l > w_sq * BURN_SPAN_SQ {
+        w_sq.sqrt() * BURN_SPAN
+    } else {
+        l
+    };
+    l / (1.0 + l) * (1.0 + lc / w_sq)
 }
+
+/// The range the curve clamps Lwhite to, 2^-63 to 2^63 (reports say when
+/// a frame's white was outside it).
+pub const WHITE_CLAMP: (f64, f64) = (1.0842021724855044e-19, 9.223372036854776e18);
+
+/// 2^-126 and 2^126: Lwhite² for Lwhite = 2^-63 and 2^63.
+const WHITE_SQ_MIN: f64 = 1.1754943508222875e-38;
+const WHITE_SQ_MAX: f64 = 8.507059173023462e37;
+/// 2^40 and its square.
+const BURN_SPAN: f64 = 1_099_511_627_776.0;
+const BURN_SPAN_SQ: f64 = BURN_SPAN * BURN_SPAN;
 
 /// `v` when it is a finite positive number, else +∞ (never burn).
 pub(super) fn finite_positive_or_inf(v: f64) -> f64 {

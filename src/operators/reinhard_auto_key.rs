@@ -4,7 +4,7 @@
 //! (docs/operators.md).
 
 use super::reinhard::{self, GpuNumbers, COLOUR, DEFAULT_KEY, KEY};
-use super::{Kind, Param, Range, Resolution, ToneOperator, Value, Values};
+use super::{Kind, Param, Resolution, ToneOperator, Value, Values};
 use super::{LuminanceStats, StatsNeeds, Unmeasured};
 
 /// `reinhard-auto-key`.
@@ -13,7 +13,7 @@ pub struct ReinhardAutoKey;
 const PARAMS: &[Param] = &[
     Param {
         doc: "Key a, or \"auto\" (the default): from the frame's min, log-average and max",
-        kind: Kind::NumberOrAuto(Range::POSITIVE),
+        kind: Kind::NumberOrAuto(reinhard::KEY_RANGE),
         default: Value::Auto,
         ..KEY
     },

@@ -10,12 +10,15 @@
 //! docs/tolerances.md.
 
 pub mod cases;
+#[cfg(test)]
+mod range_safety;
 
 pub use cases::{Case, Source};
 
 use crate::gpu::{GpuConfig, GpuContext, GpuInput, GpuRenderer, HdrFormat, ReductionMethod};
 use crate::image::{HdrImage, LinearImage};
 use crate::io::LoadOptions;
+use crate::operators::reinhard::WHITE_CLAMP;
 use crate::plan::{Input, StagePlan};
 use crate::reference::luminance_stats::LuminanceStats;
 use crate::reference::{render_flat, Pipeline};
@@ -176,7 +179,7 @@ fn all_finite(img: &LinearImage) -> bool {
 }
 
 /// The case's input after the loader's policy, or the loader's refusal.
-fn load(case: &Case, width_limit: u32) -> Result<(HdrImage, String), String> {
+pub(crate) fn load(case: &Case, width_limit: u32) -> Result<(HdrImage, String), String> {
     match &case.source {
         Source::Image(img) => Ok((img.clone(), String::new())),
         Source::BeyondTextureLimit { height } => Ok((
@@ -467,6 +470,10 @@ fn resolved_text(tone: &crate::operators::ToneParams) -> String {
         .map(|(n, v)| match *n {
             "key" => format!("key {v:.4}"),
             "log_average" => format!("adaptation {v:.4e}"),
+            // Outside the curve's range, the white is clamped in both
+            // renderers (docs/stress.md#range-safe-arithmetic).
+            "white" if *v < WHITE_CLAMP.0 => format!("white {v:.4e} (clamped to 2^-63)"),
+            "white" if *v > WHITE_CLAMP.1 => format!("white {v:.4e} (clamped to 2^63)"),
             _ => format!("{n} {v:.4e}"),
         })
         .collect();
