@@ -87,6 +87,10 @@ pub struct AdapterInfo {
     /// Whether it flushes f32 subnormals, as the probe measured (`None`: the
     /// CPU reference).
     pub flushes_subnormals: Option<bool>,
+    /// How its compiler evaluated the probe's divisions
+    /// (docs/stress.md#range-safe-arithmetic; `None`: the CPU reference).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub division: Option<String>,
 }
 
 /// Everything a check run found; the console, the JSON and the JUnit are
@@ -306,6 +310,7 @@ fn run_inner(
                 driver_info: a.driver_info.clone(),
                 chosen: a.chosen.clone(),
                 flushes_subnormals: a.flushes_subnormals,
+                division: a.division.clone(),
             };
             let mut json = serde_json::to_value(config).unwrap_or_default();
             if let Some(o) = json.as_object_mut() {
@@ -333,6 +338,7 @@ fn run_inner(
                 driver_info: format!("reference version {}", crate::reference::REFERENCE_VERSION),
                 chosen: "--cpu: the f64 CPU reference, no adapter".into(),
                 flushes_subnormals: None,
+                division: None,
             },
             serde_json::json!({ "spp": spp_json(opts.spp) }),
         ),

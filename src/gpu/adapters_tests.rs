@@ -9,6 +9,7 @@ fn found(list: &[(&str, wgpu::DeviceType)]) -> Vec<Candidate> {
             name: name.into(),
             device_type,
             backend: wgpu::Backend::Vulkan,
+            lacks: None,
         })
         .collect()
 }
@@ -114,4 +115,48 @@ fn the_extra_drivers_are_absolute_manifest_paths() {
     }
     // Those listed as present are files.
     assert!(extra_vulkan_drivers().iter().all(|p| p.is_file()));
+}
+
+#[test]
+fn an_adapter_without_compute_is_never_picked_and_a_pick_of_it_says_why() {
+    let mut f = found(&[
+        ("NVIDIA H200/PCIe/SSE2", DiscreteGpu),
+        ("llvmpipe (LLVM 15.0.6, 256 bits)", Cpu),
+    ]);
+    f[0].backend = wgpu::Backend::Gl;
+    f[0].lacks = Some("no compute shaders, which every stage needs".into());
+    // The default and `any` take the usable software rasterizer.
+    let (i, _) = choose(&AdapterPick::Default, &f).expect("llvmpipe is usable");
+    assert_eq!(i, 1);
+    let (i, _) = choose(&AdapterPick::Any, &f).expect("llvmpipe is usable");
+    assert_eq!(i, 1);
+    // Asking for the hardware, or for it by name, is refused with the reason,
+    // not "no adapter matches" and not a tonegate bug.
+    for pick in [AdapterPick::Hardware, AdapterPick::Name("H200".into())] {
+        let e = choose(&pick, &f).expect_err("the only hardware lacks compute");
+        let text = e.to_string();
+        assert!(
+            matches!(e, GpuError::Unsupported { .. }),
+            "{pick:?}: {text}"
+        );
+        assert!(
+            text.contains("NVIDIA H200") && text.contains("no compute shaders"),
+            "{text}"
+        );
+    }
+}
+
+#[test]
+fn a_gl_version_string_says_whether_it_has_compute() {
+    // NVIDIA 580.159.04 on an H200 (2026-11-27), and Mesa 22.3.6 here.
+    assert!(!gl_has_compute("3.3.0 NVIDIA 580.159.04"));
+    assert!(gl_has_compute("4.5 (Core Profile) Mesa 22.3.6"));
+    assert!(gl_has_compute("4.6.0 NVIDIA 580.159.04"));
+    assert!(gl_has_compute("4.3"));
+    assert!(!gl_has_compute("4.2.0"));
+    assert!(gl_has_compute("OpenGL ES 3.2 Mesa 22.3.6"));
+    assert!(gl_has_compute("OpenGL ES 3.1"));
+    assert!(!gl_has_compute("OpenGL ES 3.0 Mesa 22.3.6"));
+    // No version in it: not refused on a guess.
+    assert!(gl_has_compute(""));
 }

@@ -54,7 +54,7 @@ const PIPELINE_CACHE_LIMIT: usize = 256;
 fn report(
     info: &wgpu::AdapterInfo,
     timestamps: bool,
-    flushes_subnormals: Option<bool>,
+    probed: Option<super::probe::Probed>,
     chosen: String,
 ) -> AdapterReport {
     AdapterReport {
@@ -64,7 +64,8 @@ fn report(
         driver: info.driver.clone(),
         driver_info: info.driver_info.clone(),
         timestamps,
-        flushes_subnormals,
+        flushes_subnormals: probed.map(|p| p.flushes_subnormals),
+        division: probed.map(|p| p.division.to_owned()),
         chosen,
     }
 }
@@ -87,6 +88,12 @@ impl GpuContext {
     /// measures whether it flushes subnormals.
     pub fn open(adapter: &wgpu::Adapter, chosen: String) -> Result<GpuContext, GpuError> {
         let info = adapter.get_info();
+        if let Some(reason) = super::adapters::lacks(adapter) {
+            return Err(GpuError::Unsupported {
+                adapter: info.name,
+                reason,
+            });
+        }
         let wanted = wgpu::Features::TIMESTAMP_QUERY
             | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS
             | wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES
@@ -122,11 +129,9 @@ impl GpuContext {
                 v.push(GpuError::DeviceLost(format!("{reason:?}: {message}")));
             }
         });
-        let flushes = super::probe::flushes_subnormals(&device, &queue).map_err(|detail| {
-            GpuError::Device {
-                adapter: info.name.clone(),
-                detail: format!("the subnormal probe failed: {detail}"),
-            }
+        let probed = super::probe::run(&device, &queue).map_err(|detail| GpuError::Device {
+            adapter: info.name.clone(),
+            detail: format!("the subnormal probe failed: {detail}"),
         })?;
         Ok(GpuContext {
             cpu_adapter: info.device_type == wgpu::DeviceType::Cpu,
@@ -136,7 +141,7 @@ impl GpuContext {
             device,
             queue,
             limits,
-            adapter: report(&info, timestamps, Some(flushes), chosen),
+            adapter: report(&info, timestamps, Some(probed), chosen),
             errors,
             pipelines: Mutex::new(Default::default()),
         })

@@ -21,6 +21,9 @@ pub struct AdapterListing {
     /// Measured by the probe shader on a device opened for it; `None` with
     /// `error` when no device could be opened.
     pub flushes_subnormals: Option<bool>,
+    /// The probe's reading of the compiler's divisions
+    /// ([`super::AdapterReport::division`]).
+    pub division: Option<String>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error: Option<String>,
 }
@@ -81,6 +84,10 @@ pub fn list(backend: BackendChoice) -> Vec<AdapterListing> {
                     .as_ref()
                     .ok()
                     .and_then(|c| c.adapter.flushes_subnormals),
+                division: probed
+                    .as_ref()
+                    .ok()
+                    .and_then(|c| c.adapter.division.clone()),
                 error: probed.err().map(|e| e.to_string()),
             }
         })

@@ -309,3 +309,62 @@ fn bench_reports_both_floors_timed_inside_each_frame() {
         }
     }
 }
+
+/// A GL context without compute shaders (what NVIDIA's driver gives wgpu:
+/// desktop GL 3.3), forced on Mesa: `adapters` says what it lacks without
+/// running the probe on it, and `check` refuses it with that reason before
+/// any work, never as "a tonegate bug".
+#[test]
+fn a_gl_context_without_compute_is_refused_with_its_reason() {
+    let no_compute = |args: &[&str]| {
+        tonegate()
+            .args(args)
+            .env("MESA_GL_VERSION_OVERRIDE", "3.3")
+            .env(
+                "MESA_EXTENSION_OVERRIDE",
+                "-GL_ARB_compute_shader -GL_ARB_shader_storage_buffer_object",
+            )
+            .output()
+            .expect("tonegate runs")
+    };
+    let o = no_compute(&["adapters", "--backend", "gl", "--json"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let gl = v["adapters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|a| a["backend"] == "Gl")
+        .unwrap_or_else(|| panic!("no GL adapter in {v}"));
+    let error = gl["error"].as_str().unwrap_or_default();
+    assert!(error.contains("no compute shaders"), "{gl}");
+    assert!(!error.contains("tonegate bug"), "{gl}");
+    // The probe could not run, so nothing is claimed about subnormals.
+    assert!(gl["flushes_subnormals"].is_null(), "{gl}");
+    for pick in [
+        &["--backend", "gl"][..],
+        &["--backend", "gl", "--adapter", "llvmpipe"],
+    ] {
+        let mut args = vec!["check", "--no-history", "--scene", "grid-static"];
+        args.extend_from_slice(pick);
+        let o = no_compute(&args);
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{pick:?}: {e}");
+        assert!(
+            e.contains("cannot run tonegate") && e.contains("no compute shaders"),
+            "{pick:?}: {e}"
+        );
+        assert!(
+            !e.contains("tonegate bug") && !e.contains("buffer limit"),
+            "{pick:?}: {e}"
+        );
+    }
+    // The same adapter without the overrides is usable.
+    let o = run(&["adapters", "--backend", "gl", "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(v["adapters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|a| a["backend"] == "Gl" && a["error"].is_null()));
+}
