@@ -5,7 +5,10 @@
 # 1080p and 2160p, staged and fused; with each TAA variant at 1600x900, seed
 # 002's size, and 1080p), all into one report folder:
 #   ci/gpu.sh [OUT_DIR] [ADAPTER]        (default: gpu-report, hardware)
-# Exits 0 only if check and stress pass; the bench never decides.
+# Exits 0 only if check and stress pass; the bench never decides. The GL
+# adapter of the same GPU is tried too: it passes the gate or is refused
+# with its reason (a GL context without compute shaders).
+# It ends with one screen to paste into a note (also summary.txt).
 # ADAPTER=default runs the same on lavapipe, to try the script without a GPU.
 # TONEGATE=path/to/tonegate skips the build (a binary built elsewhere).
 set -uo pipefail
@@ -31,6 +34,11 @@ check=$?
 "$TONEGATE" stress --adapter "$adapter" --json >"$out/stress.json" 2>"$out/stress.err"
 stress=$?
 [ "$stress" = 0 ] || status=1
+
+# The same GPU through GL: the gate, or a refusal that names what it lacks.
+"$TONEGATE" check --adapter "$adapter" --backend gl --no-history \
+  --json "$out/check-gl.json" >"$out/check-gl.txt" 2>&1
+gl=$?
 
 for size in 1280x720 1920x1080 3840x2160; do
   for execution in staged fused; do
@@ -69,39 +77,64 @@ for size in 1600x900 1920x1080; do
   done
 done
 
-python3 - "$out" "$check" "$stress" <<'PY'
+python3 - "$out" "$check" "$stress" "$gl" <<'PY' | tee "$out/summary.txt"
 import glob, json, os, sys
-out, check, stress = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+out, check, stress, gl = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4])
 def load(path):
     try:
         with open(path) as f:
             return json.load(f)
     except (OSError, ValueError) as e:
         return {"error": f"{path}: {e}"}
+def text(path):
+    try:
+        with open(path) as f:
+            return f.read()
+    except OSError:
+        return ""
 report = {
     "check_exit": check,
     "stress_exit": stress,
+    "check_gl_exit": gl,
     "check": load(os.path.join(out, "check.json")),
+    "check_gl": load(os.path.join(out, "check-gl.json")),
     "stress": load(os.path.join(out, "stress.json")),
     "adapters": load(os.path.join(out, "adapters.json")),
     "bench": {os.path.basename(p)[6:-5]: load(p) for p in sorted(glob.glob(os.path.join(out, "bench-*.json")))},
 }
 with open(os.path.join(out, "report.json"), "w") as f:
     json.dump(report, f, indent=1)
-adapter = report["check"].get("adapter", {}) if isinstance(report["check"], dict) else {}
-print(f"adapter: {adapter.get('name', '?')} ({adapter.get('chosen', '?')})")
-print(f"check: exit {check}; stress: exit {stress}")
+c = report["check"] if isinstance(report["check"], dict) else {}
+a = c.get("adapter") or {}
+flush = {True: "flushed", False: "kept"}.get(a.get("flushes_subnormals"), "?")
+print(f"adapter: {a.get('name', '?')} ({a.get('backend', '?')}, driver {a.get('driver', '?')} {a.get('driver_info', '')})")
+print(f"  subnormals {flush}; divisions {a.get('division', '?')}")
+scenes = c.get("scenes") or []
+bad = [s.get("scene", "?") for s in scenes if any(k.get("passed") is False for k in s.get("checks", []))]
+print(f"check: exit {check}; {len(scenes) - len(bad)}/{len(scenes)} scenes pass" + (f"; failing: {', '.join(bad)}" if bad else ""))
+for name, st in (("check's stress", c.get("stress")), ("stress", report["stress"])):
+    rows = (st or {}).get("cases") or []
+    fails = [r for r in rows if not r.get("passed")]
+    exit_note = f"exit {stress}; " if name == "stress" else ""
+    print(f"{name}: {exit_note}{len(rows) - len(fails)}/{len(rows)} rows pass")
+    for r in fails[:10]:
+        print(f"  FAIL {r.get('name')} on {r.get('renderer')}: finite {r.get('finite')}, max rel {r.get('max_rel_error')}, bound {r.get('bound')}, {r.get('max_lsb_vs_cpu')} LSB from the CPU; {r.get('observed', '')}")
+gl_first = next((l for l in text(os.path.join(out, "check-gl.txt")).splitlines() if l.strip()), "")
+if gl == 0:
+    print("GL: check exit 0")
+else:
+    print(f"GL: check exit {gl}: {gl_first[:200]}")
+print()
+print(f"{'bench (p50)':<34} {'GPU ms':>8} {'+readback':>10} {'floor ms':>9}  stages (x floor)")
 for name, b in report["bench"].items():
     if "error" in b:
-        print(f"bench {name}: {b['error']}")
+        print(f"{name:<34} {b['error'][:80]}")
         continue
-    print(f"bench {name}: reduction {b.get('config', {}).get('reduction')}; {json.dumps({k: b[k] for k in b if k in ('frame_gpu_ms', 'frame_wall_ms_with_readback', 'frame_wall_ms_serial', 'fps', 'fps_with_readback', 'fps_serial_readback', 'floor_ms', 'floor_rw_ms', 'display_floor_multiple')})}")
-    for s in b.get("stages", []):
-        if s["name"] == "luminance_stats":
-            print(f"  luminance_stats: {s['median_ms']:.3f} ms median, {s['floor_multiple']:.2f}x floor")
-    for s in b.get("stages", []):
-        if s["name"].startswith("taa"):
-            print(f"  {s['name']}: {s['median_ms']:.3f} ms median, {s['floor_multiple']:.2f}x floor")
+    gpu = (b.get("frame_gpu_ms") or {}).get("p50")
+    rb = (b.get("frame_wall_ms_with_readback") or {}).get("p50")
+    stages = ", ".join(f"{s['name']} {s['floor_multiple']:.2f}" for s in b.get("stages", []))
+    fmt = lambda v: f"{v:.3f}" if isinstance(v, (int, float)) else "?"
+    print(f"{name:<34} {fmt(gpu):>8} {fmt(rb):>10} {fmt(b.get('floor_ms')):>9}  {stages}")
 print(f"report: {os.path.join(out, 'report.json')}")
 PY
 exit $status
