@@ -13,6 +13,23 @@ use tonegate::gpu::{
     AdapterChoice, BackendChoice, EnvFilter, Execution, GpuConfig, HdrFormat, ReductionMethod,
 };
 
+/// `println!` and `print!` for everything under `cli`: a closed standard
+/// output ends the output quietly instead of panicking (`out`).
+macro_rules! println {
+    () => {
+        $crate::cli::out::write(format_args!(""), true)
+    };
+    ($($arg:tt)*) => {
+        $crate::cli::out::write(format_args!($($arg)*), true)
+    };
+}
+
+macro_rules! print {
+    ($($arg:tt)*) => {
+        $crate::cli::out::write(format_args!($($arg)*), false)
+    };
+}
+
 mod adapters;
 mod bench;
 mod compare;
@@ -20,6 +37,7 @@ mod fleet;
 mod gate;
 mod golden;
 mod image;
+mod out;
 mod progress;
 mod serve;
 mod sweep;

@@ -764,3 +764,70 @@ fn a_fifo_in_place_of_a_file_is_refused_at_once() {
         assert!(text(&o).contains("regular file"), "{args:?}: {}", text(&o));
     }
 }
+
+/// A stdout whose reader has gone: the write end of a pipe whose read end is
+/// already closed, so the first write fails, every time.
+fn closed_stdout() -> std::process::Stdio {
+    use std::os::fd::FromRawFd;
+    let mut fds = [0i32; 2];
+    // SAFETY: pipe(2) fills two new descriptors, which are owned here.
+    assert_eq!(unsafe { libc::pipe(fds.as_mut_ptr()) }, 0);
+    // SAFETY: fds[0] is a descriptor this test owns and never uses again.
+    unsafe { libc::close(fds[0]) };
+    // SAFETY: fds[1] is open and owned by nothing else.
+    std::process::Stdio::from(unsafe { std::os::fd::OwnedFd::from_raw_fd(fds[1]) })
+}
+
+#[test]
+fn a_closed_stdout_ends_the_output_quietly_and_the_run_is_stored_as_it_was() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("h.sqlite");
+    let run = |args: &[&str]| {
+        common::bare_tonegate()
+            .args(args)
+            .stdout(closed_stdout())
+            .output()
+            .expect("tonegate runs")
+    };
+    for args in [
+        &["operators"][..],
+        &["operators", "--json"],
+        &[
+            "compare",
+            "golden/grid-static/000.png",
+            "golden/grid-static/000.png",
+        ],
+    ] {
+        let o = run(args);
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(0), "{args:?}: {e}");
+        assert!(
+            !e.contains("panicked") && !e.contains("Broken pipe"),
+            "{args:?}: {e}"
+        );
+    }
+    // The gate's run is stored as passed and the exit code is the gate's.
+    let o = run(&[
+        "check",
+        "--db",
+        s(&db),
+        "--cpu",
+        "--spp",
+        "1",
+        "--scene",
+        "grid-static",
+    ]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{e}");
+    assert!(!e.contains("panicked"), "{e}");
+    let h = History::open_read_only(&db).unwrap();
+    assert_eq!(h.status(1).unwrap(), Some(RunStatus::Passed));
+    drop(h);
+    let o = run(&["history", "--db", s(&db)]);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
