@@ -182,7 +182,7 @@ impl Scene {
             (None, Some(_)) if self.environment.size.is_some() => {
                 return Err(format!(
                     "{}: `size` applies to built-in maps only; a file has its own size",
-                    at("size")
+                    at("environment.size")
                 ))
             }
             _ => {}
@@ -328,17 +328,32 @@ impl Scene {
     }
 }
 
-/// 1-based line of the first `key =` or `[key` in `text`.
+/// 1-based line of the first `key =` or `[key]` in `text`; for
+/// `table.key`, of `key =` inside the `[table]` section (the environment's
+/// `size` is not the frame's).
 fn line_of(text: &str, key: &str) -> Option<usize> {
-    text.lines()
-        .position(|l| {
-            let t = l.trim_start();
-            t.strip_prefix(key)
-                .map(|rest| rest.trim_start().starts_with('='))
-                .unwrap_or(false)
-                || t.starts_with(&format!("[{key}]"))
-        })
-        .map(|i| i + 1)
+    let (table, key) = match key.split_once('.') {
+        Some((t, k)) => (Some(t), k),
+        None => (None, key),
+    };
+    let mut section: Option<&str> = None;
+    for (i, l) in text.lines().enumerate() {
+        let t = l.trim_start();
+        if let Some(h) = t.strip_prefix('[') {
+            section = h.split(']').next().map(str::trim);
+            if table.is_none() && section == Some(key) {
+                return Some(i + 1);
+            }
+            continue;
+        }
+        let is_key = t
+            .strip_prefix(key)
+            .is_some_and(|rest| rest.trim_start().starts_with('='));
+        if is_key && (table.is_none() || section == table) {
+            return Some(i + 1);
+        }
+    }
+    None
 }
 #[cfg(test)]
 mod tests;

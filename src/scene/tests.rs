@@ -49,7 +49,7 @@ fn out_of_range_values_name_their_line() {
     let text = format!("{MINIMAL}\n[operator]\nkind = \"reinhard02\"\nkey = -1.0\n");
     let e = parse(&text).unwrap_err().to_string();
     assert!(
-        e.contains("must be a finite number > 0") && e.contains("line 13"),
+        e.contains("must be in [0.000001, 100]") && e.contains("line 13"),
         "{e}"
     );
     let text = MINIMAL.replace("size = [32, 18]", "size = [0, 18]");
@@ -238,4 +238,17 @@ fn pq_frames_need_an_operator_with_display_levels() {
     let s = parse(&ok).unwrap();
     assert_eq!((s.encoding, s.encoding.bits()), (Encoding::Pq, 16));
     assert_eq!(Encoding::Srgb.bits(), 8);
+}
+
+#[test]
+fn a_key_of_a_table_is_found_in_its_own_table() {
+    // The environment's `size` is on line 7 (the text starts with a newline);
+    // the frame's `size` on line 3 is not it.
+    let text = MINIMAL.replace("builtin = \"sky\"", "path = \"sky.hdr\"");
+    let e = parse(&text).unwrap_err().to_string();
+    assert!(e.contains("line 7, key `environment.size`"), "{e}");
+    assert_eq!(line_of(MINIMAL, "size"), Some(3));
+    assert_eq!(line_of(MINIMAL, "environment.size"), Some(7));
+    assert_eq!(line_of(MINIMAL, "environment"), Some(5));
+    assert_eq!(line_of(MINIMAL, "rotation.size"), None);
 }
