@@ -212,6 +212,15 @@ impl ToneSettings {
         let Some(preset) = self.preset else {
             return Operator::from_text(def, &self.params.0).map_err(invalid);
         };
+        // The preset is the operator: another one named beside it is a
+        // conflict, not something to drop without a word.
+        if self.operator != ToneSettings::default().operator && def.name() != preset.as_str() {
+            return Err(invalid(format!(
+                "operator: the preset {} is the operator; leave out operator {:?}",
+                preset.as_str(),
+                self.operator
+            )));
+        }
         if let Some((name, _)) = self.params.0.iter().find(|(n, _)| n != "key") {
             return Err(invalid(format!(
                 "{name}: the preset {} fixes the operator's parameters; give only key",
@@ -413,6 +422,23 @@ mod tests {
         with("reinhard02", &[("white", "4")], None).unwrap();
         with("reinhard-global", &[("white_fraction", "0.5")], None).unwrap();
         with("reinhard-global", &[("log_average", "0.2")], None).unwrap();
+    }
+
+    #[test]
+    fn a_preset_beside_another_operator_is_refused() {
+        let with = |operator: &str| ToneSettings {
+            preset: Some(Preset::Reinhard02),
+            operator: operator.to_owned(),
+            ..ToneSettings::default()
+        };
+        let e = with("agx").operator().unwrap_err().to_string();
+        assert!(
+            e.contains("operator") && e.contains("preset reinhard02") && e.contains("agx"),
+            "{e}"
+        );
+        // Naming the preset's own operator, or none, is no conflict.
+        assert!(with("reinhard02").operator().is_ok());
+        assert!(with("reinhard-global").operator().is_ok());
     }
 
     /// The preset is pfstmo_reinhard02's operator with the key given, and
