@@ -739,13 +739,7 @@ impl<'p> Run<'p> {
             B::Subtract => Val::F(self.res(f, h, x - y, || format!("{x:e} - {y:e}"))),
             B::Multiply => Val::F(self.res(f, h, x * y, || format!("{x:e} * {y:e}"))),
             B::Modulo => Val::F(self.res(f, h, x % y, || format!("{x:e} % {y:e}"))),
-            B::Equal => Val::B(x == y),
-            B::NotEqual => Val::B(x != y),
-            B::Less => Val::B(x < y),
-            B::LessEqual => Val::B(x <= y),
-            B::Greater => Val::B(x > y),
-            B::GreaterEqual => Val::B(x >= y),
-            other => panic!("float {other:?}"),
+            other => compare(other, x, y).unwrap_or_else(|| panic!("float {other:?}")),
         })
     }
 
@@ -758,25 +752,28 @@ impl<'p> Run<'p> {
         }
     }
 
+    /// Σ a[i]·b[i], accumulated in order (with fused multiply-adds where
+    /// they apply): how dot products and matrix rows are evaluated.
+    fn dot(&mut self, f: &Frame, h: Handle<E>, a: &[Val], b: &[Val]) -> f32 {
+        let mut acc = 0.0f32;
+        for (i, (x, y)) in a.iter().zip(b).enumerate() {
+            let (x, y) = (x.f(), y.f());
+            acc = if i == 0 {
+                self.res(f, h, x * y, || format!("{x:e} * {y:e}"))
+            } else if self.rw.fma {
+                self.res(f, h, x.mul_add(y, acc), || {
+                    format!("fma({x:e}, {y:e}, {acc:e})")
+                })
+            } else {
+                let p = self.res(f, h, x * y, || format!("{x:e} * {y:e}"));
+                self.res(f, h, acc + p, || format!("{acc:e} + {p:e}"))
+            };
+        }
+        acc
+    }
+
     fn matrix_multiply(&mut self, f: &Frame, h: Handle<E>, l: &Val, r: &Val) -> Val {
         // Column-major: M·v = Σ columns[i]·v[i]; v·M = (dot(v, column j))_j.
-        let dot = |run: &mut Self, a: &[Val], b: &[Val]| -> f32 {
-            let mut acc = 0.0f32;
-            for (i, (x, y)) in a.iter().zip(b).enumerate() {
-                let (x, y) = (x.f(), y.f());
-                acc = if i == 0 {
-                    run.res(f, h, x * y, || format!("{x:e} * {y:e}"))
-                } else if run.rw.fma {
-                    run.res(f, h, x.mul_add(y, acc), || {
-                        format!("fma({x:e}, {y:e}, {acc:e})")
-                    })
-                } else {
-                    let p = run.res(f, h, x * y, || format!("{x:e} * {y:e}"));
-                    run.res(f, h, acc + p, || format!("{acc:e} + {p:e}"))
-                };
-            }
-            acc
-        };
         match (l, r) {
             (Val::C(cols), Val::C(v)) if matches!(cols[0], Val::C(_)) => {
                 let rows = cols[0].comp().len();
@@ -784,14 +781,14 @@ impl<'p> Run<'p> {
                     (0..rows)
                         .map(|j| {
                             let row: Vec<Val> = cols.iter().map(|c| c.comp()[j].clone()).collect();
-                            Val::F(dot(self, &row, v))
+                            Val::F(self.dot(f, h, &row, v))
                         })
                         .collect(),
                 )
             }
             (Val::C(v), Val::C(cols)) => Val::C(
                 cols.iter()
-                    .map(|c| Val::F(dot(self, v, c.comp())))
+                    .map(|c| Val::F(self.dot(f, h, v, c.comp())))
                     .collect(),
             ),
             other => panic!("matrix product {other:?}"),
@@ -903,22 +900,7 @@ impl<'p> Run<'p> {
             }
             M::Dot => {
                 let b = b.expect("two");
-                let (a, b) = (a.comp().to_vec(), b.comp().to_vec());
-                let mut acc = 0.0f32;
-                for (i, (x, y)) in a.iter().zip(&b).enumerate() {
-                    let (x, y) = (x.f(), y.f());
-                    acc = if i == 0 {
-                        self.res(f, h, x * y, || format!("{x:e} * {y:e}"))
-                    } else if self.rw.fma {
-                        self.res(f, h, x.mul_add(y, acc), || {
-                            format!("fma({x:e}, {y:e}, {acc:e})")
-                        })
-                    } else {
-                        let p = self.res(f, h, x * y, || format!("{x:e} * {y:e}"));
-                        self.res(f, h, acc + p, || format!("{acc:e} + {p:e}"))
-                    };
-                }
-                Val::F(acc)
+                Val::F(self.dot(f, h, a.comp(), b.comp()))
             }
             M::Length => {
                 let v = a.floats();
@@ -1009,6 +991,19 @@ fn select(c: &Val, accept: Val, reject: Val) -> Val {
     }
 }
 
+/// A comparison of two scalars; `None` for an operator that is not one.
+fn compare<T: PartialOrd>(op: B, x: T, y: T) -> Option<Val> {
+    Some(Val::B(match op {
+        B::Equal => x == y,
+        B::NotEqual => x != y,
+        B::Less => x < y,
+        B::LessEqual => x <= y,
+        B::Greater => x > y,
+        B::GreaterEqual => x >= y,
+        _ => return None,
+    }))
+}
+
 fn int_binary(op: B, l: &Val, r: &Val) -> Val {
     match (l, r) {
         (Val::C(x), Val::C(y)) => {
@@ -1029,13 +1024,7 @@ fn int_binary(op: B, l: &Val, r: &Val) -> Val {
                 B::ExclusiveOr => Val::U(x ^ y),
                 B::ShiftLeft => Val::U(x.wrapping_shl(y)),
                 B::ShiftRight => Val::U(x.wrapping_shr(y)),
-                B::Equal => Val::B(x == y),
-                B::NotEqual => Val::B(x != y),
-                B::Less => Val::B(x < y),
-                B::LessEqual => Val::B(x <= y),
-                B::Greater => Val::B(x > y),
-                B::GreaterEqual => Val::B(x >= y),
-                other => panic!("u32 {other:?}"),
+                other => compare(other, x, y).unwrap_or_else(|| panic!("u32 {other:?}")),
             }
         }
         (Val::I(x), Val::I(y)) => {
@@ -1046,13 +1035,7 @@ fn int_binary(op: B, l: &Val, r: &Val) -> Val {
                 B::Multiply => Val::I(x.wrapping_mul(y)),
                 B::Divide => Val::I(if y == 0 { x } else { x.wrapping_div(y) }),
                 B::Modulo => Val::I(if y == 0 { 0 } else { x.wrapping_rem(y) }),
-                B::Equal => Val::B(x == y),
-                B::NotEqual => Val::B(x != y),
-                B::Less => Val::B(x < y),
-                B::LessEqual => Val::B(x <= y),
-                B::Greater => Val::B(x > y),
-                B::GreaterEqual => Val::B(x >= y),
-                other => panic!("i32 {other:?}"),
+                other => compare(other, x, y).unwrap_or_else(|| panic!("i32 {other:?}")),
             }
         }
         (Val::B(x), Val::B(y)) => match op {
