@@ -15,6 +15,16 @@ pub struct AdaptersArgs {
     pub json: bool,
 }
 
+/// 134217728 as "128 MiB".
+fn bytes(n: u64) -> String {
+    match n {
+        n if n >= 1 << 30 && n % (1 << 30) == 0 => format!("{} GiB", n >> 30),
+        n if n >= 1 << 20 && n % (1 << 20) == 0 => format!("{} MiB", n >> 20),
+        n if n >= 1 << 10 && n % (1 << 10) == 0 => format!("{} KiB", n >> 10),
+        n => format!("{n} B"),
+    }
+}
+
 pub fn adapters(a: AdaptersArgs) -> Result<ExitCode> {
     let backend = a.backend.backend.unwrap_or(BackendChoice::Any);
     let list = listing::list(backend);
@@ -45,6 +55,15 @@ pub fn adapters(a: AdaptersArgs) -> Result<ExitCode> {
                 l.limits.max_texture_dimension_2d,
                 flush,
                 l.features.join(", ")
+            );
+            let lim = &l.limits;
+            println!(
+                "    limits: storage buffer {}, buffer {}, workgroup {} invocations and {} shared; divisions {}",
+                bytes(lim.max_storage_buffer_binding_size),
+                bytes(lim.max_buffer_size),
+                lim.max_compute_invocations_per_workgroup,
+                bytes(lim.max_compute_workgroup_storage_size as u64),
+                l.division.as_deref().unwrap_or("?"),
             );
             if let Some(e) = &l.error {
                 println!("    could not open it: {e}");

@@ -425,7 +425,13 @@ fn choose_among(pick: &AdapterPick, found: &[Candidate]) -> Result<(usize, Strin
                 ),
             )
         }
-        AdapterPick::Any => (0, format!("--adapter any: the first listed of {}", names())),
+        AdapterPick::Any => (
+            0,
+            format!(
+                "--adapter any: the first the drivers list of {} (drivers outside the loader's folders, which `tonegate adapters` lists first, join only for an adapter asked for by name)",
+                names()
+            ),
+        ),
         AdapterPick::Name(name) => {
             let wanted = name.to_lowercase();
             let i = found

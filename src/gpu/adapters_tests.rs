@@ -160,3 +160,21 @@ fn a_gl_version_string_says_whether_it_has_compute() {
     // No version in it: not refused on a guess.
     assert!(gl_has_compute(""));
 }
+
+#[test]
+fn any_says_which_list_it_took_the_first_of() {
+    let f = found(&[
+        ("llvmpipe (LLVM 15.0.6, 256 bits)", Cpu),
+        ("NVIDIA H200", DiscreteGpu),
+    ]);
+    let (i, why) = choose(&AdapterPick::Any, &f).unwrap();
+    assert_eq!(i, 0);
+    assert!(
+        why.contains("the first the drivers list of llvmpipe"),
+        "{why}"
+    );
+    assert!(
+        why.contains("only for an adapter asked for by name"),
+        "{why}"
+    );
+}

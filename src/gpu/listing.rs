@@ -41,14 +41,11 @@ pub struct ListedLimits {
     pub max_compute_workgroup_storage_size: u32,
 }
 
-/// The adapters on `backend` (`Any`: every backend), with the extra Vulkan
+/// The adapters on `backend` (`Any`: every backend; `Default`: what a GPU
+/// command chooses among, Vulkan where it has an adapter), with the extra Vulkan
 /// drivers added (`adapters::EXTRA_VULKAN_DRIVERS`); each is opened to probe
 /// it.
 pub fn list(backend: BackendChoice) -> Vec<AdapterListing> {
-    let backend = match backend {
-        BackendChoice::Default => BackendChoice::Any,
-        b => b,
-    };
     let wanted = [
         (wgpu::Features::SUBGROUP, "subgroups"),
         (wgpu::Features::SHADER_F16, "shader-f16"),

@@ -368,3 +368,37 @@ fn a_gl_context_without_compute_is_refused_with_its_reason() {
         .iter()
         .any(|a| a["backend"] == "Gl" && a["error"].is_null()));
 }
+
+/// The console shows the limits the page lists, and `--backend default`
+/// lists what a GPU command chooses among: Vulkan's adapters, not GL's.
+#[test]
+fn the_listing_shows_its_limits_and_default_means_vulkan_here() {
+    let o = run(&["adapters"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("Gl") && text.contains("Vulkan"), "{text}");
+    let limits = text
+        .lines()
+        .filter(|l| l.trim_start().starts_with("limits: "))
+        .count();
+    assert!(limits >= 3, "{text}");
+    assert!(
+        text.contains("storage buffer")
+            && text.contains("workgroup")
+            && text.contains("divisions as written"),
+        "{text}"
+    );
+    let o = run(&["adapters", "--backend", "default", "--json"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let backends: Vec<&str> = v["adapters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| a["backend"].as_str().unwrap())
+        .collect();
+    assert!(
+        !backends.is_empty() && backends.iter().all(|b| *b == "Vulkan"),
+        "{backends:?}"
+    );
+}
