@@ -64,6 +64,14 @@ impl ApiError {
     pub fn bad(detail: impl Into<String>) -> Self {
         Self::new(StatusCode::BAD_REQUEST, "bad_parameter", detail)
     }
+    /// A 400 whose detail is never cut: for one made of tonegate's own
+    /// words (every parameter name it takes) around a clipped echo of the
+    /// client's, so its length is bounded by tonegate, not by the client.
+    pub fn bad_listing(detail: String) -> Self {
+        let mut e = Self::bad(String::new());
+        e.detail = detail;
+        e
+    }
     pub fn not_found(detail: impl Into<String>) -> Self {
         Self::new(StatusCode::NOT_FOUND, "not_found", detail)
     }

@@ -9,6 +9,7 @@ use futures_util::Stream;
 use http::{header, HeaderMap, StatusCode};
 
 /// The parameters `POST /tonemap` takes besides the tone settings.
+#[derive(Debug)]
 pub struct Extra {
     /// Render on the GPU (the default) rather than with the CPU reference.
     pub gpu: bool,
@@ -71,10 +72,37 @@ pub fn parse_params(
             _ => rest.push((k, v)),
         }
     }
+    let settings_names = settings_names();
+    if let Some((k, _)) = rest.iter().find(|(k, _)| !settings_names.contains(k)) {
+        let mut known: Vec<String> = settings_names;
+        known.extend(["gpu", "sanitize", "format"].map(String::from));
+        known.extend(
+            crate::operators::all_params()
+                .iter()
+                .map(|(p, _)| p.name.to_owned()),
+        );
+        known.sort();
+        known.dedup();
+        return Err(ApiError::bad_listing(format!(
+            "{}: unknown parameter; expected one of {}",
+            super::error::clip(k),
+            known.join(", ")
+        )));
+    }
     let encoded = serde_urlencoded::to_string(&rest).map_err(|e| ApiError::bad(e.to_string()))?;
     let mut settings: ToneSettings = super::params::from_pairs(encoded.as_bytes())?;
     settings.params = operator_params;
     Ok((extra, settings))
+}
+
+/// The names [`ToneSettings`] itself takes, read from what it serialises
+/// (so a new setting needs no list kept by hand); the operator's
+/// parameters are a separate map.
+fn settings_names() -> Vec<String> {
+    match serde_json::to_value(ToneSettings::default()) {
+        Ok(serde_json::Value::Object(m)) => m.keys().cloned().collect(),
+        _ => Vec::new(),
+    }
 }
 
 /// Why a body's stream stopped short, as the server saw it.
@@ -147,5 +175,64 @@ fn multipart_error(e: &multer::Error) -> ApiError {
         )
     } else {
         ApiError::bad(format!("multipart: {e}"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(pairs: &[(&str, &str)]) -> Result<(Extra, ToneSettings), ApiError> {
+        let pairs = pairs
+            .iter()
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .collect();
+        parse_params(pairs, &HeaderMap::new())
+    }
+
+    #[test]
+    fn an_unknown_parameter_lists_every_name_that_is_taken() {
+        let e = parse(&[("kee", "0.2")]).unwrap_err();
+        let text = e.detail;
+        assert!(text.starts_with("\"kee\": unknown parameter"), "{text}");
+        for name in [
+            "gpu",
+            "sanitize",
+            "format",
+            "exposure",
+            "white_fraction",
+            "bloom",
+            "preset",
+        ] {
+            assert!(text.contains(name), "{name} missing from {text}");
+        }
+        // Every name the list gives is taken.
+        for name in [
+            "gpu",
+            "sanitize",
+            "format",
+            "bloom",
+            "display",
+            "white_fraction",
+        ] {
+            let v = match name {
+                "format" => "json",
+                "display" => "sdr",
+                "gpu" | "sanitize" => "true",
+                "white_fraction" => "0.5",
+                _ => "0",
+            };
+            assert!(parse(&[(name, v)]).is_ok(), "{name}");
+        }
+    }
+
+    #[test]
+    fn operator_parameters_are_reported_as_the_values_they_are() {
+        let (_, s) = parse(&[("operator", "hable"), ("exposure", "2")]).unwrap();
+        let v = serde_json::to_value(s.in_effect()).unwrap();
+        assert_eq!(v["exposure"], serde_json::json!(2.0), "{v}");
+        let (_, s) = parse(&[("operator", "reinhard-auto-key"), ("key", "auto")]).unwrap();
+        let v = serde_json::to_value(s.in_effect()).unwrap();
+        assert_eq!(v["key"], "auto", "{v}");
     }
 }

@@ -26,8 +26,16 @@ impl Serialize for OperatorParams {
     fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
         use serde::ser::SerializeMap;
         let mut m = s.serialize_map(Some(self.0.len()))?;
+        // As the value it stands for: a number as a number, a flag as a
+        // bool, a word (or "auto") as text.
         for (n, v) in &self.0 {
-            m.serialize_entry(n, v)?;
+            let t = v.trim();
+            match (t.parse::<f64>(), t) {
+                (Ok(x), _) if x.is_finite() => m.serialize_entry(n, &x)?,
+                (_, "true") => m.serialize_entry(n, &true)?,
+                (_, "false") => m.serialize_entry(n, &false)?,
+                _ => m.serialize_entry(n, v)?,
+            }
         }
         m.end()
     }
