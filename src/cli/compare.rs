@@ -34,12 +34,13 @@ pub struct CompareArgs {
     /// FLIP's pixels per degree (default: a 0.7 m wide 4K display at 0.7 m, 67.02).
     #[arg(long)]
     pub ppd: Option<f64>,
-    /// HDR inputs: the display peak in cd/m² that 1.0 maps to (PU21, delta E ITP).
-    #[arg(long, default_value_t = tonegate::metrics::pu21::DEFAULT_PEAK)]
-    pub peak: f64,
-    /// HDR-FLIP's tone mapper: aces, hable or reinhard.
-    #[arg(long, default_value = "aces", value_parser = super::by_name::<ToneMapper>)]
-    pub tone_mapper: ToneMapper,
+    /// HDR inputs: the display peak in cd/m² that 1.0 maps to (PU21, delta E
+    /// ITP; default 100).
+    #[arg(long)]
+    pub peak: Option<f64>,
+    /// HDR-FLIP's tone mapper: aces (the default), hable or reinhard.
+    #[arg(long, value_parser = super::by_name::<ToneMapper>)]
+    pub tone_mapper: Option<ToneMapper>,
     /// HDR-FLIP's first exposure in stops (default: from the reference's maximum).
     #[arg(long, allow_hyphen_values = true)]
     pub start_exposure: Option<f64>,
@@ -110,6 +111,27 @@ pub fn compare(a: CompareArgs) -> Result<ExitCode> {
 
 fn compare_ldr(a: &CompareArgs, test: &Path, reference: &Path) -> Result<ExitCode> {
     use tonegate::image::Frame;
+    // The HDR options mean nothing for frames: say so rather than seem to
+    // apply them.
+    let hdr_only: Vec<&str> = [
+        (a.peak.is_some(), "--peak"),
+        (a.tone_mapper.is_some(), "--tone-mapper"),
+        (a.start_exposure.is_some(), "--start-exposure"),
+        (a.stop_exposure.is_some(), "--stop-exposure"),
+        (a.exposures.is_some(), "--exposures"),
+    ]
+    .iter()
+    .filter(|(given, _)| *given)
+    .map(|(_, name)| *name)
+    .collect();
+    if !hdr_only.is_empty() {
+        eprintln!(
+            "note: {} ignored: they set the HDR metrics, and {} and {} are frame PNGs",
+            hdr_only.join(", "),
+            test.display(),
+            reference.display()
+        );
+    }
     use tonegate::metrics::{compare_frames, frame_diff_heatmap, frame_ssim};
     // 8-bit frames, or 16-bit PQ ones (a PQ scene's goldens and artifacts).
     let frame_a = tonegate::io::read_frame_png(test)?;
@@ -183,10 +205,10 @@ fn compare_hdr(a: &CompareArgs, test: &Path, reference: &Path) -> Result<ExitCod
     let (img_a, _) = tonegate::io::load_hdr(test, &load)?;
     let (img_b, _) = tonegate::io::load_hdr(reference, &load)?;
     let opts = HdrOptions {
-        peak: a.peak,
+        peak: a.peak.unwrap_or(tonegate::metrics::pu21::DEFAULT_PEAK),
         flip: HdrFlipOptions {
             ppd: a.ppd.unwrap_or(tonegate::metrics::flip::DEFAULT_PPD),
-            tone_mapper: a.tone_mapper,
+            tone_mapper: a.tone_mapper.unwrap_or(ToneMapper::Aces),
             start: a.start_exposure,
             stop: a.stop_exposure,
             exposures: a.exposures,

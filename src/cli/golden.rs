@@ -65,8 +65,9 @@ fn bless(suite: &Path, names: &[String]) -> Result<ExitCode> {
     tonegate::golden::bless(&root, &scenes, &Bar::new())?;
     let frames: u32 = scenes.iter().map(|s| s.frames).sum();
     println!(
-        "blessed {} scenes, {frames} frames; golden/ is {:.1} MB",
+        "blessed {} scenes, {frames} frames into {} (beside the suite file); it holds {:.1} MB",
         scenes.len(),
+        root.display(),
         tonegate::golden::directory_bytes(&root) as f64 / 1e6
     );
     Ok(ExitCode::SUCCESS)

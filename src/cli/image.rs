@@ -46,9 +46,10 @@ pub struct TonemapArgs {
 #[derive(Args)]
 pub struct PlanArgs {
     pub scene: PathBuf,
-    /// Samples per pixel of the sphere stage.
-    #[arg(long, default_value_t = 1)]
-    pub spp: u32,
+    /// Samples per pixel of the sphere stage (default: what `check` renders
+    /// the scene with, its `reference_spp`, or 1 for a TAA scene).
+    #[arg(long)]
+    pub spp: Option<u32>,
     #[arg(long)]
     pub json: bool,
 }
@@ -146,7 +147,7 @@ pub fn tonemap(a: TonemapArgs) -> Result<ExitCode> {
 /// FLIP's pooled statistics at the chosen viewing distance.
 pub fn plan(a: PlanArgs) -> Result<ExitCode> {
     let scene = Scene::load(&a.scene)?;
-    let plan = tonegate::plan::StagePlan::for_scene(&scene, a.spp);
+    let plan = tonegate::plan::StagePlan::for_scene(&scene, a.spp.unwrap_or(scene.default_spp()));
     if a.json {
         write_json(Path::new("-"), "the plan", &plan)?;
     } else {

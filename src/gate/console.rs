@@ -161,13 +161,19 @@ pub fn render(r: &CheckReport) -> String {
         }
     }
     let failed = r.scenes_failed();
+    let expected = r.scenes_failed_as_expected();
+    let failed_text = match (failed, expected) {
+        (f, 0) => format!("{f} failed"),
+        (f, e) if f == e => format!("{f} failed as expected"),
+        (f, e) => format!("{} failed, {e} more as expected", f - e),
+    };
     let _ = writeln!(
         out,
-        "\n{}: {} of {} scenes passed, {} failed, {} regressions; adapter {} ({}, {}); renderer {}",
+        "\n{}: {} of {} scenes passed, {}, {} regressions; adapter {} ({}, {}); renderer {}",
         if r.passed { "PASSED" } else { "FAILED" },
         r.scenes.len() - failed,
         r.scenes.len(),
-        failed,
+        failed_text,
         r.regressions.len(),
         r.adapter.name,
         r.adapter.backend,

@@ -129,6 +129,15 @@ impl CheckReport {
     pub fn scenes_failed(&self) -> usize {
         self.scenes.iter().filter(|s| !s.passed()).count()
     }
+
+    /// Of those, the ones an expectation on this adapter allows (they do
+    /// not fail the gate).
+    pub fn scenes_failed_as_expected(&self) -> usize {
+        self.scenes
+            .iter()
+            .filter(|s| !s.passed() && !s.fails_gate())
+            .count()
+    }
 }
 
 /// The artifacts a stored [`CheckReport`] lists, read back from its JSON:

@@ -590,6 +590,11 @@ fn expectations_per_adapter_excuse_a_known_failure_and_report_the_rest() {
     assert_eq!(code, Some(0), "{out}");
     assert!(out.contains("EXPECTED FAILURE on this adapter: a known 2 % brightness fault, https://example.invalid/bug/1"), "{out}");
     assert!(out.contains("XFAIL PSNR >= 50 dB"), "{out}");
+    // The summary does not call an excused failure a plain one.
+    assert!(
+        out.contains("PASSED: 0 of 1 scenes passed, 1 failed as expected"),
+        "{out}"
+    );
     assert!(
         xml.contains("<skipped message=\"expected_fail on llvmpipe"),
         "{xml}"
@@ -829,5 +834,44 @@ fn a_closed_stdout_ends_the_output_quietly_and_the_run_is_stored_as_it_was() {
         Some(0),
         "{}",
         String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+/// `plan` shows what `check` renders: the scene's reference spp unless
+/// `--spp` says otherwise.
+#[test]
+fn plan_shows_the_spp_check_renders_with() {
+    let o = tonegate(&["plan", "golden/scenes/grid-static.toml", "--json"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let scene = std::fs::read_to_string(repo().join("golden/scenes/grid-static.toml")).unwrap();
+    let spp: u32 = scene
+        .lines()
+        .find_map(|l| {
+            l.trim()
+                .strip_prefix("reference_spp")?
+                .trim()
+                .strip_prefix('=')?
+                .trim()
+                .parse()
+                .ok()
+        })
+        .unwrap_or(16);
+    assert!(spp > 1);
+    let plan = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        plan.contains(&format!("\"spp\": {spp}")) || plan.contains(&format!("\"spp\":{spp}")),
+        "{plan}"
+    );
+    let o = tonegate(&[
+        "plan",
+        "golden/scenes/grid-static.toml",
+        "--json",
+        "--spp",
+        "1",
+    ]);
+    let plan = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        plan.contains("\"spp\": 1") || plan.contains("\"spp\":1"),
+        "{plan}"
     );
 }

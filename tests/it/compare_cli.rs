@@ -104,3 +104,18 @@ fn ppd_moves_every_flip_figure_of_a_frame_comparison() {
         "{first} vs {mean}"
     );
 }
+
+/// HDR options given for two frame PNGs are named as ignored, and the
+/// figures are the plain comparison's.
+#[test]
+fn hdr_options_on_frames_are_named_as_ignored() {
+    let frame = "golden/grid-static/000.png";
+    let plain = compare(&[frame, frame]);
+    assert!(plain.status.success());
+    assert!(!String::from_utf8_lossy(&plain.stderr).contains("ignored"));
+    let o = compare(&[frame, frame, "--peak", "400", "--tone-mapper", "hable"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(e.contains("--peak, --tone-mapper ignored"), "{e}");
+    assert_eq!(o.stdout, plain.stdout);
+}

@@ -51,6 +51,12 @@ set_by = "the CPU reference against its own golden: identical"
     std::fs::write(&tiny, "scenes = [\"scenes/tiny.toml\"]\n").unwrap();
     let o = tonegate(&["golden", "bless", "--suite", tiny.to_str().unwrap()]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // The message names the folder the goldens went to, not "golden/".
+    let said = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        said.contains(&format!("into {}", golden.display())),
+        "{said}"
+    );
     let long = golden.join("long.toml");
     std::fs::write(
         &long,
