@@ -18,6 +18,7 @@ mod check;
 mod compare_cli;
 mod dashboard;
 mod display;
+mod docs_examples;
 mod fleet;
 mod fuzz_regressions;
 mod golden;
