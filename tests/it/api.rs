@@ -707,3 +707,135 @@ async fn an_image_the_gpu_cannot_hold_is_refused_before_decoding() {
         assert_eq!(r.status(), StatusCode::UNPROCESSABLE_ENTITY, "{w}x{h}");
     }
 }
+
+/// The backticked words of `text`.
+fn backticked(text: &str) -> Vec<String> {
+    text.split('`')
+        .skip(1)
+        .step_by(2)
+        .map(str::to_owned)
+        .collect()
+}
+
+/// The text of docs/api.md's endpoint row for `endpoint`.
+fn api_row(endpoint: &str) -> String {
+    let doc = std::fs::read_to_string(common::repo().join("docs/api.md")).unwrap();
+    doc.lines()
+        .find(|l| l.starts_with(&format!("| `GET /api/v1/{endpoint}")))
+        .unwrap_or_else(|| panic!("docs/api.md has no row for {endpoint}"))
+        .to_owned()
+}
+
+/// The keys inside the parentheses that follow `after` in `row`, past a
+/// `name:` label if there is one.
+fn keys_after(row: &str, after: &str) -> Vec<String> {
+    let start = row
+        .find(after)
+        .unwrap_or_else(|| panic!("no {after:?} in {row}"))
+        + after.len();
+    let inside = &row[start..start + row[start..].find(')').unwrap()];
+    let inside = inside.split_once("`:").map_or(inside, |(_, rest)| rest);
+    backticked(inside)
+}
+
+fn object_keys(v: &serde_json::Value) -> Vec<String> {
+    let mut k: Vec<String> = v
+        .as_object()
+        .unwrap_or_else(|| panic!("not an object: {v}"))
+        .keys()
+        .cloned()
+        .collect();
+    k.sort();
+    k
+}
+
+fn sorted(mut v: Vec<String>) -> Vec<String> {
+    v.sort();
+    v.dedup();
+    v
+}
+
+/// The schema `name`'s property names in the OpenAPI document.
+fn schema_keys(openapi: &serde_json::Value, name: &str) -> Vec<String> {
+    object_keys(&openapi["components"]["schemas"][name]["properties"])
+}
+
+/// What docs/api.md says the matrix and the operator list hold is what they
+/// hold: every key the page names is in the answer, the answer has no key
+/// the page does not name, and the OpenAPI document declares the same.
+#[tokio::test]
+async fn the_api_page_names_exactly_the_keys_the_answers_have() {
+    let dir = tempfile::tempdir().unwrap();
+    let seeded = common::seed(dir.path());
+    let s = start(&seeded, |_| {}).await;
+    let (_, openapi) = s.json("/api/v1/openapi.json").await;
+
+    let row = api_row("matrix");
+    let (st, m) = s.json("/api/v1/matrix").await;
+    assert_eq!(st, StatusCode::OK);
+    let column = sorted(keys_after(&row, "a column ("));
+    let cell = sorted(keys_after(&row, "a cell ("));
+    assert_eq!(object_keys(&m["adapters"][0]), column, "{row}");
+    assert_eq!(object_keys(&m["cells"][0]), cell, "{row}");
+    // The top level: the words outside the parentheses, and the column
+    // list's own name, less the query parameter.
+    let mut outside = String::new();
+    let mut depth = 0;
+    for c in row.split_once("| the adapter matrix").unwrap().1.chars() {
+        match c {
+            '(' => depth += 1,
+            ')' => depth -= 1,
+            _ if depth == 0 => outside.push(c),
+            _ => {}
+        }
+    }
+    let mut top = backticked(&outside);
+    // A parenthesis that starts with "`name`:" names a key of the top level.
+    for part in row.split("(`").skip(1) {
+        if let Some((label, _)) = part.split_once("`:") {
+            top.push(label.to_owned());
+        }
+    }
+    top.retain(|k| k != "limit");
+    assert_eq!(object_keys(&m), sorted(top), "{row}");
+    for (schema, keys) in [
+        ("Matrix", object_keys(&m)),
+        ("MatrixAdapter", column),
+        ("MatrixCell", cell),
+    ] {
+        assert_eq!(schema_keys(&openapi, schema), keys, "OpenAPI {schema}");
+    }
+
+    let row = api_row("operators");
+    let (_, ops) = s.json("/api/v1/operators").await;
+    let ops = ops.as_array().unwrap();
+    let said = backticked(row.split_once("prints):").unwrap().1);
+    let (op_keys, rest) = said.split_at(said.iter().position(|k| k == "params").unwrap() + 1);
+    let param_keys: Vec<String> = rest
+        .iter()
+        .take_while(|k| *k != "hdr_output")
+        .cloned()
+        .collect();
+    let mut op_keys = op_keys.to_vec();
+    op_keys.push("hdr_output".into());
+    for op in ops {
+        let keys = object_keys(op);
+        assert_eq!(keys, sorted(op_keys.clone()), "{}: {row}", op["name"]);
+        for p in op["params"].as_array().unwrap() {
+            // `range` or `words`, as the kind has.
+            for k in object_keys(p) {
+                assert!(
+                    param_keys.contains(&k),
+                    "{}.{}: {k} not on the page",
+                    op["name"],
+                    p["name"]
+                );
+            }
+            for k in &param_keys {
+                if k != "range" && k != "words" {
+                    assert!(p.get(k).is_some(), "{}.{}: no {k}", op["name"], p["name"]);
+                }
+            }
+        }
+    }
+}
