@@ -259,7 +259,16 @@ fn finish(job: Job, stats: &QueueStats, result: Result<ToneOutput, ApiError>) {
         &stats.failed
     };
     counter.fetch_add(1, Ordering::Relaxed);
-    let _ = job.reply.send(result);
+    // The place is free before the answer leaves: a client that sends its
+    // next request the moment it has this answer finds it free (with the
+    // permit dropped after the send, c = capacity got 503s).
+    let Job {
+        reply,
+        _permit: permit,
+        ..
+    } = job;
+    drop(permit);
+    let _ = reply.send(result);
 }
 
 /// Runs one job and answers it; true when the device must be opened afresh
