@@ -839,3 +839,37 @@ async fn the_api_page_names_exactly_the_keys_the_answers_have() {
         }
     }
 }
+
+/// As many clients as the queue has places, each sending its next request
+/// the moment it has its answer, never meet a full queue: a place is free
+/// before its answer leaves.
+#[tokio::test]
+async fn clients_up_to_the_capacity_never_get_busy() {
+    let dir = tempfile::tempdir().unwrap();
+    let seeded = common::seed_empty(dir.path());
+    let s = Arc::new(
+        start(&seeded, |o| {
+            o.limits.queue = 1;
+        })
+        .await,
+    );
+    let hdr = common::hdr_bytes(dir.path(), 8, 4);
+    // queue = 1: one job waits besides the one running, so two places.
+    let clients: Vec<_> = (0..2)
+        .map(|_| {
+            let (s, hdr) = (s.clone(), hdr.clone());
+            tokio::spawn(async move {
+                let mut codes = Vec::new();
+                for _ in 0..60 {
+                    codes.push(s.tonemap("gpu=false", hdr.clone()).await.status());
+                }
+                codes
+            })
+        })
+        .collect();
+    for c in clients {
+        let codes = c.await.unwrap();
+        let busy = codes.iter().filter(|c| **c != StatusCode::OK).count();
+        assert_eq!(busy, 0, "{codes:?}");
+    }
+}
