@@ -67,7 +67,43 @@ fn one() -> NonNegative {
     NonNegative(1.0)
 }
 
+/// The largest bloom strength and grade factor: 100. Every real look is
+/// within 0-4; the bound keeps the GPU's f32 arithmetic finite for inputs up
+/// to 1e30, and the value itself within what a pipeline's f32 override
+/// constant can hold (1e39 was a 500 from the driver layer, 2026-11-27;
+/// docs/display.md#limits).
+pub const FACTOR_MAX: f64 = 100.0;
+/// The largest bloom threshold and blur sigma: 1e6.
+pub const SPAN_MAX: f64 = 1e6;
+/// A 1/γ encoding's γ: 0.1 to 10.
+pub const GAMMA_RANGE: (f64, f64) = (0.1, 10.0);
+
+fn at_most(key: &'static str, v: f64, max: f64) -> Result<(), (&'static str, String)> {
+    if v <= max {
+        Ok(())
+    } else {
+        Err((key, format!("must be at most {max}, got {v}")))
+    }
+}
+
+impl Bloom {
+    /// The bounds beyond each value's own type ([`FACTOR_MAX`],
+    /// [`SPAN_MAX`]); the error names the scene key.
+    pub fn check(&self) -> Result<(), (&'static str, String)> {
+        at_most("strength", self.strength.0, FACTOR_MAX)?;
+        at_most("threshold", self.threshold.0, SPAN_MAX)?;
+        at_most("sigma", self.sigma.0, SPAN_MAX)
+    }
+}
+
 impl Grade {
+    /// Each factor at most [`FACTOR_MAX`].
+    pub fn check(&self) -> Result<(), (&'static str, String)> {
+        at_most("brightness", self.brightness.0, FACTOR_MAX)?;
+        at_most("contrast", self.contrast.0, FACTOR_MAX)?;
+        at_most("saturation", self.saturation.0, FACTOR_MAX)
+    }
+
     /// A neutral grade changes nothing, so the plan leaves it out.
     pub fn is_neutral(&self) -> bool {
         self.brightness.0 == 1.0 && self.contrast.0 == 1.0 && self.saturation.0 == 1.0
@@ -91,6 +127,20 @@ pub enum Encoding {
 }
 
 impl Encoding {
+    /// γ within [`GAMMA_RANGE`].
+    pub fn check(&self) -> Result<(), (&'static str, String)> {
+        match self {
+            Encoding::Gamma(g) if !(GAMMA_RANGE.0..=GAMMA_RANGE.1).contains(&g.0) => Err((
+                "gamma",
+                format!(
+                    "must be in [{}, {}], got {}",
+                    GAMMA_RANGE.0, GAMMA_RANGE.1, g.0
+                ),
+            )),
+            _ => Ok(()),
+        }
+    }
+
     /// Bits per sample of the frames it makes.
     pub fn bits(self) -> u32 {
         match self {

@@ -215,6 +215,20 @@ impl Scene {
                 self.reference_spp
             ));
         }
+        // The bounds the tone-map's flags and API parameters share
+        // (docs/display.md#limits).
+        let keyed = |table: &str, (key, msg): (&str, String)| {
+            format!("{}: {msg}", at(&format!("{table}.{key}")))
+        };
+        if let Some(b) = &self.bloom {
+            b.check().map_err(|e| keyed("bloom", e))?;
+        }
+        if let Some(g) = &self.grade {
+            g.check().map_err(|e| keyed("grade", e))?;
+        }
+        self.encoding
+            .check()
+            .map_err(|(k, m)| format!("{}: {m}", at(k)))?;
         if let Some(taa) = &self.taa {
             if self.reference_spp < 2 {
                 return Err(format!(

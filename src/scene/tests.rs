@@ -252,3 +252,21 @@ fn a_key_of_a_table_is_found_in_its_own_table() {
     assert_eq!(line_of(MINIMAL, "environment"), Some(5));
     assert_eq!(line_of(MINIMAL, "rotation.size"), None);
 }
+
+#[test]
+fn bloom_and_grade_beyond_what_the_gpu_carries_are_refused_at_their_line() {
+    let text = format!("{MINIMAL}[grade]\ncontrast = 1e39\n");
+    let e = parse(&text).unwrap_err().to_string();
+    assert!(
+        e.contains("line 11, key `grade.contrast`: must be at most 100"),
+        "{e}"
+    );
+    let text = format!("{MINIMAL}[bloom]\nthreshold = 1.0\nsigma = 3.0\nstrength = 101.0\n");
+    let e = parse(&text).unwrap_err().to_string();
+    assert!(
+        e.contains("key `bloom.strength`: must be at most 100"),
+        "{e}"
+    );
+    let text = format!("{MINIMAL}[grade]\ncontrast = 100.0\n");
+    assert!(parse(&text).is_ok());
+}

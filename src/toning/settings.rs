@@ -182,7 +182,7 @@ impl ToneSettings {
                 self.display.as_str()
             )));
         }
-        Ok(Resolved {
+        let resolved = Resolved {
             operator,
             hdr,
             bloom: self.bloom()?,
@@ -195,7 +195,24 @@ impl ToneSettings {
                 Some(g) => Encoding::Gamma(positive("gamma", g)?),
                 None => Encoding::Srgb,
             },
-        })
+        };
+        // The bounds both renderers share (docs/display.md#limits), named as
+        // the flags and parameters name them.
+        let named = |(key, msg): (&str, String)| {
+            let name = match key {
+                "strength" => "bloom",
+                "threshold" => "bloom_threshold",
+                "sigma" => "bloom_sigma",
+                k => k,
+            };
+            invalid(format!("{name}: {msg}"))
+        };
+        if let Some(b) = &resolved.bloom {
+            b.check().map_err(named)?;
+        }
+        resolved.grade.check().map_err(named)?;
+        resolved.encoding.check().map_err(named)?;
+        Ok(resolved)
     }
 
     /// The operator: each value checked (and named in the error) whether
@@ -422,6 +439,36 @@ mod tests {
         with("reinhard02", &[("white", "4")], None).unwrap();
         with("reinhard-global", &[("white_fraction", "0.5")], None).unwrap();
         with("reinhard-global", &[("log_average", "0.2")], None).unwrap();
+    }
+
+    #[test]
+    fn values_the_gpu_cannot_carry_are_refused_by_name() {
+        type Set = fn(&mut ToneSettings);
+        let cases: [(&str, Set); 6] = [
+            ("bloom", |s| s.bloom = 1e39),
+            ("brightness", |s| s.brightness = 3.5e38),
+            ("contrast", |s| s.contrast = 101.0),
+            ("saturation", |s| s.saturation = 1e6),
+            ("gamma", |s| s.gamma = Some(1e-40)),
+            ("bloom_sigma", |s| {
+                s.bloom = 0.5;
+                s.bloom_sigma = Some(1e7)
+            }),
+        ];
+        for (name, set) in cases {
+            let mut s = ToneSettings::default();
+            set(&mut s);
+            let e = s.resolve().unwrap_err().to_string();
+            assert!(e.contains(&format!("{name}: must be")), "{name}: {e}");
+        }
+        // The ends of the ranges are taken.
+        let s = ToneSettings {
+            bloom: 100.0,
+            contrast: 100.0,
+            gamma: Some(0.1),
+            ..ToneSettings::default()
+        };
+        assert!(s.resolve().is_ok());
     }
 
     #[test]

@@ -80,7 +80,7 @@ fn documented() -> Vec<Line> {
 
 fn is_placeholder(w: &str) -> bool {
     let letters: String = w.chars().filter(|c| c.is_ascii_alphabetic()).collect();
-    letters.len() >= 1
+    !letters.is_empty()
         && letters.chars().all(|c| c.is_ascii_uppercase())
         && !w.starts_with('-')
         && !w.contains('.')
