@@ -79,6 +79,24 @@ impl HdrFormat {
             None
         }
     }
+
+    /// The format whose signature a file too short to hold it begins (a
+    /// `#?RAD` of 5 bytes): a truncated file of that format, not an unknown
+    /// one.
+    pub fn cut_short(first_bytes: &[u8]) -> Option<Self> {
+        let signatures: [(&[u8], Self); 4] = [
+            (&[0x76, 0x2f, 0x31, 0x01], Self::Exr),
+            (b"#?RADIANCE", Self::Radiance),
+            (b"#?RGBE", Self::Radiance),
+            (b"PF", Self::Pfm),
+        ];
+        signatures.iter().find_map(|(sig, format)| {
+            (first_bytes.len() >= 2
+                && first_bytes.len() < sig.len()
+                && sig.starts_with(first_bytes))
+            .then_some(*format)
+        })
+    }
 }
 
 /// Opens `path` for reading only if it is a regular file. A FIFO would
@@ -154,6 +172,13 @@ fn decode_stream<R: BufRead + Seek>(
         .read_to_end(&mut head)
         .map_err(io_error)?;
     reader.seek(SeekFrom::Start(0)).map_err(io_error)?;
+    if let (None, Some(format)) = (HdrFormat::detect(&head), HdrFormat::cut_short(&head)) {
+        return Err(HdrIoError::Truncated {
+            file: file.to_string(),
+            format: format.name(),
+            detail: format!("{} bytes, fewer than its signature", head.len()),
+        });
+    }
     let format = HdrFormat::detect(&head).ok_or_else(|| HdrIoError::UnknownFormat {
         file: file.to_string(),
         first_bytes: hex_prefix(&head),
@@ -358,6 +383,27 @@ pub fn read_frame_png(path: &Path) -> Result<Frame, HdrIoError> {
 mod tests {
     use super::error::SUPPORTED_INPUTS;
     use super::*;
+
+    #[test]
+    fn a_file_cut_inside_its_signature_is_truncated_not_unknown() {
+        let dir = tempfile::tempdir().unwrap();
+        for (bytes, format) in [
+            (&b"#?RAD"[..], "Radiance RGBE"),
+            (&b"#?RG"[..], "Radiance RGBE"),
+            (&[0x76, 0x2f][..], "OpenEXR"),
+        ] {
+            let path = dir.path().join("cut.hdr");
+            std::fs::write(&path, bytes).unwrap();
+            let e = load_hdr(&path, &LoadOptions::default()).unwrap_err();
+            assert!(
+                matches!(e, HdrIoError::Truncated { format: f, .. } if f == format),
+                "{bytes:?}: {e}"
+            );
+        }
+        // Bytes no signature begins with stay unknown.
+        assert_eq!(HdrFormat::cut_short(b"GIF8"), None);
+        assert_eq!(HdrFormat::cut_short(b"#"), None);
+    }
 
     #[test]
     fn formats_are_recognised_by_their_first_bytes() {

@@ -27,7 +27,34 @@ pub fn parse_run_request(body: &[u8]) -> Result<RunRequest, ApiError> {
     if body.iter().all(|b| b.is_ascii_whitespace()) {
         Ok(RunRequest::default())
     } else {
-        serde_json::from_slice(body).map_err(|e| ApiError::bad(format!("body: {e}")))
+        let req: RunRequest =
+            serde_json::from_slice(body).map_err(|e| ApiError::bad(format!("body: {e}")))?;
+        if req.scenes.as_ref().is_some_and(Vec::is_empty) {
+            return Err(ApiError::bad(
+                "scenes: an empty list selects no scene; leave scenes out to run the whole suite",
+            ));
+        }
+        Ok(req)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_empty_scene_list_is_refused_not_read_as_the_whole_suite() {
+        let e = parse_run_request(br#"{"scenes": []}"#)
+            .err()
+            .expect("refused");
+        assert!(
+            e.detail.starts_with("scenes: an empty list"),
+            "{}",
+            e.detail
+        );
+        let r = parse_run_request(br#"{"scenes": ["grid-static"]}"#).unwrap();
+        assert_eq!(r.scenes, Some(vec!["grid-static".to_owned()]));
+        assert!(parse_run_request(b"").unwrap().scenes.is_none());
     }
 }
 

@@ -142,7 +142,15 @@ where
     let mut file = None;
     while let Some(field) = mp.next_field().await.map_err(|e| multipart_error(&e))? {
         let name = field.name().unwrap_or("").to_owned();
-        if field.file_name().is_some() || name == "file" {
+        // The image is the part named `file`; a file sent under another
+        // name is refused rather than taken for it (or for a parameter).
+        if field.file_name().is_some() && name != "file" {
+            return Err(ApiError::bad(format!(
+                "multipart: a file in the part named {}; the image goes in the part named \"file\"",
+                super::error::clip(&name)
+            )));
+        }
+        if name == "file" {
             if file.is_some() {
                 return Err(ApiError::bad(
                     "multipart: more than one file; send one image per request",
@@ -224,6 +232,51 @@ mod tests {
             };
             assert!(parse(&[(name, v)]).is_ok(), "{name}");
         }
+    }
+
+    fn multipart(parts: &[(&str, Option<&str>, &str)]) -> (String, Vec<Result<Bytes, BodyError>>) {
+        let mut body = String::new();
+        for (name, file, value) in parts {
+            body.push_str("--XyZ\r\n");
+            match file {
+                Some(f) => body.push_str(&format!(
+                    "Content-Disposition: form-data; name=\"{name}\"; filename=\"{f}\"\r\n\r\n"
+                )),
+                None => body.push_str(&format!(
+                    "Content-Disposition: form-data; name=\"{name}\"\r\n\r\n"
+                )),
+            }
+            body.push_str(value);
+            body.push_str("\r\n");
+        }
+        body.push_str("--XyZ--\r\n");
+        (
+            "multipart/form-data; boundary=XyZ".into(),
+            vec![Ok(Bytes::from(body))],
+        )
+    }
+
+    #[test]
+    fn only_the_part_named_file_is_the_image() {
+        let read = |parts: &[(&str, Option<&str>, &str)]| {
+            let (ct, chunks) = multipart(parts);
+            let mut pairs = Vec::new();
+            let r = pollster::block_on(read_multipart(
+                futures_util::stream::iter(chunks),
+                &ct,
+                &mut pairs,
+            ));
+            (r, pairs)
+        };
+        let (r, pairs) = read(&[("operator", None, "agx"), ("file", Some("a.hdr"), "IMAGE")]);
+        assert_eq!(r.unwrap(), Bytes::from("IMAGE"));
+        assert_eq!(pairs, vec![("operator".to_owned(), "agx".to_owned())]);
+        let (r, _) = read(&[("upload", Some("a.hdr"), "IMAGE")]);
+        let e = r.unwrap_err().detail;
+        assert!(
+            e.contains("\"upload\"") && e.contains("named \"file\""),
+            "{e}"
+        );
     }
 
     #[test]

@@ -87,8 +87,8 @@ fn at_most(key: &'static str, v: f64, max: f64) -> Result<(), (&'static str, Str
 }
 
 impl Bloom {
-    /// The bounds beyond each value's own type ([`FACTOR_MAX`],
-    /// [`SPAN_MAX`]); the error names the scene key.
+    /// The bounds beyond each value's own type (`FACTOR_MAX`,
+    /// `SPAN_MAX`); the error names the scene key.
     pub fn check(&self) -> Result<(), (&'static str, String)> {
         at_most("strength", self.strength.0, FACTOR_MAX)?;
         at_most("threshold", self.threshold.0, SPAN_MAX)?;
@@ -97,7 +97,7 @@ impl Bloom {
 }
 
 impl Grade {
-    /// Each factor at most [`FACTOR_MAX`].
+    /// Each factor at most `FACTOR_MAX`.
     pub fn check(&self) -> Result<(), (&'static str, String)> {
         at_most("brightness", self.brightness.0, FACTOR_MAX)?;
         at_most("contrast", self.contrast.0, FACTOR_MAX)?;
@@ -127,7 +127,7 @@ pub enum Encoding {
 }
 
 impl Encoding {
-    /// γ within [`GAMMA_RANGE`].
+    /// γ within `GAMMA_RANGE`.
     pub fn check(&self) -> Result<(), (&'static str, String)> {
         match self {
             Encoding::Gamma(g) if !(GAMMA_RANGE.0..=GAMMA_RANGE.1).contains(&g.0) => Err((

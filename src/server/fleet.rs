@@ -58,6 +58,11 @@ pub async fn queue(
             )));
         }
     }
+    if let Some(id) = q.job.filter(|id| *id < 1) {
+        return Err(ApiError::bad(format!(
+            "job: a job id is 1 or more, got {id}"
+        )));
+    }
     let (state, job) = (q.state, q.job);
     let out = read(st.as_ref(), move |h| {
         let jobs = match job {

@@ -873,3 +873,23 @@ async fn clients_up_to_the_capacity_never_get_busy() {
         assert_eq!(busy, 0, "{codes:?}");
     }
 }
+
+/// A job id is 1 or more: `job=-1` and `job=0` are refused as a huge id is,
+/// not answered with an empty list.
+#[tokio::test]
+async fn a_job_id_below_one_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let seeded = common::seed_empty(dir.path());
+    let s = start(&seeded, |_| {}).await;
+    for bad in ["-1", "0"] {
+        let d = expect_error(
+            s.get(&format!("/api/v1/queue?job={bad}")).await,
+            StatusCode::BAD_REQUEST,
+            "bad_parameter",
+        )
+        .await;
+        assert!(d.contains("job") && d.contains(bad), "{bad}: {d}");
+    }
+    let (st, _) = s.json("/api/v1/queue?job=1").await;
+    assert_eq!(st, StatusCode::OK);
+}

@@ -847,10 +847,16 @@ async fn multipart_bodies_are_read_under_the_body_limit() {
             "two files",
             form(&[
                 part("file", Some("a.hdr"), &hdr),
-                part("more", Some("b.hdr"), &hdr),
+                part("file", Some("b.hdr"), &hdr),
             ]),
             "400",
             "more than one file",
+        ),
+        (
+            "a file under another name",
+            form(&[part("more", Some("b.hdr"), &hdr)]),
+            "400",
+            "the image goes in the part named",
         ),
         (
             "no file",
