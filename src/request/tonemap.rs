@@ -83,7 +83,7 @@ pub fn parse_params(
         );
         known.sort();
         known.dedup();
-        return Err(ApiError::bad_listing(format!(
+        return Err(ApiError::bad(format!(
             "{}: unknown parameter; expected one of {}",
             super::error::clip(k),
             known.join(", ")
@@ -203,6 +203,12 @@ mod tests {
         let e = parse(&[("kee", "0.2")]).unwrap_err();
         let text = e.detail;
         assert!(text.starts_with("\"kee\": unknown parameter"), "{text}");
+        // The whole list fits in an answer's detail, uncut.
+        assert!(!text.ends_with('…'), "{text}");
+        assert!(
+            text.chars().count() <= super::super::error::MAX_DETAIL,
+            "{text}"
+        );
         for name in [
             "gpu",
             "sanitize",
