@@ -7,5 +7,6 @@
 //! as written (docs/stress.md#range-safe-arithmetic). It lives with the
 //! stress suite because it runs over the suite's inputs and pipelines.
 
+mod chain;
 mod interp;
 mod tests;
