@@ -1,6 +1,7 @@
 //! The adapter choice on made-up adapter lists, and the flags that name it.
 
 use super::*;
+use crate::gpu::capability::gl_has_compute;
 use wgpu::DeviceType::{Cpu, DiscreteGpu, IntegratedGpu};
 
 fn found(list: &[(&str, wgpu::DeviceType)]) -> Vec<Candidate> {

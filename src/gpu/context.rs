@@ -88,7 +88,7 @@ impl GpuContext {
     /// measures whether it flushes subnormals.
     pub fn open(adapter: &wgpu::Adapter, chosen: String) -> Result<GpuContext, GpuError> {
         let info = adapter.get_info();
-        if let Some(reason) = super::adapters::lacks(adapter) {
+        if let Some(reason) = super::capability::lacks(adapter) {
             return Err(GpuError::Unsupported {
                 adapter: info.name,
                 reason,

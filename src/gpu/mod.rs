@@ -4,6 +4,7 @@
 
 pub mod adapters;
 pub mod bench;
+pub mod capability;
 pub mod config;
 pub mod context;
 pub mod listing;

@@ -74,7 +74,7 @@ pub fn parse_params(
     }
     let settings_names = settings_names();
     if let Some((k, _)) = rest.iter().find(|(k, _)| !settings_names.contains(k)) {
-        let mut known: Vec<String> = settings_names;
+        let mut known: Vec<String> = settings_names.to_vec();
         known.extend(["gpu", "sanitize", "format"].map(String::from));
         known.extend(
             crate::operators::all_params()
@@ -98,11 +98,12 @@ pub fn parse_params(
 /// The names [`ToneSettings`] itself takes, read from what it serialises
 /// (so a new setting needs no list kept by hand); the operator's
 /// parameters are a separate map.
-fn settings_names() -> Vec<String> {
-    match serde_json::to_value(ToneSettings::default()) {
+fn settings_names() -> &'static [String] {
+    static NAMES: std::sync::OnceLock<Vec<String>> = std::sync::OnceLock::new();
+    NAMES.get_or_init(|| match serde_json::to_value(ToneSettings::default()) {
         Ok(serde_json::Value::Object(m)) => m.keys().cloned().collect(),
         _ => Vec::new(),
-    }
+    })
 }
 
 /// Why a body's stream stopped short, as the server saw it.
