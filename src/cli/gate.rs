@@ -204,6 +204,9 @@ pub enum HistoryAction {
     /// Drop the artifacts (images) of runs older than --keep-days, and the
     /// stored images no kept run names; metrics, checks and reports stay.
     Prune(PruneArgs),
+    /// List the images an object store did not take (kept in the history
+    /// meanwhile, with the reason), send them on (--upload) or drop them.
+    Pending(super::pending::PendingArgs),
 }
 
 /// `--artifacts`: an object store (`s3://…`) is made this process's store
@@ -282,8 +285,10 @@ fn prune(a: PruneArgs) -> Result<ExitCode> {
 
 pub fn history(a: HistoryArgs) -> Result<ExitCode> {
     a.db.set_retry(10);
-    if let Some(HistoryAction::Prune(p)) = a.action {
-        return prune(p);
+    match a.action {
+        Some(HistoryAction::Prune(p)) => return prune(p),
+        Some(HistoryAction::Pending(p)) => return super::pending::pending(p),
+        None => {}
     }
     if !a.db.is_url() && !a.db.db.exists() {
         return Err(invalid(format!(

@@ -38,6 +38,7 @@ mod gate;
 mod golden;
 mod image;
 mod out;
+mod pending;
 mod progress;
 mod serve;
 mod sweep;

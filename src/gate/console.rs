@@ -184,6 +184,15 @@ pub fn render(r: &CheckReport) -> String {
     if let (Some(id), Some(db)) = (r.run_id, &r.db) {
         let _ = writeln!(out, "recorded as run {id} in {}", db.display());
     }
+    if let Some(first) = r.artifacts_pending.first() {
+        let _ = writeln!(
+            out,
+            "WARNING: {} artifact(s) kept in the history, pending: {}; \
+             `tonegate history pending --upload` sends them to the store",
+            r.artifacts_pending.len(),
+            first.reason
+        );
+    }
     let _ = writeln!(out, "SSIM: {}", r.ssim_definition);
     let _ = writeln!(out, "FLIP: {}", r.flip_definition);
     out

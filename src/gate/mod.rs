@@ -120,6 +120,11 @@ pub struct CheckReport {
     pub artifacts_dir: Option<PathBuf>,
     /// Artifact files written, relative to `artifacts_dir`.
     pub artifacts: Vec<String>,
+    /// Of those, the ones the object store did not take (down past the
+    /// retry budget, or refusing): kept in the history, pending, and served
+    /// from there until `tonegate history pending --upload` moves them.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub artifacts_pending: Vec<crate::history::PendingName>,
     /// The stress suite's table, when the suite asks for it (`stress = true`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stress: Option<crate::stress::StressReport>,
@@ -375,6 +380,7 @@ fn run_inner(
         .unwrap_or_else(|| chrono::Utc::now().format("%Y-%m-%d").to_string());
     let mut scenes = Vec::with_capacity(suite.scenes.len());
     let mut written = Vec::new();
+    let mut pending = Vec::new();
     for scene in &suite.scenes {
         progress.working_on(&scene.name);
         let spp = opts.spp.unwrap_or(scene.default_spp());
@@ -408,7 +414,7 @@ fn run_inner(
                     artifacts::write_files(dir, &files)?;
                 }
                 if let Some((h, id)) = store {
-                    h.store_artifacts(id, &files)?;
+                    pending.extend(h.store_artifacts(id, &files)?.pending);
                 }
                 let names: Vec<String> = files.into_iter().map(|(n, _)| n).collect();
                 if let Some(fr) = result.frames.iter_mut().find(|r| r.frame == f.frame) {
@@ -473,6 +479,7 @@ fn run_inner(
         regressions,
         artifacts_dir: opts.artifacts.clone(),
         artifacts: written,
+        artifacts_pending: pending,
         stress,
     })
 }

@@ -55,32 +55,81 @@ pub struct ArtifactStats {
     pub bytes: i64,
 }
 
+/// What [`History::store_artifacts`] did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Kept {
+    /// Images new to the history.
+    pub new: usize,
+    /// The names whose images the object store did not take: kept in the
+    /// history instead, marked pending with the reason.
+    pub pending: Vec<PendingName>,
+}
+
+/// An artifact of a run whose image waits for its object store.
+#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
+pub struct PendingName {
+    pub name: String,
+    /// Why the store does not have it, in words that name no address.
+    pub reason: String,
+}
+
+/// An image the history keeps for an object store that did not take it.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PendingImage {
+    pub sha256: String,
+    pub size: i64,
+    /// The store it belongs in, `s3://bucket/prefix`.
+    pub store: String,
+    pub reason: String,
+    /// The runs that name it.
+    pub runs: Vec<i64>,
+}
+
+/// What `history pending --upload` or `--drop` did.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct PendingDone {
+    /// Images now in their store (uploaded) or gone (dropped).
+    pub images: i64,
+    pub bytes: i64,
+    /// Artifact names dropped with their images.
+    pub names: i64,
+    /// Images still pending: their store refused or did not answer again.
+    pub still_pending: i64,
+}
+
 impl History {
     /// Stores a run's artifacts (name, PNG bytes), each image once by its
-    /// SHA-256; returns how many were new to the store.
+    /// SHA-256.
     ///
     /// With an object store set (`set_artifact_store`), an image the history
     /// does not hold yet is written there first, and the history keeps its
-    /// hash, size and the store's address.
+    /// hash, size and the store's address. An image the store does not take
+    /// (down past the retry budget, or refusing) is kept in the history's
+    /// own table, marked pending with the reason, and served from there
+    /// until `history pending --upload` moves it: a store outage costs a
+    /// run none of its results.
     pub fn store_artifacts(
         &self,
         run: i64,
         files: &[(String, Vec<u8>)],
-    ) -> Result<usize, HistoryError> {
+    ) -> Result<Kept, HistoryError> {
         let hashed: Vec<(&String, &Vec<u8>, String)> = files
             .iter()
             .map(|(name, bytes)| (name, bytes, hex::encode(Sha256::digest(bytes))))
             .collect();
         let objects = super::artifact_store();
+        // The hashes the store did not take, and why.
+        let mut refused: std::collections::HashMap<String, String> = Default::default();
         if let Some(o) = objects.as_ref().filter(|_| !hashed.is_empty()) {
-            // The images the history does not know yet, in one query.
+            // The images the history holds and the store has, in one query
+            // (a pending one is offered to the store again).
             let marks: Vec<String> = (1..=hashed.len()).map(|i| format!("${i}")).collect();
             let shas: Vec<Value> = hashed.iter().map(|(_, _, s)| Value::from(s)).collect();
             let known: std::collections::HashSet<String> = self
                 .db()
                 .query(
                     &format!(
-                        "SELECT sha256 FROM blobs WHERE sha256 IN ({})",
+                        "SELECT sha256 FROM blobs WHERE sha256 IN ({}) AND pending IS NULL",
                         marks.join(", ")
                     ),
                     &shas,
@@ -89,38 +138,159 @@ impl History {
                 .map(|r| r.text(0))
                 .collect::<Result<_, _>>()?;
             for (_, bytes, sha) in &hashed {
-                if !known.contains(sha) {
-                    o.put(sha, bytes.to_vec())?;
+                if known.contains(sha) || refused.contains_key(sha) {
+                    continue;
+                }
+                if let Err(e) = o.put(sha, bytes.to_vec()) {
+                    if !matches!(e, HistoryError::Objects { .. }) {
+                        return Err(e);
+                    }
+                    tracing::warn!("{e}: the image is kept in the history, pending");
+                    refused.insert(sha.clone(), super::objects::pending_reason(&e));
                 }
             }
         }
         let store = objects.as_ref().map(|o| o.url.clone());
-        let mut new = 0;
+        let mut kept = Kept::default();
         self.db().transaction(&mut |tx| {
-            new = 0;
+            kept = Kept::default();
             for (name, bytes, sha) in &hashed {
                 let existed = tx
                     .query_opt("SELECT 1 FROM blobs WHERE sha256 = $1", args![sha])?
                     .is_some();
-                let data: &[u8] = if store.is_some() { &[] } else { bytes };
+                let pending = refused.get(sha);
+                let data: &[u8] = if store.is_some() && pending.is_none() {
+                    &[]
+                } else {
+                    bytes
+                };
                 // Touching stored_at of an image already there keeps a
-                // concurrent prune (which spares recent images) off it.
+                // concurrent prune (which spares recent images) off it; a
+                // pending image that its store has now taken gives up its
+                // bytes and its mark.
                 tx.execute(
-                    "INSERT INTO blobs (sha256, size, data, stored_at, store)
-                     VALUES ($1, $2, $3, $4, $5)
-                     ON CONFLICT (sha256) DO UPDATE SET stored_at = excluded.stored_at",
-                    args![sha, bytes.len(), data, now(), store.as_deref()],
+                    "INSERT INTO blobs (sha256, size, data, stored_at, store, pending)
+                     VALUES ($1, $2, $3, $4, $5, $6)
+                     ON CONFLICT (sha256) DO UPDATE SET stored_at = excluded.stored_at,
+                       data = CASE WHEN blobs.pending IS NOT NULL AND excluded.pending IS NULL
+                              THEN excluded.data ELSE blobs.data END,
+                       store = CASE WHEN blobs.pending IS NOT NULL AND excluded.pending IS NULL
+                              THEN excluded.store ELSE blobs.store END,
+                       pending = CASE WHEN excluded.pending IS NULL THEN NULL
+                              ELSE blobs.pending END",
+                    args![sha, bytes.len(), data, now(), store.as_deref(), pending],
                 )?;
                 tx.execute(
                     "INSERT INTO run_artifacts (run_id, name, sha256) VALUES ($1, $2, $3)
                      ON CONFLICT (run_id, name) DO UPDATE SET sha256 = excluded.sha256",
                     args![run, *name, sha],
                 )?;
-                new += usize::from(!existed);
+                kept.new += usize::from(!existed);
+                if let Some(reason) = pending {
+                    kept.pending.push(PendingName {
+                        name: (*name).clone(),
+                        reason: reason.clone(),
+                    });
+                }
             }
             Ok(())
         })?;
-        Ok(new)
+        Ok(kept)
+    }
+
+    /// The images kept in the history for an object store that did not
+    /// take them, oldest first.
+    pub fn pending_artifacts(&self) -> Result<Vec<PendingImage>, HistoryError> {
+        let mut out = Vec::new();
+        for r in self.db().query(
+            "SELECT sha256, size, store, pending FROM blobs
+             WHERE pending IS NOT NULL ORDER BY stored_at, sha256",
+            &[],
+        )? {
+            let sha256 = r.text(0)?;
+            let runs = self
+                .db()
+                .query(
+                    "SELECT DISTINCT run_id FROM run_artifacts WHERE sha256 = $1 ORDER BY run_id",
+                    args![&sha256],
+                )?
+                .iter()
+                .map(|r| r.int(0))
+                .collect::<Result<_, _>>()?;
+            out.push(PendingImage {
+                sha256,
+                size: r.int(1)?,
+                store: r.opt_text(2)?.unwrap_or_default(),
+                reason: r.text(3)?,
+                runs,
+            });
+        }
+        Ok(out)
+    }
+
+    /// Sends each pending image to its object store, one at a time; those
+    /// it takes leave the history's table. An image the store still does
+    /// not take stays pending (with the new reason).
+    pub fn upload_pending(&self) -> Result<PendingDone, HistoryError> {
+        let mut done = PendingDone::default();
+        for p in self.pending_artifacts()? {
+            let Some(row) = self.db().query_opt(
+                "SELECT data FROM blobs WHERE sha256 = $1 AND pending IS NOT NULL",
+                args![&p.sha256],
+            )?
+            else {
+                continue;
+            };
+            let bytes = row.blob(0)?;
+            let put = super::Objects::open(&p.store).and_then(|o| o.put(&p.sha256, bytes));
+            match put {
+                Ok(_) => {
+                    let moved = self.db().execute(
+                        "UPDATE blobs SET data = $2, pending = NULL
+                         WHERE sha256 = $1 AND pending IS NOT NULL",
+                        args![&p.sha256, &[] as &[u8]],
+                    )?;
+                    if moved > 0 {
+                        done.images += 1;
+                        done.bytes += p.size;
+                    }
+                }
+                Err(e @ HistoryError::Objects { .. }) => {
+                    tracing::warn!("{e}: still pending");
+                    self.db().execute(
+                        "UPDATE blobs SET pending = $2 WHERE sha256 = $1 AND pending IS NOT NULL",
+                        args![&p.sha256, super::objects::pending_reason(&e)],
+                    )?;
+                    done.still_pending += 1;
+                }
+                Err(e) => return Err(e),
+            }
+        }
+        Ok(done)
+    }
+
+    /// Drops every pending image and the artifact names of the runs that
+    /// named it (their metrics, checks and reports stay).
+    pub fn drop_pending(&self) -> Result<PendingDone, HistoryError> {
+        let mut done = PendingDone::default();
+        self.db().transaction(&mut |tx| {
+            done = PendingDone::default();
+            done.names = tx.execute(
+                "DELETE FROM run_artifacts WHERE sha256 IN
+                   (SELECT sha256 FROM blobs WHERE pending IS NOT NULL)",
+                &[],
+            )? as i64;
+            if let Some(r) = tx.query_opt(
+                "SELECT COUNT(*), CAST(COALESCE(SUM(size), 0) AS BIGINT) FROM blobs
+                 WHERE pending IS NOT NULL",
+                &[],
+            )? {
+                done.bytes = r.int(1)?;
+            }
+            done.images = tx.execute("DELETE FROM blobs WHERE pending IS NOT NULL", &[])? as i64;
+            Ok(())
+        })?;
+        Ok(done)
     }
 
     /// One artifact of a run, if the history has it: its bytes, or where
@@ -128,13 +298,15 @@ impl History {
     pub fn artifact(&self, run: i64, name: &str) -> Result<Option<StoredArtifact>, HistoryError> {
         self.db()
             .query_opt(
-                "SELECT b.data, b.store, b.sha256, b.size FROM run_artifacts a
+                "SELECT b.data, b.store, b.sha256, b.size, b.pending FROM run_artifacts a
                  JOIN blobs b ON b.sha256 = a.sha256
                  WHERE a.run_id = $1 AND a.name = $2",
                 args![run, name],
             )?
             .map(|r| {
-                Ok(match r.opt_text(1)? {
+                // A pending image is served from the history's own table.
+                let pending = r.opt_text(4)?.is_some();
+                Ok(match r.opt_text(1)?.filter(|_| !pending) {
                     Some(store) => StoredArtifact::Object {
                         store,
                         sha256: r.text(2)?,

@@ -29,7 +29,10 @@ mod schema;
 mod sqlite;
 mod stamps;
 
-pub use artifacts::{ArtifactStats, Pruned, StoredArtifact, STRAY_GRACE};
+pub use artifacts::{
+    ArtifactStats, Kept, PendingDone, PendingImage, PendingName, Pruned, StoredArtifact,
+    STRAY_GRACE,
+};
 pub use fleet::{ClaimedJob, Expired, RunnerInfo, RunnerRow, MAX_ATTEMPTS};
 pub use jobs::{valid_label, JobRow, JobSpec, LISTED_SCENES, MAX_QUEUED_JOBS};
 pub use objects::{artifact_store, is_store_url, set_artifact_store, Objects};
@@ -85,9 +88,14 @@ pub enum HistoryError {
     /// A query asked for something that does not exist.
     #[error("{0}")]
     Invalid(String),
-    /// The object store the artifacts are kept in failed.
+    /// The object store the artifacts are kept in failed: `transient` when
+    /// it did not answer (down, restarting, overloaded) rather than refused.
     #[error("artifact store {url}: {detail}")]
-    Objects { url: String, detail: String },
+    Objects {
+        url: String,
+        detail: String,
+        transient: bool,
+    },
     /// The fleet's queue already holds as many waiting jobs as allowed.
     #[error("the queue is full: {queued} jobs are waiting (at most {limit}); try again when runners have taken some")]
     QueueFull { queued: i64, limit: u64 },
@@ -103,6 +111,36 @@ impl HistoryError {
             HistoryError::Postgres { source, .. } => reconnect::connection_lost(source),
             _ => false,
         }
+    }
+
+    /// The error as an answer to a client may say it: what failed, without
+    /// the database's path or address or the store's endpoint.
+    pub fn without_address(&self) -> String {
+        match self {
+            HistoryError::Sqlite { source, .. } => format!("history database: {source}"),
+            #[cfg(feature = "postgres")]
+            HistoryError::Postgres { source, .. } => {
+                format!("history database: {}", postgres::describe(source))
+            }
+            HistoryError::NewerSchema { found, known, .. } => format!(
+                "the history database has schema version {found}; this tonegate knows up to {known}"
+            ),
+            HistoryError::Folder { source, .. } => format!("history database folder: {source}"),
+            HistoryError::Objects { .. } => "the artifact store failed".into(),
+            HistoryError::Invalid(_) | HistoryError::QueueFull { .. } => self.to_string(),
+        }
+    }
+
+    /// Whether the artifact store did not answer past the retry budget: a
+    /// condition to wait out, like [`HistoryError::unavailable`].
+    pub fn store_unavailable(&self) -> bool {
+        matches!(
+            self,
+            HistoryError::Objects {
+                transient: true,
+                ..
+            }
+        )
     }
 }
 

@@ -19,6 +19,7 @@ fn unbuilt(url: &str) -> HistoryError {
     HistoryError::Objects {
         url: url.to_owned(),
         detail: "this tonegate was built without the `s3` feature".into(),
+        transient: false,
     }
 }
 
@@ -30,6 +31,11 @@ pub fn set_artifact_store(url: Option<&str>) -> Result<(), HistoryError> {
 /// The store new images go to: never one in this build.
 pub fn artifact_store() -> Option<Arc<Objects>> {
     None
+}
+
+/// Why an image is pending: never, in this build (no store takes one).
+pub fn pending_reason(_e: &HistoryError) -> String {
+    "this tonegate was built without the `s3` feature".into()
 }
 
 /// Whether `s` names an object store rather than a folder.

@@ -25,8 +25,8 @@ pub fn set_retry_budget(budget: Duration) {
     );
 }
 
-#[cfg(feature = "postgres")]
-fn retry_budget() -> Duration {
+#[cfg(any(feature = "postgres", feature = "s3"))]
+pub(super) fn retry_budget() -> Duration {
     Duration::from_millis(RETRY_BUDGET_MS.load(Ordering::Relaxed))
 }
 
@@ -63,7 +63,7 @@ pub fn connection_lost(e: &postgres::Error) -> bool {
     false
 }
 
-#[cfg(feature = "postgres")]
+#[cfg(any(feature = "postgres", feature = "s3"))]
 /// Waits between tries: 50 ms doubling to 2 s, each wait drawn between half
 /// and all of that (so a fleet that lost its database together does not
 /// reconnect in step), until the budget is spent.
@@ -74,7 +74,7 @@ pub(super) struct Backoff {
     tries: u32,
 }
 
-#[cfg(feature = "postgres")]
+#[cfg(any(feature = "postgres", feature = "s3"))]
 impl Backoff {
     pub(super) fn new() -> Backoff {
         let nanos = std::time::SystemTime::now()
@@ -112,6 +112,7 @@ impl Backoff {
     }
 
     /// Records that the database answered after this many lost tries.
+    #[cfg_attr(not(feature = "postgres"), allow(dead_code))]
     pub(super) fn answered(&self) {
         if self.tries > 0 {
             *RECOVERED.lock().unwrap_or_else(|p| p.into_inner()) = Some(Instant::now());

@@ -172,6 +172,13 @@ pub(super) const MIGRATIONS: &[&str] = &[
     r#"
     ALTER TABLE blobs ADD COLUMN store TEXT;
     "#,
+    // 7: an image its object store did not take (down past the retry
+    //    budget, or refusing): its bytes stay in `data`, `store` says where
+    //    it belongs, and `pending` why it is not there yet; NULL once it is
+    //    (`tonegate history pending`).
+    r#"
+    ALTER TABLE blobs ADD COLUMN pending TEXT;
+    "#,
 ];
 
 /// The schema version this build writes.

@@ -27,6 +27,10 @@ pub const MAX_DETAIL: usize = 1024;
 /// seconds: about what a PostgreSQL restart takes.
 pub const HISTORY_RETRY_AFTER_S: u64 = 2;
 
+/// What a 503 for an artifact store that does not answer asks the client
+/// to wait, in seconds: about what an object store's restart takes.
+pub const STORE_RETRY_AFTER_S: u64 = 5;
+
 #[derive(Debug)]
 pub struct ApiError {
     pub status: StatusCode,
@@ -135,13 +139,32 @@ impl ApiError {
     /// again. Anything else is 500.
     #[cfg(feature = "history")]
     pub fn of_history(e: &crate::history::HistoryError) -> Self {
+        // The full error (with the database's or the store's address) goes
+        // to the log; an answer names no address.
         if e.unavailable() {
+            tracing::warn!("{e}");
             return Self::unavailable(
                 "history_unavailable",
-                format!("history: {e}; nothing was stored, send the request again"),
+                "the history database does not answer (down or restarting); nothing was \
+                 stored, send the request again",
                 HISTORY_RETRY_AFTER_S,
             );
         }
-        Self::internal(format!("history: {e}"))
+        if let crate::history::HistoryError::Objects { transient, .. } = e {
+            tracing::warn!("{e}");
+            return Self::unavailable(
+                "artifact_store_unavailable",
+                if *transient {
+                    "the artifact store does not answer (down, unreachable or overloaded); \
+                     send the request again"
+                } else {
+                    "the artifact store refused the request (its credentials or \
+                     configuration; the server's log has its answer); send the request again"
+                },
+                STORE_RETRY_AFTER_S,
+            );
+        }
+        tracing::error!("{e}");
+        Self::internal(format!("history: {}", e.without_address()))
     }
 }

@@ -27,7 +27,7 @@ pub fn valid_artifact_name(name: &str) -> bool {
 /// One artifact image of a run (golden, actual, diff or SSIM map).
 #[utoipa::path(get, path = "/api/v1/runs/{id}/artifacts/{name}", tag = "runs",
     params(("id" = i64, Path), ("name" = String, Path, description = "<scene>-<frame>-<adapter>-<kind>.png")),
-    responses((status = 200, description = "OK", content_type = "image/png"), (status = 400, description = "Unknown or bad parameter", body = ErrorBody), (status = 404, description = "Not found", body = ErrorBody)))]
+    responses((status = 200, description = "OK", content_type = "image/png"), (status = 400, description = "Unknown or bad parameter", body = ErrorBody), (status = 404, description = "Not found", body = ErrorBody), (status = 503, description = "The artifact store (or the history) does not answer; Retry-After says when to try again", body = ErrorBody)))]
 pub async fn get_artifact(
     State(st): State<Arc<AppState>>,
     headers: HeaderMap,

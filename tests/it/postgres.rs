@@ -675,12 +675,14 @@ fn artifacts_are_stored_once_and_pruning_keeps_what_kept_runs_name() {
         };
         assert_eq!(
             h.store_artifacts(old, &files(&[("a.png", &a), ("b.png", &b)]))
-                .unwrap(),
+                .unwrap()
+                .new,
             2
         );
         assert_eq!(
             h.store_artifacts(new, &files(&[("a.png", &a), ("c.png", &c)]))
-                .unwrap(),
+                .unwrap()
+                .new,
             1
         );
         for id in [old, new] {

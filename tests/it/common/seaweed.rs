@@ -12,6 +12,7 @@ pub struct Weed {
     child: Child,
     /// The S3 API's port.
     pub port: u16,
+    ports: Vec<u16>,
     _dir: tempfile::TempDir,
 }
 
@@ -37,6 +38,43 @@ fn binary() -> PathBuf {
     })
 }
 
+/// `weed server -s3` in `dir` on `p`'s eight ports; its log appended to
+/// `dir/weed.log`.
+fn spawn(dir: &std::path::Path, p: &[u16]) -> Child {
+    let log = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(dir.join("weed.log"))
+        .unwrap();
+    Command::new(binary())
+        .arg("server")
+        .arg(format!("-dir={}", dir.display()))
+        .args(["-ip=127.0.0.1", "-ip.bind=127.0.0.1"])
+        .arg(format!("-master.port={}", p[0]))
+        .arg(format!("-master.port.grpc={}", p[1]))
+        .arg(format!("-volume.port={}", p[2]))
+        .arg(format!("-volume.port.grpc={}", p[3]))
+        .arg(format!("-filer.port={}", p[4]))
+        .arg(format!("-filer.port.grpc={}", p[5]))
+        .arg(format!("-filer.localSocket={}/filer.sock", dir.display()))
+        .arg("-s3")
+        .arg(format!("-s3.port={}", p[6]))
+        .arg(format!("-s3.port.grpc={}", p[7]))
+        .args(["-volume.max=16", "-master.volumeSizeLimitMB=64"])
+        // Its Iceberg and Lance catalogues listen on fixed ports (8181,
+        // 9101), which two servers at once would fight over.
+        .args([
+            "-s3.port.iceberg=0",
+            "-s3.port.lance=0",
+            "-master.telemetry=false",
+        ])
+        .stdin(Stdio::null())
+        .stdout(log.try_clone().unwrap())
+        .stderr(log)
+        .spawn()
+        .expect("starting weed")
+}
+
 fn free_ports(n: usize) -> Vec<u16> {
     let held: Vec<std::net::TcpListener> = (0..n)
         .map(|_| std::net::TcpListener::bind("127.0.0.1:0").unwrap())
@@ -50,58 +88,50 @@ impl Weed {
     /// Starts a server and creates `bucket` in it.
     pub fn start(bucket: &str) -> Weed {
         let dir = tempfile::tempdir().unwrap();
-        let p = free_ports(8);
-        let log = std::fs::File::create(dir.path().join("weed.log")).unwrap();
-        let child = Command::new(binary())
-            .arg("server")
-            .arg(format!("-dir={}", dir.path().display()))
-            .args(["-ip=127.0.0.1", "-ip.bind=127.0.0.1"])
-            .arg(format!("-master.port={}", p[0]))
-            .arg(format!("-master.port.grpc={}", p[1]))
-            .arg(format!("-volume.port={}", p[2]))
-            .arg(format!("-volume.port.grpc={}", p[3]))
-            .arg(format!("-filer.port={}", p[4]))
-            .arg(format!("-filer.port.grpc={}", p[5]))
-            .arg(format!(
-                "-filer.localSocket={}/filer.sock",
-                dir.path().display()
-            ))
-            .arg("-s3")
-            .arg(format!("-s3.port={}", p[6]))
-            .arg(format!("-s3.port.grpc={}", p[7]))
-            .args(["-volume.max=16", "-master.volumeSizeLimitMB=64"])
-            // Its Iceberg and Lance catalogues listen on fixed ports (8181,
-            // 9101), which two servers at once would fight over.
-            .args([
-                "-s3.port.iceberg=0",
-                "-s3.port.lance=0",
-                "-master.telemetry=false",
-            ])
-            .stdin(Stdio::null())
-            .stdout(log.try_clone().unwrap())
-            .stderr(log)
-            .spawn()
-            .expect("starting weed");
+        let ports = free_ports(8);
+        let child = spawn(dir.path(), &ports);
         let weed = Weed {
             child,
-            port: p[6],
+            port: ports[6],
+            ports,
             _dir: dir,
         };
-        // Ready once it makes the bucket.
+        weed.ready(bucket);
+        weed
+    }
+
+    /// Waits until the server answers by making `bucket` (already there
+    /// after a restart, which it answers the same).
+    fn ready(&self, bucket: &str) {
         let start = Instant::now();
         loop {
-            let made = ureq_put(&format!("{}/{bucket}", weed.base()), &[]);
+            let made = ureq_put(&format!("{}/{bucket}", self.base()), &[]);
             if made == Some(200) {
                 break;
             }
             assert!(
                 start.elapsed() < Duration::from_secs(180),
                 "SeaweedFS did not start: {}",
-                std::fs::read_to_string(weed._dir.path().join("weed.log")).unwrap_or_default()
+                std::fs::read_to_string(self._dir.path().join("weed.log")).unwrap_or_default()
             );
             std::thread::sleep(Duration::from_millis(250));
         }
-        weed
+    }
+
+    /// Kills the server (SIGKILL: no shutdown of its own), keeping its
+    /// folder and ports for [`Weed::start_again`].
+    pub fn kill(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+
+    /// Starts the killed server again on the same folder and ports, and
+    /// waits until it answers; how long that took.
+    pub fn start_again(&mut self, bucket: &str) -> Duration {
+        let started = Instant::now();
+        self.child = spawn(self._dir.path(), &self.ports);
+        self.ready(bucket);
+        started.elapsed()
     }
 
     pub fn base(&self) -> String {
