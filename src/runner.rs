@@ -155,10 +155,15 @@ pub fn run(opts: &RunnerOptions, say: &mut dyn FnMut(&str)) -> Result<RunnerSumm
             .is_some_and(|s| s.load(Ordering::Relaxed))
     };
     let mut recovered = crate::history::last_recovery();
+    let mut store_recovered = crate::history::store_last_recovery();
     loop {
         if crate::history::last_recovery() != recovered {
             recovered = crate::history::last_recovery();
             say("the history database was unreachable and answers again: reconnected");
+        }
+        if crate::history::store_last_recovery() != store_recovered {
+            store_recovered = crate::history::store_last_recovery();
+            say("the artifact store did not answer and takes images again: held on");
         }
         if stopping() {
             say("asked to stop: no more jobs taken");

@@ -18,7 +18,8 @@ pub struct DbArgs {
     #[arg(long, env = "TONEGATE_DB", default_value = ".tonegate/history.sqlite")]
     pub db: PathBuf,
     /// Seconds to keep retrying a PostgreSQL history that is down or
-    /// restarting (reconnecting, backing off with jitter) before giving up
+    /// restarting (reconnecting, backing off with jitter), and an artifact
+    /// store's writes, before giving up (an image is then kept pending)
     /// (default: 600 for `runner`, 2 for `serve`, which then answers 503
     /// with Retry-After, 10 for the other commands).
     #[arg(long, env = "TONEGATE_DB_RETRY_S")]

@@ -35,7 +35,7 @@ pub use artifacts::{
 };
 pub use fleet::{ClaimedJob, Expired, RunnerInfo, RunnerRow, MAX_ATTEMPTS};
 pub use jobs::{valid_label, JobRow, JobSpec, LISTED_SCENES, MAX_QUEUED_JOBS};
-pub use objects::{artifact_store, is_store_url, set_artifact_store, Objects};
+pub use objects::{artifact_store, is_store_url, set_artifact_store, store_last_recovery, Objects};
 pub use reconnect::{last_recovery, set_retry_budget};
 
 pub use query::{RunRow, RunsFilter, TradeoffRow, TrendFilter, TrendPoint};

@@ -139,6 +139,15 @@ pub fn pending_reason(e: &HistoryError) -> String {
     }
 }
 
+/// When a write last went through after the store had not answered it.
+static RECOVERED: Mutex<Option<std::time::Instant>> = Mutex::new(None);
+
+/// When this process last had the artifact store take an image after it
+/// had stopped answering, if it ever did (a runner says so).
+pub fn store_last_recovery() -> Option<std::time::Instant> {
+    *RECOVERED.lock().unwrap_or_else(|p| p.into_inner())
+}
+
 /// Set when a write used up the retry budget without the store answering:
 /// later writes try once each (and clear it when one goes through) rather
 /// than each waiting out a budget of its own.
@@ -249,6 +258,7 @@ impl Objects {
         let store = self.client()?;
         let bytes = bytes::Bytes::from(bytes);
         let mut backoff = super::reconnect::Backoff::new();
+        let mut failed_tries = 0u32;
         loop {
             let (store, path, bytes) = (store.clone(), self.path(sha256), bytes.clone());
             let tried = wait(async move {
@@ -263,12 +273,15 @@ impl Objects {
             });
             match tried {
                 Ok(written) => {
-                    if GAVE_UP.swap(false, Ordering::Relaxed) {
+                    if GAVE_UP.swap(false, Ordering::Relaxed) || failed_tries > 0 {
+                        *RECOVERED.lock().unwrap_or_else(|p| p.into_inner()) =
+                            Some(std::time::Instant::now());
                         tracing::info!("artifact store {} takes images again", self.url);
                     }
                     return Ok(written);
                 }
                 Err(e) if transient(&e) && !GAVE_UP.load(Ordering::Relaxed) && backoff.wait() => {
+                    failed_tries += 1;
                     tracing::debug!("artifact store {}: {e}; trying again", self.url);
                 }
                 Err(e) => {

@@ -38,6 +38,11 @@ pub fn pending_reason(_e: &HistoryError) -> String {
     "this tonegate was built without the `s3` feature".into()
 }
 
+/// When the store last came back: never, in this build.
+pub fn store_last_recovery() -> Option<std::time::Instant> {
+    None
+}
+
 /// Whether `s` names an object store rather than a folder.
 pub fn is_store_url(s: &str) -> bool {
     s.starts_with("s3://")

@@ -13,8 +13,8 @@ pub struct ErrorBody {
     /// Stable code: bad_parameter, unauthorized, forbidden, not_found,
     /// method_not_allowed, conflict, too_large, uri_too_long,
     /// headers_too_large, unsupported_media_type, bad_image, busy, timeout,
-    /// history_read_only, history_unavailable, queue_full, shutting_down,
-    /// no_adapter, gpu_error, internal.
+    /// history_read_only, history_unavailable, artifact_store_unavailable,
+    /// queue_full, shutting_down, no_adapter, gpu_error, internal.
     pub error: String,
     /// What was wrong and where, for a person.
     pub detail: String,

@@ -100,13 +100,13 @@ impl Weed {
         weed
     }
 
-    /// Waits until the server answers by making `bucket` (already there
-    /// after a restart, which it answers the same).
+    /// Waits until the server answers by making `bucket` (after a restart
+    /// it is there already: 409 BucketAlreadyExists).
     fn ready(&self, bucket: &str) {
         let start = Instant::now();
         loop {
             let made = ureq_put(&format!("{}/{bucket}", self.base()), &[]);
-            if made == Some(200) {
+            if matches!(made, Some(200 | 409)) {
                 break;
             }
             assert!(
