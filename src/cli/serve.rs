@@ -38,6 +38,14 @@ pub struct ServeArgs {
     /// POST /tonemap: jobs that may wait per queue (GPU, CPU) before the answer is 503.
     #[arg(long, default_value_t = Limits::default().queue)]
     pub queue: usize,
+    /// POST /tonemap: bodies received at once (a queue place is taken once
+    /// a body is in); past it, 503 `busy`.
+    #[arg(long, default_value_t = Limits::default().max_uploads)]
+    pub max_uploads: usize,
+    /// POST /tonemap: MiB the bodies being received may hold together,
+    /// charged as their bytes arrive; past it, 503 `busy`.
+    #[arg(long, default_value_t = Limits::default().upload_budget >> 20)]
+    pub upload_budget_mib: usize,
     /// POST /tonemap: seconds a request may take, upload and waiting included.
     #[arg(long, default_value_t = Limits::default().timeout.as_secs())]
     pub timeout: u64,
@@ -63,6 +71,12 @@ pub fn serve(a: ServeArgs) -> Result<ExitCode> {
         return Err(Error::Invalid(format!(
             "--max-body-mib: must be 1 to 4096, got {}",
             a.max_body_mib
+        )));
+    }
+    if a.max_uploads == 0 || a.upload_budget_mib == 0 || a.upload_budget_mib > 65536 {
+        return Err(Error::Invalid(format!(
+            "--max-uploads and --upload-budget-mib: must be at least 1 (the budget at most 65536), got {} and {}",
+            a.max_uploads, a.upload_budget_mib
         )));
     }
     if a.header_timeout == 0 {
@@ -99,6 +113,8 @@ pub fn serve(a: ServeArgs) -> Result<ExitCode> {
             max_pixels: a.max_pixels,
             queue: a.queue,
             timeout: std::time::Duration::from_secs(a.timeout),
+            max_uploads: a.max_uploads,
+            upload_budget: a.upload_budget_mib << 20,
             max_queued_jobs: a.max_queued_jobs,
         },
         conn: tonegate::server::listen::ConnLimits {

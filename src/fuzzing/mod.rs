@@ -170,7 +170,12 @@ pub fn multipart(data: &[u8]) {
     )]);
     let content_type = format!("multipart/form-data; boundary={BOUNDARY}");
     let mut pairs = Vec::new();
-    let read = crate::request::tonemap::read_multipart(body, &content_type, &mut pairs);
+    let read = crate::request::tonemap::read_multipart(
+        body,
+        &content_type,
+        &mut pairs,
+        crate::request::MAX_UPLOAD_PIXELS,
+    );
     match pollster::block_on(read) {
         Ok(file) => {
             assert!(file.len() <= data.len());

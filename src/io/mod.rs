@@ -18,6 +18,7 @@ mod error;
 mod exr_guards;
 mod hdr_png;
 mod openexr;
+pub mod peek;
 mod pfm;
 mod png;
 pub(crate) mod radiance;

@@ -5,6 +5,7 @@
 //! targets (`fuzzing`) run them as they are, without HTTP.
 
 pub mod error;
+pub mod head;
 pub mod params;
 pub mod runs;
 pub mod tonemap;

@@ -113,6 +113,8 @@ pub enum BodyError {
     TooLarge,
     /// The connection failed, or the client stopped sending.
     Read(String),
+    /// The server is receiving as many bytes as it may (the detail says so).
+    Busy(String),
 }
 
 impl std::fmt::Display for BodyError {
@@ -120,6 +122,7 @@ impl std::fmt::Display for BodyError {
         match self {
             BodyError::TooLarge => f.write_str("Request payload is too large"),
             BodyError::Read(e) => write!(f, "reading the body: {e}"),
+            BodyError::Busy(e) => f.write_str(e),
         }
     }
 }
@@ -127,11 +130,13 @@ impl std::fmt::Display for BodyError {
 impl std::error::Error for BodyError {}
 
 /// The file field of a multipart body (`content_type` names its boundary);
-/// its text fields join the parameters. One file a request.
+/// its text fields join the parameters. One file a request; an image whose
+/// header states more than `max_pixels` is refused as soon as it does.
 pub async fn read_multipart<S>(
     body: S,
     content_type: &str,
     pairs: &mut Vec<(String, String)>,
+    max_pixels: u64,
 ) -> Result<Bytes, ApiError>
 where
     S: Stream<Item = Result<Bytes, BodyError>> + Send + 'static,
@@ -157,7 +162,14 @@ where
                     "multipart: more than one file; send one image per request",
                 ));
             }
-            file = Some(field.bytes().await.map_err(|e| multipart_error(&e))?);
+            let mut check = super::head::HeadCheck::new(max_pixels);
+            let mut got = bytes::BytesMut::new();
+            let mut field = field;
+            while let Some(chunk) = field.chunk().await.map_err(|e| multipart_error(&e))? {
+                check.feed(&chunk)?;
+                got.extend_from_slice(&chunk);
+            }
+            file = Some(got.freeze());
         } else {
             let v = field.text().await.map_err(|e| multipart_error(&e))?;
             pairs.push((name, v));
@@ -169,6 +181,11 @@ where
 /// A body over the limit is 413, as the server answers a raw body over it;
 /// anything else wrong with the form is the client's, 400.
 fn multipart_error(e: &multer::Error) -> ApiError {
+    if let multer::Error::StreamReadFailed(inner) = e {
+        if let Some(BodyError::Busy(detail)) = inner.downcast_ref::<BodyError>() {
+            return ApiError::unavailable("busy", detail.clone(), 1);
+        }
+    }
     let too_large = match e {
         multer::Error::FieldSizeExceeded { .. } | multer::Error::StreamSizeExceeded { .. } => true,
         multer::Error::StreamReadFailed(inner) => {
@@ -272,6 +289,7 @@ mod tests {
                 futures_util::stream::iter(chunks),
                 &ct,
                 &mut pairs,
+                crate::request::MAX_UPLOAD_PIXELS,
             ));
             (r, pairs)
         };

@@ -20,6 +20,7 @@ pub mod queue;
 pub mod runs;
 pub(crate) mod tonemap;
 mod trends;
+pub mod uploads;
 
 use crate::gpu::{AdapterChoice, GpuConfig};
 use crate::render::Renderer;
@@ -45,6 +46,10 @@ pub struct Limits {
     pub queue: usize,
     /// Whole-request limit: upload, waiting and rendering.
     pub timeout: Duration,
+    /// Bodies received at once, and the bytes they may hold together
+    /// (`uploads`): apart from the queues, which take a body once it is in.
+    pub max_uploads: usize,
+    pub upload_budget: usize,
     /// A fleet's queue: jobs that may wait before `POST /runs` answers 503.
     pub max_queued_jobs: u64,
 }
@@ -52,13 +57,15 @@ pub struct Limits {
 impl Default for Limits {
     fn default() -> Self {
         // Sized for a 2 GiB container (README, "Memory"): two jobs of 8 Mi
-        // pixels (4K UHD) running, one per queue, and one 128 MiB body
-        // waiting in each.
+        // pixels (4K UHD) running, one per queue, one 128 MiB body waiting
+        // in each, and 128 MiB of bodies being received.
         Limits {
             max_body: 128 << 20,
             max_pixels: crate::request::MAX_UPLOAD_PIXELS,
             queue: 1,
             timeout: Duration::from_secs(60),
+            max_uploads: 256,
+            upload_budget: 128 << 20,
             max_queued_jobs: crate::history::MAX_QUEUED_JOBS,
         }
     }
@@ -99,6 +106,7 @@ pub struct AppState {
     pub limits: Limits,
     pub gpu: Queue,
     pub cpu: Queue,
+    pub uploads: Arc<uploads::Uploads>,
     pub slot: Mutex<RunSlot>,
     pub(crate) requests: prom::Requests,
     /// Set when the server starts stopping: body reads in progress give up.
@@ -386,6 +394,7 @@ impl Server {
                 suite: opts.suite,
                 adapter: opts.adapter,
                 gpu_config: opts.gpu_config,
+                uploads: uploads::Uploads::new(opts.limits.max_uploads, opts.limits.upload_budget),
                 limits: opts.limits,
                 gpu,
                 cpu,

@@ -206,6 +206,30 @@ pub async fn metrics(
             let _ = writeln!(out, "tonegate_{name}{{queue=\"{}\"}} {v}", q.name);
         }
     }
+    let (open, held) = st.uploads.now();
+    for (name, kind, help, v) in [
+        (
+            "tonemap_uploads",
+            "gauge",
+            "Tone-map bodies being received.",
+            open as f64,
+        ),
+        (
+            "tonemap_upload_bytes",
+            "gauge",
+            "Bytes the tone-map bodies being received hold.",
+            held as f64,
+        ),
+        (
+            "tonemap_uploads_refused_total",
+            "counter",
+            "Tone-map bodies refused (503) for serve --max-uploads or --upload-budget-mib.",
+            st.uploads.refused.load(Ordering::Relaxed) as f64,
+        ),
+    ] {
+        head(&mut out, name, kind, help);
+        let _ = writeln!(out, "tonegate_{name} {v}");
+    }
     if let Some(rss) = resident_bytes() {
         head(
             &mut out,

@@ -1,8 +1,9 @@
 //! The bounded work queues of `POST /tonemap`: one for the GPU, one for the
 //! CPU reference, each with one worker thread. A request takes a permit
-//! before its body is read, so at most `waiting + 1` bodies per queue are in
-//! memory; with no permit left the answer is 503 with `Retry-After`, never an
-//! unbounded pile-up.
+//! once its body is in (bodies being received are bounded apart, in
+//! `uploads`, so a client that sends slowly holds no place), so at most
+//! `waiting + 1` bodies per queue wait in memory; with no permit left the
+//! answer is 503 with `Retry-After`, never an unbounded pile-up.
 
 use super::error::ApiError;
 use crate::gpu::GpuContext;

@@ -55,11 +55,12 @@ pub async fn tonemap(
         .and_then(|v| v.to_str().ok())
         .is_some_and(|v| v.starts_with("multipart/form-data"));
     // Refuse early what cannot be accepted anyway: the query's parameters
-    // (all of them for a raw body), the declared length, and a full queue,
-    // before reading a byte of the body. Such an answer leaves the body
-    // unread on the connection, so it closes the connection.
+    // (all of them for a raw body), the declared length, and a server
+    // receiving as many bodies as it may, before reading a byte of the
+    // body. Such an answer leaves the body unread on the connection, so it
+    // closes the connection.
     let limit = st.limits.max_body;
-    let (extra, settings, resolved, permit) = (|| {
+    let (extra, settings, resolved, mut upload) = (|| {
         st.authorize_read(&headers)?;
         let (extra, settings) = parse_params(pairs.clone(), &headers)?;
         // A multipart form may add the parameters that make these valid
@@ -78,25 +79,27 @@ pub async fn tonemap(
                 return Err(too_large_body(len, limit));
             }
         }
-        let queue = if extra.gpu { &st.gpu } else { &st.cpu };
-        let permit = queue.reserve()?;
-        Ok((extra, settings, resolved, permit))
+        Ok((extra, settings, resolved, st.uploads.begin()?))
     })()
     .map_err(ApiError::closing)?;
     let queue = if extra.gpu { &st.gpu } else { &st.cpu };
-    let timeout = st.limits.timeout;
+    let (timeout, max_pixels) = (st.limits.timeout, st.limits.max_pixels);
+    // The body is read under the request's timeout, charged to the uploads'
+    // budget as it arrives, holding no queue place.
     let read = tokio::time::timeout(timeout, async {
         if is_multipart {
-            read_multipart(req, &mut pairs).await
+            read_multipart(req, &mut pairs, upload, max_pixels).await
         } else {
-            axum::body::to_bytes(req.into_body(), limit)
-                .await
-                .map_err(|e| super::edge::body_error(&e, limit, " (serve --max-body-mib)"))
+            super::uploads::read_raw(req.into_body(), limit, max_pixels, &mut upload).await
         }
     });
     // An upload still arriving when the server starts stopping is cut off.
     let read = async { read.await.map_err(|_| timed_out(timeout)).and_then(|r| r) };
-    let body = super::edge::unless_stopping(&st, read).await?;
+    // A refusal while the body still arrives (too large from its header,
+    // the uploads' budget) leaves the rest unread: the connection closes.
+    let body = super::edge::unless_stopping(&st, read)
+        .await
+        .map_err(ApiError::closing)?;
     if body.is_empty() {
         return Err(ApiError::bad(
             "the body is empty: POST the .hdr, .exr or .pfm file, raw or as a multipart file field",
@@ -124,6 +127,8 @@ pub async fn tonemap(
         },
         source_name: "upload".into(),
     };
+    // A place in the queue once the body is in; freed when the job ends.
+    let permit = queue.reserve()?;
     let rx = queue.submit(permit, body, params)?;
     let left = timeout.saturating_sub(started.elapsed());
     let out = tokio::time::timeout(left, rx)
@@ -157,6 +162,8 @@ fn timed_out(t: std::time::Duration) -> ApiError {
 async fn read_multipart(
     req: Request,
     pairs: &mut Vec<(String, String)>,
+    mut upload: super::uploads::Upload,
+    max_pixels: u64,
 ) -> Result<Bytes, ApiError> {
     let content_type = req
         .headers()
@@ -166,16 +173,25 @@ async fn read_multipart(
         .to_owned();
     // The limit DefaultBodyLimit sets, as axum's own Multipart applies it.
     let body = axum::RequestExt::with_limited_body(req).into_body();
-    let stream = futures_util::TryStreamExt::map_err(body.into_data_stream(), |e| {
-        let over = std::error::Error::source(&e)
-            .is_some_and(|s| s.is::<http_body_util::LengthLimitError>());
-        if over {
-            crate::request::tonemap::BodyError::TooLarge
-        } else {
-            crate::request::tonemap::BodyError::Read(e.to_string())
+    use crate::request::tonemap::BodyError;
+    // Each chunk charged to the uploads' budget as it arrives; the place
+    // is given back when multer drops the stream.
+    let stream = futures_util::StreamExt::map(body.into_data_stream(), move |r| match r {
+        Ok(chunk) => upload
+            .charge(chunk.len())
+            .map(|()| chunk)
+            .map_err(|e| BodyError::Busy(e.detail)),
+        Err(e) => {
+            let over = std::error::Error::source(&e)
+                .is_some_and(|s| s.is::<http_body_util::LengthLimitError>());
+            Err(if over {
+                BodyError::TooLarge
+            } else {
+                BodyError::Read(e.to_string())
+            })
         }
     });
-    crate::request::tonemap::read_multipart(stream, &content_type, pairs).await
+    crate::request::tonemap::read_multipart(stream, &content_type, pairs, max_pixels).await
 }
 
 fn respond(out: ToneOutput, json: bool, settings: &ToneSettings) -> Response {

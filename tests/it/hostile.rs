@@ -527,9 +527,11 @@ async fn the_auth_scheme_is_case_insensitive() {
     }
 }
 
-/// Defect 6: an answer given before the body was read (queue full, bad
-/// parameter, declared length over the limit) closed the keep-alive
-/// connection without saying so, and the client's next request hit EPIPE.
+/// Defect 6: an answer given before the body was read (no upload place
+/// left, bad parameter, declared length over the limit) closed the
+/// keep-alive connection without saying so, and the client's next request
+/// hit EPIPE. (A full queue is answered once the body is in, on a
+/// connection that stays open.)
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn early_answers_say_connection_close() {
     let dir = tempfile::tempdir().unwrap();
@@ -539,6 +541,7 @@ async fn early_answers_say_connection_close() {
         start(&seeded, |o| {
             o.limits.queue = 0;
             o.limits.max_body = 1 << 20;
+            o.limits.max_uploads = 1;
             o.hold_workers = Some(hold.clone());
         })
         .await,
@@ -549,6 +552,17 @@ async fn early_answers_say_connection_close() {
     let s2 = s.clone();
     let body = hdr.clone();
     let occupying = tokio::spawn(async move { s2.tonemap("gpu=false", body).await });
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    // The one upload place, held by a body that never completes.
+    let mut slow = TcpStream::connect(addr).unwrap();
+    slow.write_all(
+        format!(
+            "POST /api/v1/tonemap?gpu=false HTTP/1.1\r\nHost: t\r\nContent-Length: {}\r\n\r\n#",
+            hdr.len()
+        )
+        .as_bytes(),
+    )
+    .unwrap();
     tokio::time::sleep(Duration::from_millis(300)).await;
     let cases = [
         ("gpu=false", hdr.len(), "503", "\"busy\""),
@@ -585,7 +599,7 @@ async fn early_answers_say_connection_close() {
         assert!(text.contains("connection: close"), "{query}: {text}");
         assert!(text.contains(code), "{query}: {text}");
     }
-    drop(guard);
+    drop((guard, slow));
     assert_eq!(occupying.await.unwrap().status(), StatusCode::OK);
 }
 
