@@ -171,16 +171,15 @@ pub fn read_hdr_png_info(bytes: &[u8], file: &str) -> Result<FoundChunks, HdrIoE
         format: FORMAT,
         detail: e.to_string(),
     };
+    // cICP as the file has it (once, RGB, full range), not as a decoder
+    // kept it.
+    let cicp = super::cicp::scan(bytes, file)?;
     let mut decoder = png::Decoder::new(Cursor::new(bytes));
     decoder.set_ignore_text_chunk(true);
     let mut reader = decoder.read_info().map_err(corrupt)?;
     // mDCV and cLLI may follow the header anywhere before the image data,
     // which read_info has reached.
     let info = reader.info();
-    let cicp = info.coding_independent_code_points.map(|c| Cicp {
-        primaries: c.color_primaries,
-        transfer: c.transfer_function,
-    });
     let xy = |p: (png::ScaledFloat, png::ScaledFloat)| {
         [p.0.into_value() as f64, p.1.into_value() as f64]
     };

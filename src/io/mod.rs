@@ -14,6 +14,7 @@
 //! write leaves the previous file intact.
 
 mod atomic;
+mod cicp;
 mod error;
 mod exr_guards;
 mod hdr_png;
@@ -372,8 +373,10 @@ pub fn read_frame_png(path: &Path) -> Result<Frame, HdrIoError> {
             file,
             format: "PNG",
             detail: format!(
-                "a 16-bit frame must be BT.2100 PQ (cICP primaries 9, transfer 16), and this one's cICP is {:?}",
-                chunks.cicp
+                "a 16-bit frame must be BT.2100 PQ (cICP primaries 9, transfer 16), and this one's cICP {}",
+                chunks
+                    .cicp
+                    .map_or("is missing".to_string(), |c| format!("says {c}"))
             ),
         });
     }

@@ -119,3 +119,87 @@ fn hdr_options_on_frames_are_named_as_ignored() {
     assert!(e.contains("--peak, --tone-mapper ignored"), "{e}");
     assert_eq!(o.stdout, plain.stdout);
 }
+
+/// A CRC-32 (ISO-HDLC, PNG's), so an edited chunk is one a decoder accepts.
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut c = !0u32;
+    for &b in bytes {
+        c ^= u32::from(b);
+        for _ in 0..8 {
+            c = if c & 1 != 0 {
+                (c >> 1) ^ 0xEDB8_8320
+            } else {
+                c >> 1
+            };
+        }
+    }
+    !c
+}
+
+/// `png` with a chunk inserted right after IHDR.
+fn with_chunk(png: &[u8], kind: &[u8; 4], data: &[u8]) -> Vec<u8> {
+    let after_ihdr = 8 + 8 + 13 + 4;
+    let mut chunk = (data.len() as u32).to_be_bytes().to_vec();
+    let mut body = kind.to_vec();
+    body.extend_from_slice(data);
+    chunk.extend_from_slice(&body);
+    chunk.extend_from_slice(&crc32(&body).to_be_bytes());
+    let mut out = png[..after_ihdr].to_vec();
+    out.extend_from_slice(&chunk);
+    out.extend_from_slice(&png[after_ihdr..]);
+    out
+}
+
+/// A 16-bit PQ frame whose cICP lies (a second cICP saying HLG, the
+/// narrow-range flag, values that are no cICP) is refused with what it
+/// says, in words, not read as full-range PQ.
+#[test]
+fn a_frame_whose_cicp_lies_is_refused_with_what_it_says() {
+    let dir = tempfile::tempdir().unwrap();
+    let img = tonegate::image::Rgb16Image::from_fn(16, 12, |x, y| {
+        [x as u16 * 4000, y as u16 * 5000, 30000]
+    });
+    let good = tonegate::io::encode_frame_png(&tonegate::image::Frame::Pq16(img)).unwrap();
+    let path = |name: &str, bytes: &[u8]| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, bytes).unwrap();
+        p.to_string_lossy().into_owned()
+    };
+    let reference = path("good.png", &good);
+    let o = compare(&[&reference, &reference]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // The file written with PQ's cICP, and a second one put before it.
+    let cases: [(&str, Vec<u8>, &str); 3] = [
+        (
+            "hlg.png",
+            with_chunk(&good, b"cICP", &[9, 18, 0, 1]),
+            "two cICP chunks",
+        ),
+        (
+            "narrow.png",
+            {
+                // The writer's own cICP made narrow: its flag is the chunk's last byte.
+                let at = good.windows(4).position(|w| w == b"cICP").unwrap();
+                let mut b = good.clone();
+                b[at + 7] = 0;
+                let crc = crc32(&b[at..at + 8]);
+                b[at + 8..at + 12].copy_from_slice(&crc.to_be_bytes());
+                b
+            },
+            "narrow (video) range",
+        ),
+        (
+            "short.png",
+            with_chunk(&good, b"cICP", &[9, 16]),
+            "has 2 bytes",
+        ),
+    ];
+    for (name, bytes, said) in cases {
+        let test = path(name, &bytes);
+        let o = compare(&[&test, &reference]);
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{name}: {e}");
+        assert!(e.contains(said) && e.contains(name), "{name}: {e}");
+        assert!(!e.contains("Some(") && !e.contains("Cicp {"), "{name}: {e}");
+    }
+}
