@@ -39,6 +39,9 @@ pub struct MatrixCell {
 #[derive(Clone, Debug, Serialize, utoipa::ToSchema)]
 pub struct Matrix {
     pub adapters: Vec<MatrixAdapter>,
+    /// How many (adapter, backend) columns the history has in all; more
+    /// than `adapters` holds when the limit cut them.
+    pub adapters_total: i64,
     /// Every scene that any column has, sorted.
     pub scenes: Vec<String>,
     pub cells: Vec<MatrixCell>,
@@ -77,6 +80,15 @@ impl History {
                 })
             })
             .collect::<Result<_, HistoryError>>()?;
+        let adapters_total = self
+            .db()
+            .query_opt(
+                "SELECT COUNT(*) FROM (SELECT 1 FROM runs
+                   WHERE kind = 'check' AND status IN ('passed', 'failed') AND adapter IS NOT NULL
+                   GROUP BY adapter, backend) AS columns",
+                &[],
+            )?
+            .map_or(Ok(0), |r| r.int(0))?;
         let mut cells = Vec::new();
         for (column, a) in adapters.iter().enumerate() {
             let rows = self.db().query(
@@ -116,6 +128,7 @@ impl History {
             .collect();
         Ok(Matrix {
             adapters,
+            adapters_total,
             scenes,
             cells,
             split,

@@ -531,10 +531,10 @@ fn the_adapter_matrix_marks_a_scene_that_splits_between_adapters_in_chromium() {
 
     // The page: a column per adapter, a failing cell per scene on
     // SwiftShader, each linking to its run.
-    let profile_dom = {
-        let url = format!("{}/#/matrix", s.base);
-        // `browse` refuses a page with an alert; the split banner is one,
-        // so the DOM is read here without that check.
+    // `browse` refuses a page with an alert; the split banner is one, so
+    // the DOM is read here without that check.
+    let matrix_dom = |hash: &str| {
+        let url = format!("{}/#/{hash}", s.base);
         let profile = tempfile::tempdir().unwrap();
         let out = Command::new(chromium())
             .args(["--headless", "--no-sandbox", "--disable-gpu"])
@@ -546,7 +546,7 @@ fn the_adapter_matrix_marks_a_scene_that_splits_between_adapters_in_chromium() {
             .expect("chromium runs");
         String::from_utf8_lossy(&out.stdout).into_owned()
     };
-    let dom = profile_dom;
+    let dom = matrix_dom("matrix");
     assert!(dom.contains("data-ready=\"1\""), "{dom}");
     assert_eq!(count(&dom, "<th data-adapter="), 3, "{dom}");
     assert_eq!(count(&dom, "data-passed=\"0\""), 2, "{dom}");
@@ -566,5 +566,23 @@ fn the_adapter_matrix_marks_a_scene_that_splits_between_adapters_in_chromium() {
     assert!(
         dom.contains("Split: grid-static, sky-reinhard-global"),
         "{dom}"
+    );
+    // A long name is cut in its column, whole in its title; with fewer
+    // columns than adapters, the page says how many it leaves out.
+    assert!(
+        dom.contains(&format!(
+            "class=\"name\" title=\"{}\"",
+            adapters[ss]["adapter"].as_str().unwrap()
+        )),
+        "{dom}"
+    );
+    assert_eq!(m["adapters_total"], 3, "{m}");
+    assert!(!dom.contains("data-more="), "{dom}");
+    let cut = matrix_dom("matrix?limit=2");
+    assert_eq!(count(&cut, "<th data-adapter="), 2, "{cut}");
+    assert!(
+        cut.contains("data-more=\"1\"")
+            && cut.contains("Showing the 2 most recently run of 3 adapters"),
+        "{cut}"
     );
 }

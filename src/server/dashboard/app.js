@@ -92,7 +92,7 @@ async function route() {
     else if (parts[0] === "tradeoff") await tradeoffPage(parts[1], params);
     else if (parts[0] === "tonemap") await tonemapPage(params);
     else if (parts[0] === "fleet") await fleetPage(params);
-    else if (parts[0] === "matrix") await matrixPage();
+    else if (parts[0] === "matrix") await matrixPage(params);
     else await runsPage(params);
   } catch (e) {
     show(failure(e));
@@ -376,14 +376,15 @@ function comparer(id, scene, f) {
 // ---- adapter matrix ---------------------------------------------------------
 // Scene × adapter over each adapter's newest check run: a scene that passes on
 // one adapter and fails on another is marked "split" and listed first.
-async function matrixPage() {
-  const m = await api("/matrix");
+async function matrixPage(params) {
+  const limit = params.get("limit");
+  const m = await api("/matrix" + (limit ? `?limit=${encodeURIComponent(limit)}` : ""));
   if (!m.adapters.length) return show(h("h1", {}, "Adapter matrix"), h("p", { class: "empty" }, "No finished check runs yet. `tonegate check --adapter NAME` (or --backend gl) records one per adapter; `tonegate adapters` lists them."));
   const cell = (scene, column) => m.cells.find((c) => c.scene === scene && c.column === column);
   const split = new Set(m.split);
   const scenes = [...m.split, ...m.scenes.filter((s) => !split.has(s))];
   const head = h("tr", {}, h("th", {}, "Scene"), m.adapters.map((a) => h("th", { "data-adapter": a.adapter },
-    h("div", {}, a.adapter), h("div", { class: "muted" }, [a.backend, `run #${a.run_id}`].filter(Boolean).join(" · ")),
+    h("div", { class: "name", title: a.adapter }, a.adapter), h("div", { class: "muted" }, [a.backend, `run #${a.run_id}`].filter(Boolean).join(" · ")),
     h("div", { class: "muted" }, a.flushes_subnormals === null || a.flushes_subnormals === undefined ? "subnormals: not measured" : a.flushes_subnormals ? "flushes subnormals" : "keeps subnormals"))));
   const rows = scenes.map((s) => h("tr", { class: split.has(s) ? "split" : "", "data-scene": s },
     h("td", {}, s, split.has(s) ? h("span", { class: "badge failed", title: "passes on one adapter, fails on another" }, "split") : null),
@@ -397,6 +398,11 @@ async function matrixPage() {
   show(h("h1", {}, "Adapter matrix"),
     h("p", { class: "muted" }, "Each adapter's newest finished check run; a cell is the scene's verdict, its worst frame's PSNR and FLIP against the golden, and its FPS with readback. A cell opens that run's comparer."),
     m.split.length ? h("p", { class: "error", role: "alert" }, `Split: ${m.split.join(", ")} pass(es) on one adapter and fail(s) on another.`) : null,
+    m.adapters_total > m.adapters.length
+      ? h("p", { class: "notice", "data-more": String(m.adapters_total - m.adapters.length) },
+        `Showing the ${m.adapters.length} most recently run of ${m.adapters_total} adapters. `,
+        h("a", { href: "#/matrix?limit=500" }, "Show up to 500"), ".")
+      : null,
     h("table", { class: "matrix" }, h("thead", {}, head), h("tbody", {}, rows)));
 }
 
