@@ -14,6 +14,7 @@ override BT2390_BP: f32 = 4.0;
 override BT2390_GAIN: f32 = 1.0;
 override BT2390_OUT_MIN: f32 = 0.0;
 override BT2390_OUT_MAX: f32 = 1.0;
+override BT2390_BLACK_SNAP: f32 = 0.0;
 override BT2390_TARGET_BLACK: f32 = 0.0;
 override BT2390_TARGET_RANGE: f32 = 100.0;
 
@@ -51,5 +52,11 @@ fn operator_pixel(c: vec3<f32>, r: vec4<f32>, k: OperatorConfig) -> vec3<f32> {
         x = select(x, BT2390_GAIN * (lifted - BT2390_MIN_LUM) + BT2390_MIN_LUM, x < vec3<f32>(1.0));
     }
     let e = clamp(x * BT2390_E_RANGE + BT2390_E_MIN, vec3<f32>(BT2390_OUT_MIN), vec3<f32>(BT2390_OUT_MAX));
-    return clamp((pq_nits(e) - BT2390_TARGET_BLACK) / BT2390_TARGET_RANGE, vec3<f32>(0.0), vec3<f32>(1.0));
+    // A signal within 4 f32 steps of the target's black is that black, 0
+    // exactly: the lift lands the source's black there, and PQ's decoding
+    // would turn the last step's rounding into a residue that a steep
+    // encoding (gamma 3 and up) shows as LSBs. The peak is 1 exactly.
+    let rel = clamp((pq_nits(e) - BT2390_TARGET_BLACK) / BT2390_TARGET_RANGE, vec3<f32>(0.0), vec3<f32>(1.0));
+    let black = e <= vec3<f32>(BT2390_BLACK_SNAP);
+    return select(select(rel, vec3<f32>(0.0), black), vec3<f32>(1.0), e >= vec3<f32>(BT2390_OUT_MAX));
 }

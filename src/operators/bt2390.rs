@@ -146,6 +146,12 @@ impl Eetf {
         }
     }
 
+    /// The signal at or below which the output is the target's black: 4
+    /// f32 steps (2⁻²² relative) above its PQ code, as the GPU sees it.
+    fn black_snap(&self) -> f64 {
+        f64::from(self.out_min as f32) * (1.0 + 4.0 / 16_777_216.0)
+    }
+
     /// The EETF on one PQ signal in the source range: libplacebo's steps in
     /// its order, in f64.
     fn signal(&self, e: f64) -> f64 {
@@ -169,8 +175,16 @@ impl Eetf {
     /// One channel: scene-linear (after the exposure) to display-relative.
     fn channel(&self, c: f64) -> f64 {
         let nits = (c * self.reference_white).clamp(self.source_black, self.source_peak);
-        let out = pq_decode(self.signal(pq_encode(nits)));
-        ((out - self.target_black) / self.target_range).clamp(0.0, 1.0)
+        let e = self.signal(pq_encode(nits));
+        // The target's black and peak are exactly 0 and 1, and a signal
+        // within 4 f32 steps of the black is the black (the shader says why).
+        if e <= self.black_snap() {
+            return 0.0;
+        }
+        if e >= self.out_max {
+            return 1.0;
+        }
+        ((pq_decode(e) - self.target_black) / self.target_range).clamp(0.0, 1.0)
     }
 }
 
@@ -248,6 +262,7 @@ impl ToneOperator for Bt2390 {
             ("BT2390_GAIN", e.gain),
             ("BT2390_OUT_MIN", e.out_min),
             ("BT2390_OUT_MAX", e.out_max),
+            ("BT2390_BLACK_SNAP", e.black_snap()),
             ("BT2390_TARGET_BLACK", e.target_black),
             ("BT2390_TARGET_RANGE", e.target_range),
         ]

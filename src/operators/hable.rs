@@ -12,18 +12,14 @@ use super::{LuminanceStats, Unmeasured};
 /// `hable`.
 pub struct Hable;
 
-/// A constant of the curve: (0, 1000], so that no product of two of them
-/// with an f32 input leaves f64's range.
+/// A constant of the curve: [1e-6, 1000], so that no product of two of them
+/// with an f32 input leaves f64's range, and f32 holds each (a smaller one
+/// would reach the GPU as 0).
 const fn number(name: &'static str, doc: &'static str, default: f64) -> Param {
     Param {
         name,
         doc,
-        kind: Kind::Number(Range {
-            min: 0.0,
-            min_open: true,
-            max: 1000.0,
-            max_open: false,
-        }),
+        kind: Kind::Number(Range::closed(1e-6, 1000.0)),
         default: Value::Number(default),
     }
 }
@@ -154,6 +150,10 @@ impl ToneOperator for Hable {
             ("HABLE_F", k.f),
             ("HABLE_BIAS", v.num("exposure_bias")),
             ("HABLE_WHITE_SCALE", 1.0 / k.f(v.num("white_point"))),
+            // f(x) − E/F without the cancellation, for the shader:
+            // x·(P·x + Q) / (F·(x·(A·x + B) + D·F)), P = A(F − E), Q = B(C·F − E).
+            ("HABLE_P", k.a * (k.f - k.e)),
+            ("HABLE_Q", k.b * (k.c * k.f - k.e)),
         ]
     }
 }

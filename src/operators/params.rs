@@ -91,6 +91,12 @@ impl Range {
     /// stress suite's inputs of up to 1e30 (docs/stress.md#range-safe-arithmetic).
     pub const GAIN: Range = Range::closed(1e-6, 1e6);
 
+    /// [1e-30, 1e30]: an absolute luminance given by hand (a white, a
+    /// maximum). f32 holds every such number as a normal float, so the GPU
+    /// gets the value the reference uses; a positive number below f32's
+    /// range would reach it as 0, which means "measure it" or "never burn".
+    pub const LUMINANCE: Range = Range::closed(1e-30, 1e30);
+
     /// [min, max].
     pub const fn closed(min: f64, max: f64) -> Range {
         Range {
@@ -116,22 +122,31 @@ impl Range {
             }
     }
 
-    /// "a finite number > 0", "in (0, 1]".
+    /// "a finite number > 0", "in (0, 1]", "in [1e-6, 1e6]".
     pub fn describe(&self) -> String {
         let lo = if self.min_open { ">" } else { ">=" };
         if self.max == f64::INFINITY {
             if self.min == 0.0 && self.min_open {
                 return "a finite number > 0".to_owned();
             }
-            return format!("a finite number {lo} {}", self.min);
+            return format!("a finite number {lo} {}", shown(self.min));
         }
         format!(
             "in {}{}, {}{}",
             if self.min_open { "(" } else { "[" },
-            self.min,
-            self.max,
+            shown(self.min),
+            shown(self.max),
             if self.max_open { ")" } else { "]" }
         )
+    }
+}
+
+/// A bound as a person reads it: 0.5, 100, 1e-6, 1e30.
+fn shown(v: f64) -> String {
+    if v != 0.0 && !(1e-4..1e7).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
     }
 }
 

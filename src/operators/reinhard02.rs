@@ -14,7 +14,7 @@ const PARAMS: &[Param] = &[
     Param {
         name: "white",
         doc: "Absolute Lwhite (default: the maximum scaled luminance)",
-        kind: Kind::Number(Range::POSITIVE),
+        kind: Kind::Number(Range::LUMINANCE),
         default: Value::Unset,
     },
     LOG_AVERAGE,

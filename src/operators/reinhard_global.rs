@@ -14,19 +14,16 @@ const PARAMS: &[Param] = &[
     Param {
         name: "white_fraction",
         doc: "Fraction w of the scene maximum that maps to white (Lwhite² = w²·Lmax)",
-        kind: Kind::Number(Range {
-            min: 0.0,
-            min_open: true,
-            max: 1.0,
-            max_open: false,
-        }),
+        // Under 1e-6 every lit pixel burns to white already; a fraction
+        // below f32's range would reach the GPU as 0, "never burn".
+        kind: Kind::Number(Range::closed(1e-6, 1.0)),
         default: Value::Number(reinhard::DEFAULT_WHITE_FRACTION),
     },
     LOG_AVERAGE,
     Param {
         name: "max_luminance",
         doc: "Fixed Lmax instead of the measured maximum",
-        kind: Kind::Number(Range::POSITIVE),
+        kind: Kind::Number(Range::LUMINANCE),
         default: Value::Unset,
     },
     COLOUR,

@@ -10,9 +10,10 @@ use http::StatusCode;
 pub struct HeadCheck {
     max_pixels: u64,
     head: Vec<u8>,
-    /// The length at the last look: a header is looked at again only once
-    /// 512 more bytes came, so a body sent a byte at a time costs no more
-    /// than 128 looks.
+    /// The length at the last look: a header is looked at again when a
+    /// line ends (Radiance's and PFM's headers are lines) or 512 more bytes
+    /// came, so a body sent a byte at a time costs a look per line and no
+    /// more than 128 others.
     looked_at: usize,
     done: bool,
 }
@@ -36,7 +37,8 @@ impl HeadCheck {
         let take = (PEEK_BYTES - self.head.len()).min(chunk.len());
         self.head.extend_from_slice(&chunk[..take]);
         let full = self.head.len() >= PEEK_BYTES;
-        if self.looked_at > 0 && self.head.len() < self.looked_at + 512 && !full {
+        let line_ended = chunk[..take].contains(&b'\n');
+        if self.looked_at > 0 && self.head.len() < self.looked_at + 512 && !full && !line_ended {
             return Ok(());
         }
         self.looked_at = self.head.len();

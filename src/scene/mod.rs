@@ -16,7 +16,9 @@ mod units;
 pub use crate::conventions::MAX_SPP;
 pub use crate::operators::reinhard::{ColourPath, DEFAULT_KEY, DEFAULT_WHITE_FRACTION};
 pub use crate::operators::Operator;
-pub use display::{Bloom, BrightPass, Encoding, Grade};
+pub use display::{
+    Bloom, BrightPass, Encoding, Grade, FACTOR_MAX, GAMMA_RANGE, GRADE_MAX, SPAN_MAX,
+};
 pub use sequence::{Environment, Rotation, MAX_FRAMES};
 pub use taa::{BlendSpace, FeedbackRule, HistoryFilter, Taa, TaaParams, TaaVariant};
 pub use units::{

@@ -133,12 +133,13 @@ fn a_value_is_checked_and_applies_to_its_operator_whatever_the_operator() {
 #[test]
 fn values_the_gpu_cannot_carry_are_refused_by_name() {
     type Set = fn(&mut ToneSettings);
-    let cases: [(&str, Set); 6] = [
+    let cases: [(&str, Set); 7] = [
         ("bloom", |s| s.bloom = 1e39),
         ("brightness", |s| s.brightness = 3.5e38),
-        ("contrast", |s| s.contrast = 101.0),
+        ("contrast", |s| s.contrast = 4.5),
         ("saturation", |s| s.saturation = 1e6),
         ("gamma", |s| s.gamma = Some(1e-40)),
+        ("gamma", |s| s.gamma = Some(3.5)),
         ("bloom_sigma", |s| {
             s.bloom = 0.5;
             s.bloom_sigma = Some(1e7)
@@ -153,8 +154,8 @@ fn values_the_gpu_cannot_carry_are_refused_by_name() {
     // The ends of the ranges are taken.
     let s = ToneSettings {
         bloom: 100.0,
-        contrast: 100.0,
-        gamma: Some(0.1),
+        contrast: 4.0,
+        gamma: Some(3.0),
         ..ToneSettings::default()
     };
     assert!(s.resolve().is_ok());

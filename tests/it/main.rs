@@ -35,6 +35,7 @@ mod objects;
 mod operators;
 mod pfstmo;
 mod postgres;
+mod random_params;
 mod slow_clients;
 mod store_chaos;
 mod store_faults;
