@@ -10,6 +10,7 @@
 //! leaves a consistent file with the run still `running`, and the next open
 //! marks it `aborted` when the process that owned it is gone.
 
+mod address;
 mod artifacts;
 pub(crate) mod backend;
 mod fleet;
@@ -29,6 +30,7 @@ mod schema;
 mod sqlite;
 mod stamps;
 
+pub use address::{is_url, redacted, without_host};
 pub use artifacts::{
     ArtifactStats, Kept, PendingDone, PendingImage, PendingName, Pruned, StoredArtifact,
     STRAY_GRACE,
@@ -230,25 +232,6 @@ pub struct RunAdapter {
     pub driver_info: String,
     /// The renderer's knobs as JSON (intermediates, reduction, filter, spp).
     pub config: String,
-}
-
-/// Whether `db` names a PostgreSQL database rather than a SQLite file.
-pub fn is_url(db: &str) -> bool {
-    db.starts_with("postgres://") || db.starts_with("postgresql://")
-}
-
-/// The address as errors and the console show it: without a password.
-pub fn redacted(url: &str) -> String {
-    let Some((scheme, rest)) = url.split_once("://") else {
-        return url.to_owned();
-    };
-    match rest.split_once('@') {
-        Some((user, host)) if user.contains(':') => {
-            let name = user.split(':').next().unwrap_or("");
-            format!("{scheme}://{name}:***@{host}")
-        }
-        _ => url.to_owned(),
-    }
 }
 
 /// A connection to the PostgreSQL history at `url`.

@@ -8,6 +8,7 @@
 
 mod artifacts;
 mod assets;
+mod auth;
 mod edge;
 pub mod error;
 mod fleet;
@@ -24,7 +25,7 @@ pub mod uploads;
 
 use crate::gpu::{AdapterChoice, GpuConfig};
 use crate::render::Renderer;
-use axum::http::{header, HeaderMap, StatusCode};
+use axum::http::StatusCode;
 use axum::routing::{get, post};
 use axum::Router;
 use error::ApiError;
@@ -113,43 +114,7 @@ pub struct AppState {
     pub closing: tokio::sync::watch::Sender<bool>,
 }
 
-/// The token of an `Authorization: Bearer <token>` value. The scheme is
-/// case-insensitive and separated from the token by spaces or tabs (RFC 7235).
-fn bearer_token(value: &str) -> Option<&str> {
-    let value = value.trim_matches([' ', '\t']);
-    let (scheme, token) = value.split_once([' ', '\t'])?;
-    scheme
-        .eq_ignore_ascii_case("bearer")
-        .then(|| token.trim_matches([' ', '\t']))
-        .filter(|t| !t.is_empty())
-}
-
-/// Compares in time independent of where the strings differ.
-fn same_secret(a: &[u8], b: &[u8]) -> bool {
-    a.len() == b.len() && a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
-}
-
 impl AppState {
-    pub fn authorize_write(&self, headers: &HeaderMap) -> Result<(), ApiError> {
-        let given = headers
-            .get(header::AUTHORIZATION)
-            .and_then(|v| v.to_str().ok())
-            .and_then(bearer_token);
-        match given {
-            None => Err(ApiError::new(
-                StatusCode::UNAUTHORIZED,
-                "unauthorized",
-                "this needs the bearer token: Authorization: Bearer <token> (serve --token-file)",
-            )),
-            Some(t) if same_secret(t.trim().as_bytes(), self.token.as_bytes()) => Ok(()),
-            Some(_) => Err(ApiError::new(
-                StatusCode::FORBIDDEN,
-                "forbidden",
-                "the bearer token is not this server's",
-            )),
-        }
-    }
-
     /// Why runs cannot be recorded now, if they cannot (a read-only history
     /// file or folder); checked when asked, since permissions can change.
     pub async fn history_problem(&self) -> Option<String> {
@@ -157,20 +122,6 @@ impl AppState {
         tokio::task::spawn_blocking(move || crate::history::write_problem(&db))
             .await
             .unwrap_or_else(|e| Some(format!("checking the history: {e}")))
-    }
-
-    /// Whether the request may see results: always, unless reads are private
-    /// and it carries no valid token.
-    pub fn may_read(&self, headers: &HeaderMap) -> bool {
-        self.authorize_read(headers).is_ok()
-    }
-
-    pub fn authorize_read(&self, headers: &HeaderMap) -> Result<(), ApiError> {
-        if self.private_reads {
-            self.authorize_write(headers)
-        } else {
-            Ok(())
-        }
     }
 }
 
@@ -484,26 +435,4 @@ pub fn load_or_make_token(path: &std::path::Path) -> Result<String, crate::Error
     let mut f = options.open(path).map_err(err)?;
     writeln!(f, "{token}").map_err(err)?;
     Ok(token)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_bearer_scheme_is_case_insensitive_and_spaces_or_tabs_separate() {
-        for v in [
-            "Bearer abc",
-            "bearer abc",
-            "BEARER abc",
-            "Bearer\tabc",
-            "Bearer   abc ",
-            " bEaReR abc",
-        ] {
-            assert_eq!(bearer_token(v), Some("abc"), "{v:?}");
-        }
-        for v in ["Basic abc", "Bearer", "Bearer ", "Bearerabc", "abc"] {
-            assert_eq!(bearer_token(v), None, "{v:?}");
-        }
-    }
 }
