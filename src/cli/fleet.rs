@@ -1,7 +1,7 @@
 //! `tonegate runner`, `tonegate enqueue` and `tonegate fleet`: machines that
 //! take queued check runs from a shared history, and the queue itself.
 
-use super::gate::DbArgs;
+use super::DbArgs;
 use super::GpuArgs;
 use clap::Args;
 use std::path::PathBuf;

@@ -1,7 +1,7 @@
 //! The gate's commands: `check` and `history`.
 
 use super::progress::Bar;
-use super::{invalid, json_text, write_json, write_text, GpuArgs};
+use super::{invalid, json_text, write_json, write_text, DbArgs, GpuArgs};
 use clap::Args;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -9,42 +9,6 @@ use tonegate::error::Result;
 use tonegate::gate::{CheckOptions, CheckOutcome, Renderer};
 use tonegate::history::History;
 use tonegate::scene::MAX_SPP;
-
-/// Where the history lives.
-#[derive(Args, Clone)]
-pub struct DbArgs {
-    /// The history database: a SQLite file (created when absent), or a
-    /// PostgreSQL database shared by a fleet (postgres://user@host/db).
-    #[arg(long, env = "TONEGATE_DB", default_value = ".tonegate/history.sqlite")]
-    pub db: PathBuf,
-    /// Seconds to keep retrying a PostgreSQL history that is down or
-    /// restarting (reconnecting, backing off with jitter), and an artifact
-    /// store's writes, before giving up (an image is then kept pending)
-    /// (default: 600 for `runner`, 2 for `serve`, which then answers 503
-    /// with Retry-After, 10 for the other commands).
-    #[arg(long, env = "TONEGATE_DB_RETRY_S")]
-    pub db_retry_s: Option<u64>,
-}
-
-impl DbArgs {
-    /// Sets the process's retry budget for a lost database connection:
-    /// `--db-retry-s`, or the command's own default.
-    pub fn set_retry(&self, default_s: u64) {
-        tonegate::history::set_retry_budget(std::time::Duration::from_secs(
-            self.db_retry_s.unwrap_or(default_s),
-        ));
-    }
-
-    /// Whether the history is a PostgreSQL database.
-    pub fn is_url(&self) -> bool {
-        tonegate::history::is_url(&self.db.to_string_lossy())
-    }
-
-    /// The history as the console shows it: a PostgreSQL address without its password.
-    pub fn shown(&self) -> String {
-        tonegate::history::redacted(&self.db.to_string_lossy())
-    }
-}
 
 #[derive(Args)]
 pub struct CheckArgs {

@@ -2,7 +2,7 @@
 //! (down past the retry budget, or refusing), kept in the history and served
 //! from there until they are sent on or dropped.
 
-use super::gate::DbArgs;
+use super::DbArgs;
 use super::{invalid, json_text};
 use clap::Args;
 use std::process::ExitCode;

@@ -1,6 +1,6 @@
 //! `tonegate serve`: the API and dashboard on the run history.
 
-use super::gate::DbArgs;
+use super::DbArgs;
 use super::GpuArgs;
 use clap::Args;
 use std::io::Write;

@@ -1,7 +1,7 @@
 //! The sweeps: `tradeoff` (error against run time) and `stress` (extreme inputs).
 
-use super::gate::DbArgs;
 use super::progress::Bar;
+use super::DbArgs;
 use super::{invalid, json_text, write_json, write_text};
 use clap::Args;
 use std::path::{Path, PathBuf};

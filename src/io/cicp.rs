@@ -6,9 +6,31 @@
 //! where, rather than read as whatever a decoder kept.
 
 use super::error::HdrIoError;
-use super::hdr_png::Cicp;
 
 const FORMAT: &str = "PNG";
+
+/// cICP: the colour primaries and transfer characteristics, as H.273 codes
+/// them; the matrix is 0 (RGB) and the range full, as PNG requires.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Cicp {
+    /// 1 = BT.709, 9 = BT.2020.
+    pub primaries: u8,
+    /// 13 = sRGB, 16 = PQ (SMPTE ST 2084), 18 = HLG (ARIB STD-B67).
+    pub transfer: u8,
+}
+
+impl Cicp {
+    /// BT.2020 primaries with the PQ transfer (BT.2100 PQ).
+    pub const BT2100_PQ: Cicp = Cicp {
+        primaries: 9,
+        transfer: 16,
+    };
+    /// BT.2020 primaries with the HLG transfer (BT.2100 HLG).
+    pub const BT2100_HLG: Cicp = Cicp {
+        primaries: 9,
+        transfer: 18,
+    };
+}
 
 impl std::fmt::Display for Cicp {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {

@@ -8,33 +8,11 @@ use std::io::Cursor;
 use std::path::Path;
 
 use super::atomic::write_atomically;
+use super::cicp::Cicp;
 use super::error::HdrIoError;
 use super::png::{check_consistent, check_png_extension, Rgb16Image};
 
 const FORMAT: &str = "PNG";
-
-/// cICP: the colour primaries and transfer characteristics, as H.273 codes
-/// them; the matrix is 0 (RGB) and the range full, as PNG requires.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Cicp {
-    /// 1 = BT.709, 9 = BT.2020.
-    pub primaries: u8,
-    /// 13 = sRGB, 16 = PQ (SMPTE ST 2084), 18 = HLG (ARIB STD-B67).
-    pub transfer: u8,
-}
-
-impl Cicp {
-    /// BT.2020 primaries with the PQ transfer (BT.2100 PQ).
-    pub const BT2100_PQ: Cicp = Cicp {
-        primaries: 9,
-        transfer: 16,
-    };
-    /// BT.2020 primaries with the HLG transfer (BT.2100 HLG).
-    pub const BT2100_HLG: Cicp = Cicp {
-        primaries: 9,
-        transfer: 18,
-    };
-}
 
 /// mDCV: the mastering display's primaries and white (CIE 1931 x, y) and
 /// its luminance range in cd/m².

@@ -31,9 +31,10 @@ use std::path::Path;
 
 use serde::Serialize;
 
+pub use self::cicp::Cicp;
 pub use self::error::HdrIoError;
 pub use self::hdr_png::{
-    encode_hdr_png, read_hdr_png_info, write_hdr_png, Cicp, FoundChunks, HdrPngInfo, LightLevel,
+    encode_hdr_png, read_hdr_png_info, write_hdr_png, FoundChunks, HdrPngInfo, LightLevel,
     Mastering,
 };
 pub use self::png::Rgb16Image;
