@@ -112,6 +112,11 @@ print(f"  subnormals {flush}; divisions {a.get('division', '?')}")
 scenes = c.get("scenes") or []
 bad = [s.get("scene", "?") for s in scenes if any(k.get("passed") is False for k in s.get("checks", []))]
 print(f"check: exit {check}; {len(scenes) - len(bad)}/{len(scenes)} scenes pass" + (f"; failing: {', '.join(bad)}" if bad else ""))
+ph = c.get("phases") or {}
+if ph:
+    keys = ["device", "pipelines", "render", "readback_wait", "readback_copy", "goldens", "metrics",
+            "ssim", "flip", "errors", "fraction_over", "artifacts", "history", "stress_cpu", "stress_gpu"]
+    print(f"check's phases (s): total {ph.get('total_s', 0):.2f}; " + ", ".join(f"{k} {ph.get(k + '_s', 0):.2f}" for k in keys))
 for name, st in (("check's stress", c.get("stress")), ("stress", report["stress"])):
     rows = (st or {}).get("cases") or []
     fails = [r for r in rows if not r.get("passed")]

@@ -193,6 +193,7 @@ pub fn render(r: &CheckReport) -> String {
             first.reason
         );
     }
+    let _ = writeln!(out, "{}", r.phases.line());
     let _ = writeln!(out, "SSIM: {}", r.ssim_definition);
     let _ = writeln!(out, "FLIP: {}", r.flip_definition);
     out

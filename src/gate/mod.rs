@@ -10,10 +10,12 @@
 mod artifacts;
 pub mod console;
 pub mod junit;
+mod phases;
 pub mod regress;
 mod stored;
 
 pub use artifacts::{adapter_slug, artifact_name};
+pub use phases::Phases;
 pub use regress::find_regressions;
 pub use stored::{is_recorded_metric, recorded_metrics, scene_record};
 
@@ -128,6 +130,8 @@ pub struct CheckReport {
     /// The stress suite's table, when the suite asks for it (`stress = true`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stress: Option<crate::stress::StressReport>,
+    /// Where the run's wall time went.
+    pub phases: Phases,
 }
 
 impl CheckReport {
@@ -304,6 +308,7 @@ fn run_inner(
     started_at: String,
     progress: &dyn Progress,
 ) -> Result<CheckReport, CheckError> {
+    let mut clock = phases::Clock::start();
     let mut suite = crate::suite::load_suite_file(&opts.suite)?;
     if !opts.scenes.is_empty() {
         suite.scenes = suite
@@ -315,7 +320,7 @@ fn run_inner(
         suite.stress = false;
     }
     if let (Some(h), Some(id)) = (history.as_ref(), run_id) {
-        h.set_suite_hash(id, &suite.hash)?;
+        clock.time(|p| &mut p.history_s, || h.set_suite_hash(id, &suite.hash))?;
     }
     let root = opts.suite.parent().unwrap_or(Path::new(".")).to_owned();
     let problems = crate::golden::check_manifest(&root, &suite.scenes)?;
@@ -324,7 +329,7 @@ fn run_inner(
     }
     let (ctx, adapter, renderer_json) = match &opts.renderer {
         Renderer::Gpu { adapter, config } => {
-            let ctx = GpuContext::new(adapter)?;
+            let ctx = clock.time(|p| &mut p.device_s, || GpuContext::new(adapter))?;
             let a = &ctx.adapter;
             let info = AdapterInfo {
                 name: a.name.clone(),
@@ -367,16 +372,14 @@ fn run_inner(
         ),
     };
     if let (Some(h), Some(id)) = (history.as_ref(), run_id) {
-        h.set_adapter(
-            id,
-            &RunAdapter {
-                name: adapter.name.clone(),
-                backend: adapter.backend.clone(),
-                driver: adapter.driver.clone(),
-                driver_info: adapter.driver_info.clone(),
-                config: renderer_json.to_string(),
-            },
-        )?;
+        let record = RunAdapter {
+            name: adapter.name.clone(),
+            backend: adapter.backend.clone(),
+            driver: adapter.driver.clone(),
+            driver_info: adapter.driver_info.clone(),
+            config: renderer_json.to_string(),
+        };
+        clock.time(|p| &mut p.history_s, || h.set_adapter(id, &record))?;
     }
     let total: u64 = suite.scenes.iter().map(|s| s.frames as u64).sum();
     progress.start("check", total, "frames");
@@ -393,20 +396,34 @@ fn run_inner(
     for scene in &suite.scenes {
         progress.working_on(&scene.name);
         let spp = opts.spp.unwrap_or(scene.default_spp());
-        let env = scene_environment(scene)?;
-        let renderer = match &ctx {
-            Some((ctx, config)) => SceneRenderer::gpu(scene, &env, ctx, *config, spp)?,
-            None => SceneRenderer::cpu(scene, &env, spp),
-        };
-        let rendered = renderer.sequence(|_| progress.advance(1))?;
-        let goldens = (0..scene.frames)
-            .map(|n| crate::golden::read_frame(&root, &scene.name, n))
-            .collect::<Result<Vec<_>, _>>()?;
+        let env = clock.time(|p| &mut p.pipelines_s, || scene_environment(scene))?;
+        let renderer = clock.time(
+            |p| &mut p.pipelines_s,
+            || -> Result<_, CheckError> {
+                Ok(match &ctx {
+                    Some((ctx, config)) => SceneRenderer::gpu(scene, &env, ctx, *config, spp)?,
+                    None => SceneRenderer::cpu(scene, &env, spp),
+                })
+            },
+        )?;
+        let rendered = clock.time(
+            |p| &mut p.render_s,
+            || renderer.sequence(|_| progress.advance(1)),
+        )?;
+        let goldens = clock.time(
+            |p| &mut p.goldens_s,
+            || {
+                (0..scene.frames)
+                    .map(|n| crate::golden::read_frame(&root, &scene.name, n))
+                    .collect::<Result<Vec<_>, _>>()
+            },
+        )?;
         let judging = crate::check::Judging {
             earlier: &scenes,
             ..scene.judging()
         };
-        let (mut result, kept) = judge(judging, rendered, goldens)?;
+        let (mut result, kept) =
+            clock.time(|p| &mut p.metrics_s, || judge(judging, rendered, goldens))?;
         apply_expectations(&mut result, &scene.expectations, &adapter, &today);
         result.taa = scene.taa.as_ref().map(|t| crate::check::TaaTag {
             variant: t.variant.name().into(),
@@ -416,6 +433,7 @@ fn run_inner(
         // The kept frames' images go to the artifacts folder and, content-
         // addressed, into the history (where a fleet's server finds them).
         let store = history.as_ref().zip(run_id);
+        let artifacts_started = std::time::Instant::now();
         if opts.artifacts.is_some() || store.is_some() {
             for f in &kept {
                 let files = artifacts::render_frame(&scene.name, &slug, f)?;
@@ -432,25 +450,30 @@ fn run_inner(
                 written.extend(names);
             }
         }
+        clock.phases.artifacts_s += artifacts_started.elapsed().as_secs_f64();
         if let (Some(h), Some(id)) = (history.as_mut(), run_id) {
-            h.record_scene(id, &scene_record(&result)?)?;
+            let record = scene_record(&result)?;
+            clock.time(|p| &mut p.history_s, || h.record_scene(id, &record))?;
         }
         scenes.push(result);
     }
     progress.finish();
     let regressions = match (history.as_mut(), run_id, &ctx) {
-        (Some(h), Some(id), Some(_)) => {
-            let found = find_regressions(
-                h,
-                id,
-                &adapter.name,
-                &renderer_json.to_string(),
-                &scenes,
-                &suite.performance,
-            )?;
-            h.record_regressions(id, &found)?;
-            found
-        }
+        (Some(h), Some(id), Some(_)) => clock.time(
+            |p| &mut p.history_s,
+            || -> Result<_, CheckError> {
+                let found = find_regressions(
+                    h,
+                    id,
+                    &adapter.name,
+                    &renderer_json.to_string(),
+                    &scenes,
+                    &suite.performance,
+                )?;
+                h.record_regressions(id, &found)?;
+                Ok(found)
+            },
+        )?,
         _ => Vec::new(),
     };
     let stress = suite.stress.then(|| {
@@ -462,6 +485,10 @@ fn run_inner(
                 .unwrap_or_default(),
         )
     });
+    if let Some(st) = &stress {
+        clock.phases.stress_cpu_s = st.cpu_s;
+        clock.phases.stress_gpu_s = (st.wall_s - st.cpu_s).max(0.0);
+    }
     let passed = scenes.iter().all(|s| !s.fails_gate())
         && (regressions.is_empty() || !suite.performance.fail_on_regression)
         && stress.as_ref().is_none_or(|s| s.passed);
@@ -490,5 +517,6 @@ fn run_inner(
         artifacts: written,
         artifacts_pending: pending,
         stress,
+        phases: clock.finish(),
     })
 }

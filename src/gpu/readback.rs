@@ -206,7 +206,8 @@ impl Ring {
         queries: Option<&Queries>,
         stage_names: &[&'static str],
     ) -> Result<GpuFrame, GpuError> {
-        let waited = wait(ctx, &ticket);
+        use crate::perf::clock::{timed, Part};
+        let waited = timed(Part::ReadbackWait, || wait(ctx, &ticket));
         let mut outcome: [Option<Result<(), wgpu::BufferAsyncError>>; 3] = Default::default();
         while let Ok((i, r)) = ticket.mapped.try_recv() {
             outcome[i] = Some(r);
@@ -225,7 +226,9 @@ impl Ring {
                     }
                 }
             }
-            self.read(ctx, &ticket, queries, stage_names)
+            timed(Part::ReadbackCopy, || {
+                self.read(ctx, &ticket, queries, stage_names)
+            })
         });
         for (i, buffer) in self.buffers(ticket.slot, ticket.read_frame) {
             // A failed map left its buffer unmapped already; unmapping it

@@ -37,6 +37,12 @@ pub fn compare_frames(test: &Frame, reference: &Frame) -> Result<(Metrics, Flip)
 
 /// The fraction of pixels with any channel more than `k` codes off.
 pub fn frame_fraction_over(test: &Frame, reference: &Frame, k: u8) -> Result<f64, MetricsError> {
+    crate::perf::clock::timed(crate::perf::clock::Part::FractionOver, || {
+        fraction_over_of(test, reference, k)
+    })
+}
+
+fn fraction_over_of(test: &Frame, reference: &Frame, k: u8) -> Result<f64, MetricsError> {
     match (test, reference) {
         (Frame::Rgb8(t), Frame::Rgb8(r)) => fraction_over(t.raster(), r.raster(), k),
         (Frame::Pq16(t), Frame::Pq16(r)) => {
@@ -219,13 +225,16 @@ fn compare_pq16(
 ) -> Result<(Metrics, Flip), MetricsError> {
     check_hdr_sizes(test, reference)?;
     // SSIM first, as for 8-bit frames: it refuses small frames.
-    let (ssim, _) = ssim16(test, reference, false)?;
-    let (flip, _) = hdr_flip(
-        &pq16_light(test),
-        &pq16_light(reference),
-        &HdrFlipOptions::default(),
-    )?;
-    let s = Sums16::of(test, reference, 1);
+    use crate::perf::clock::{timed, Part};
+    let (ssim, _) = timed(Part::Ssim, || ssim16(test, reference, false))?;
+    let (flip, _) = timed(Part::Flip, || {
+        hdr_flip(
+            &pq16_light(test),
+            &pq16_light(reference),
+            &HdrFlipOptions::default(),
+        )
+    })?;
+    let s = timed(Part::Errors, || Sums16::of(test, reference, 1));
     let mse = s.squared_error as f64 / s.samples as f64;
     let snr = if s.squared_error == 0 {
         f64::INFINITY

@@ -175,9 +175,12 @@ pub fn compare_with_flip(
 ) -> Result<(Metrics, flip::Flip), MetricsError> {
     // SSIM first: it refuses small images, and it is expensive, so a refusal
     // costs nothing.
-    let ssim = mean_ssim(test, reference)?;
-    let flip = flip::flip(test, reference, flip::DEFAULT_PPD)?;
-    let sums = basic::ErrorSums::of(&test, &reference)?;
+    use crate::perf::clock::{timed, Part};
+    let ssim = timed(Part::Ssim, || mean_ssim(test, reference))?;
+    let flip = timed(Part::Flip, || {
+        flip::flip(test, reference, flip::DEFAULT_PPD)
+    })?;
+    let sums = timed(Part::Errors, || basic::ErrorSums::of(&test, &reference))?;
     let mse = sums.mse();
     let metrics = Metrics {
         mse,
@@ -187,7 +190,7 @@ pub fn compare_with_flip(
         ssim,
         max_abs_diff: u16::from(sums.max_abs_diff),
         mean_abs_diff: sums.mean_abs_diff(),
-        fraction_over_1lsb: fraction_over(test, reference, 1)?,
+        fraction_over_1lsb: timed(Part::FractionOver, || fraction_over(test, reference, 1))?,
         flip_mean: flip.mean(),
         bits: 8,
         ssim_definition: SSIM_DEFINITION.to_owned(),

@@ -116,6 +116,10 @@ pub struct StressReport {
     pub bound: f64,
     pub cases: Vec<Row>,
     pub passed: bool,
+    /// Wall seconds of the CPU reference's rows (loading each case's input
+    /// included), of the whole run's: the rest is the GPU's rows.
+    pub cpu_s: f64,
+    pub wall_s: f64,
 }
 
 fn rel(got: f64, want: f64) -> f64 {
@@ -227,6 +231,8 @@ pub fn run(cases: &[Case], ctx: Option<&GpuContext>, reduction: ReductionMethod)
         bound: BOUND,
         passed: false,
         cases: Vec::new(),
+        cpu_s: 0.0,
+        wall_s: 0.0,
     })
 }
 
@@ -243,6 +249,8 @@ pub fn run_reductions(
         .unwrap_or(16384);
     let mut rows: Vec<Vec<Row>> = vec![Vec::new(); reductions.len()];
     let pipelines = pipelines();
+    let started = Instant::now();
+    let mut cpu_time = std::time::Duration::ZERO;
     for case in cases {
         for (pname, scene) in &pipelines {
             let pipeline = Pipeline::of_scene(scene);
@@ -274,6 +282,7 @@ pub fn run_reductions(
                 passed: false,
             };
             let must_refuse = |r: &str| case.refused_by.contains(&r);
+            let cpu_started = Instant::now();
             let input = load(case, width_limit);
             // CPU reference.
             let mut cpu = row("cpu");
@@ -312,6 +321,7 @@ pub fn run_reductions(
                     }
                 }
             }
+            cpu_time += cpu_started.elapsed();
             for (rows, &reduction) in rows.iter_mut().zip(reductions) {
                 rows.push(cpu.clone());
                 let Some(ctx) = ctx else { continue };
@@ -333,6 +343,8 @@ pub fn run_reductions(
             bound: BOUND,
             passed: rows.iter().all(|r| r.passed),
             cases: rows,
+            cpu_s: cpu_time.as_secs_f64(),
+            wall_s: started.elapsed().as_secs_f64(),
         })
         .collect()
 }

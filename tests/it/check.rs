@@ -875,3 +875,69 @@ fn plan_shows_the_spp_check_renders_with() {
         "{plan}"
     );
 }
+
+/// `check --json` says where its wall time went: every phase is there, the
+/// parts fit inside their phases and the phases inside the whole, and the
+/// console prints the same line.
+#[test]
+fn the_report_says_where_the_time_went() {
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("report.json");
+    let o = tonegate(&[
+        "check",
+        "--no-history",
+        "--scene",
+        "grid-static",
+        "--json",
+        s(&json),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let report = read_json(&json);
+    let p = &report["phases"];
+    let v = |k: &str| {
+        p[k].as_f64()
+            .unwrap_or_else(|| panic!("phases.{k} missing: {p}"))
+    };
+    for k in [
+        "device_s",
+        "pipelines_s",
+        "render_s",
+        "goldens_s",
+        "metrics_s",
+        "history_s",
+    ] {
+        assert!(v(k) >= 0.0, "{k}: {p}");
+    }
+    assert!(
+        v("device_s") > 0.0 && v("render_s") > 0.0 && v("metrics_s") > 0.0,
+        "{p}"
+    );
+    // Parts measured inside a phase are within it (1 ms of clock slack).
+    let slack = 1e-3;
+    assert!(
+        v("ssim_s") + v("flip_s") + v("errors_s") + v("fraction_over_s") <= v("metrics_s") + slack,
+        "{p}"
+    );
+    assert!(v("ssim_s") > 0.0 && v("flip_s") > 0.0, "{p}");
+    assert!(
+        v("readback_wait_s") + v("readback_copy_s") <= v("render_s") + slack,
+        "{p}"
+    );
+    assert!(v("readback_copy_s") > 0.0, "{p}");
+    let phases: f64 = [
+        "device_s",
+        "pipelines_s",
+        "render_s",
+        "goldens_s",
+        "metrics_s",
+        "artifacts_s",
+        "history_s",
+        "stress_cpu_s",
+        "stress_gpu_s",
+    ]
+    .iter()
+    .map(|k| v(k))
+    .sum();
+    assert!(phases <= v("total_s") + slack, "{phases} > total: {p}");
+    assert!(text(&o).contains("time: "), "{}", text(&o));
+}

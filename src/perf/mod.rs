@@ -1,5 +1,8 @@
 //! Performance figures shared by every layer: a stage's time in one frame,
-//! its median and p95 over a run, and the quantile they are computed with.
+//! its median and p95 over a run, and the quantile they are computed with;
+//! `clock`, where a process's time goes by part.
+
+pub mod clock;
 
 use serde::Serialize;
 
