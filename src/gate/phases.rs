@@ -43,7 +43,6 @@ pub struct Phases {
 /// Adds phases' times up as a run goes.
 pub(super) struct Clock {
     started: Instant,
-    parts: Snapshot,
     pub phases: Phases,
 }
 
@@ -51,32 +50,32 @@ impl Clock {
     pub fn start() -> Clock {
         Clock {
             started: Instant::now(),
-            parts: Snapshot::now(),
             phases: Phases::default(),
         }
     }
 
-    /// Runs `f`, adding its wall time to the phase `field` picks.
+    /// Runs `f`, adding its wall time to the phase `field` picks, and the
+    /// parts counted while it ran (readback, each metric) to theirs: only
+    /// the parts of timed phases count (not the stress suite's readbacks).
     pub fn time<T>(&mut self, field: fn(&mut Phases) -> &mut f64, f: impl FnOnce() -> T) -> T {
-        let t = Instant::now();
+        let (t, before) = (Instant::now(), Snapshot::now());
         let out = f();
         *field(&mut self.phases) += t.elapsed().as_secs_f64();
+        let after = Snapshot::now();
+        let part = |p: Part| after.since(&before, p).as_secs_f64();
+        let p = &mut self.phases;
+        p.readback_wait_s += part(Part::ReadbackWait);
+        p.readback_copy_s += part(Part::ReadbackCopy);
+        p.ssim_s += part(Part::Ssim);
+        p.flip_s += part(Part::Flip);
+        p.errors_s += part(Part::Errors);
+        p.fraction_over_s += part(Part::FractionOver);
         out
     }
 
-    /// The phases, with the parts counted inside the process since the
-    /// start and the whole run's time.
+    /// The phases, with the whole run's time.
     pub fn finish(mut self) -> Phases {
-        let now = Snapshot::now();
-        let part = |p: Part| now.since(&self.parts, p).as_secs_f64();
-        let p = &mut self.phases;
-        p.readback_wait_s = part(Part::ReadbackWait);
-        p.readback_copy_s = part(Part::ReadbackCopy);
-        p.ssim_s = part(Part::Ssim);
-        p.flip_s = part(Part::Flip);
-        p.errors_s = part(Part::Errors);
-        p.fraction_over_s = part(Part::FractionOver);
-        p.total_s = self.started.elapsed().as_secs_f64();
+        self.phases.total_s = self.started.elapsed().as_secs_f64();
         self.phases
     }
 }
