@@ -414,7 +414,8 @@ fn an_unreachable_database_is_a_clear_error_without_the_password() {
         text.contains("127.0.0.1:1") && !text.contains("hunter2"),
         "{text}"
     );
-    let o = tonegate(&["history", "--db", url]);
+    // A retry budget of 1 s, not the default 10: the error is the same.
+    let o = tonegate(&["history", "--db", url, "--db-retry-s", "1"]);
     assert_eq!(o.status.code(), Some(2), "{o:?}");
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(
