@@ -221,7 +221,9 @@ impl utoipa::Modify for BearerAuth {
 
 async fn openapi() -> axum::response::Response {
     use axum::response::IntoResponse;
-    axum::Json(ApiDoc::openapi()).into_response()
+    let mut doc = ApiDoc::openapi();
+    tonemap::describe_operators(&mut doc);
+    axum::Json(doc).into_response()
 }
 
 /// The whole application.

@@ -23,7 +23,7 @@ use std::sync::Arc;
     params(
         ("gpu" = Option<bool>, Query, description = "Render on the GPU (default true) or with the CPU reference"),
         ("format" = Option<String>, Query, description = "png (default) or json (the PNG inline, base64)"),
-        ("operator" = Option<String>, Query, description = "reinhard-global (default), reinhard-auto-key, reinhard02 (seed000 and seed001: the same two by their first names), aces-narkowicz, aces-hill, agx, pbr-neutral, hable, bt2390; GET /api/v1/operators lists every operator with its parameters"),
+        ("operator" = Option<String>, Query, description = "The operator (the served document lists every one the registry holds)"),
         ("preset" = Option<String>, Query, description = "reinhard02: pfstmo_reinhard02's global operator"),
         ("bloom" = Option<f64>, Query, description = "Bloom strength (0 = none); bloom_pass, bloom_threshold, bloom_downsample, bloom_radius, bloom_sigma refine it"),
         ("brightness" = Option<f64>, Query), ("contrast" = Option<f64>, Query), ("saturation" = Option<f64>, Query),
@@ -136,6 +136,45 @@ pub async fn tonemap(
         .map_err(|_| timed_out(timeout))?
         .map_err(|_| ApiError::internal("the tone-map worker dropped the job"))??;
     Ok(respond(out, extra.json, &settings.in_effect()))
+}
+
+/// Writes the operators the registry holds (built-in and registered, with
+/// their other names) into the served document's `operator` parameter of
+/// `POST /tonemap`, so the OpenAPI text cannot drift from the registry.
+pub fn describe_operators(doc: &mut utoipa::openapi::OpenApi) {
+    use utoipa::openapi::RefOr;
+    let names: Vec<String> = crate::operators::all()
+        .iter()
+        .map(|o| {
+            let aliases = o.aliases();
+            if aliases.is_empty() {
+                o.name().to_owned()
+            } else {
+                format!("{} (also {})", o.name(), aliases.join(", "))
+            }
+        })
+        .collect();
+    let text = format!(
+        "The operator, default reinhard-global: {}. GET /api/v1/operators lists each with its \
+         parameters, which are parameters of this request too",
+        names.join(", ")
+    );
+    let operation = doc
+        .paths
+        .paths
+        .get_mut("/api/v1/tonemap")
+        .and_then(|p| p.post.as_mut());
+    for p in operation
+        .and_then(|o| o.parameters.as_mut())
+        .into_iter()
+        .flatten()
+    {
+        if let RefOr::T(p) = p {
+            if p.name == "operator" {
+                p.description = Some(text.clone());
+            }
+        }
+    }
 }
 
 fn too_large_body(len: u64, limit: usize) -> ApiError {

@@ -32,6 +32,7 @@ mod io_validation;
 mod metrics_perceptual;
 mod metrics_skimage;
 mod objects;
+mod openapi;
 mod operators;
 mod pfstmo;
 mod postgres;
