@@ -13,7 +13,6 @@ use crate::common::postgres as pg;
 use crate::common::repo;
 use crate::fleet::{suites, wait_for};
 use std::collections::BTreeMap;
-use std::io::BufRead;
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::sync::{Arc, Mutex};
@@ -55,17 +54,8 @@ fn serve(url: &str, suite: &Path, dir: &Path) -> (Child, String) {
         .stderr(std::fs::File::create(dir.join("serve.log")).unwrap())
         .spawn()
         .unwrap();
-    let mut line = String::new();
-    std::io::BufReader::new(child.stdout.take().unwrap())
-        .read_line(&mut line)
-        .unwrap();
-    let addr = line
-        .split("http://")
-        .nth(1)
-        .and_then(|s| s.split('/').next())
-        .unwrap_or_else(|| panic!("no address in {line:?}"))
-        .to_owned();
-    (child, format!("http://{addr}"))
+    let base = crate::common::served_base(&mut child);
+    (child, base)
 }
 
 /// What the submitting client saw.

@@ -8,7 +8,6 @@
 use crate::common::repo;
 use crate::common::seaweed::Weed;
 use sha2::{Digest, Sha256};
-use std::io::BufRead;
 use std::net::TcpListener;
 use std::process::{Child, Command, Stdio};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -77,17 +76,8 @@ fn serve(db: &str, env: &[(&'static str, String)]) -> (Child, String) {
         .stderr(Stdio::null())
         .spawn()
         .unwrap();
-    let mut line = String::new();
-    std::io::BufReader::new(child.stdout.take().unwrap())
-        .read_line(&mut line)
-        .unwrap();
-    let addr = line
-        .split("http://")
-        .nth(1)
-        .and_then(|s| s.split('/').next())
-        .unwrap_or_else(|| panic!("no address in {line:?}"))
-        .to_owned();
-    (child, format!("http://{addr}"))
+    let base = crate::common::served_base(&mut child);
+    (child, base)
 }
 
 fn stop(mut child: Child) {

@@ -208,3 +208,20 @@ pub fn lavapipe_gate() -> &'static LavapipeGate {
         }
     })
 }
+
+/// The base address (`http://host:port`) a `tonegate serve` child prints on
+/// the first line of its stdout (which must be piped); panics with the line
+/// when it names none.
+pub fn served_base(child: &mut std::process::Child) -> String {
+    let mut line = String::new();
+    std::io::BufRead::read_line(
+        &mut std::io::BufReader::new(child.stdout.take().expect("serve's stdout is piped")),
+        &mut line,
+    )
+    .unwrap();
+    line.split("http://")
+        .nth(1)
+        .and_then(|s| s.split('/').next())
+        .map(|a| format!("http://{a}"))
+        .unwrap_or_else(|| panic!("no address in {line:?}"))
+}
