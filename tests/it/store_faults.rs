@@ -144,9 +144,10 @@ fn a_store_outage_keeps_the_runs_results_and_the_images_wait_in_the_history() {
 
     // The store is down for the whole run: the run passes and is stored as
     // passed with its metrics; its images wait in the history.
-    let o = run(
-        &down,
-        &[
+    // `check` on the CPU with the store at `env`, its report to stdout and a
+    // retry budget of 1 s.
+    let check_with = |env: &[(&'static str, String)], store: &str, more: &[&str]| {
+        let mut args = vec![
             "check",
             "--cpu",
             "--suite",
@@ -154,13 +155,16 @@ fn a_store_outage_keeps_the_runs_results_and_the_images_wait_in_the_history() {
             "--db",
             db,
             "--artifacts",
-            STORE,
+            store,
             "--json",
             "-",
             "--db-retry-s",
             "1",
-        ],
-    );
+        ];
+        args.extend_from_slice(more);
+        run(env, &args)
+    };
+    let o = check_with(&down, STORE, &[]);
     assert_eq!(o.status.code(), Some(0), "{}", said(&o));
     let report = report_of(&o);
     let run_id = report["run_id"].as_i64().unwrap();
@@ -273,25 +277,7 @@ fn a_store_outage_keeps_the_runs_results_and_the_images_wait_in_the_history() {
     );
 
     // Dropped: a second outage's images go, the run's results stay.
-    let o = run(
-        &down,
-        &[
-            "check",
-            "--cpu",
-            "--suite",
-            suite,
-            "--db",
-            db,
-            "--artifacts",
-            "s3://tonegate/elsewhere",
-            "--json",
-            "-",
-            "--db-retry-s",
-            "1",
-            "--spp",
-            "3",
-        ],
-    );
+    let o = check_with(&down, "s3://tonegate/elsewhere", &["--spp", "3"]);
     // Other frames (3 spp), so other images; judged or not at that spp.
     assert!(matches!(o.status.code(), Some(0 | 1)), "{}", said(&o));
     let second = report_of(&o);
