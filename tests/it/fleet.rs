@@ -16,15 +16,12 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 use tonegate::history::{History, JobSpec, RunStatus};
 
-/// A copy of golden/ with a one-frame 48x32 scene and its golden blessed,
-/// and the two-scene suite as the long job.
-pub(crate) fn suites(dir: &Path) -> (PathBuf, PathBuf) {
-    let golden = dir.join("golden");
-    copy_dir(&repo().join("golden"), &golden);
-    std::fs::write(
-        golden.join("scenes/tiny.toml"),
-        r#"name = "tiny"
-description = "the fleet test's job: one small frame"
+/// A one-frame 48x32 scene of the grid under `seed000` with this key,
+/// held to its own golden (the CPU reference renders it identically).
+pub(crate) fn tiny_scene(name: &str, description: &str, key: f64) -> String {
+    format!(
+        r#"name = "{name}"
+description = "{description}"
 size = [48, 32]
 fov_y = 60.0
 frames = 1
@@ -38,13 +35,24 @@ degrees_per_frame = 0.0
 
 [operator]
 kind = "seed000"
-key = 0.18
+key = {key}
 white_fraction = 0.9
 
 [[checks]]
 min_psnr = 50.0
 set_by = "the CPU reference against its own golden: identical"
-"#,
+"#
+    )
+}
+
+/// A copy of golden/ with a one-frame 48x32 scene and its golden blessed,
+/// and the two-scene suite as the long job.
+pub(crate) fn suites(dir: &Path) -> (PathBuf, PathBuf) {
+    let golden = dir.join("golden");
+    copy_dir(&repo().join("golden"), &golden);
+    std::fs::write(
+        golden.join("scenes/tiny.toml"),
+        tiny_scene("tiny", "the fleet test's job: one small frame", 0.18),
     )
     .unwrap();
     let tiny = golden.join("tiny.toml");

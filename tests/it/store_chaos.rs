@@ -31,33 +31,10 @@ fn many_scenes(dir: &Path) -> std::path::PathBuf {
     let mut list = Vec::new();
     for i in 0..JOBS {
         let name = format!("t{i:03}");
+        let description = format!("the store chaos test's job {i}: one small frame of its own");
         std::fs::write(
             golden.join(format!("scenes/{name}.toml")),
-            format!(
-                r#"name = "{name}"
-description = "the store chaos test's job {i}: one small frame of its own"
-size = [48, 32]
-fov_y = 60.0
-frames = 1
-
-[environment]
-builtin = "grid"
-size = [64, 32]
-
-[rotation]
-degrees_per_frame = 0.0
-
-[operator]
-kind = "seed000"
-key = {key}
-white_fraction = 0.9
-
-[[checks]]
-min_psnr = 50.0
-set_by = "the CPU reference against its own golden: identical"
-"#,
-                key = 0.10 + 0.002 * i as f64
-            ),
+            crate::fleet::tiny_scene(&name, &description, 0.10 + 0.002 * i as f64),
         )
         .unwrap();
         list.push(format!("\"scenes/{name}.toml\""));
