@@ -8,6 +8,7 @@ use super::spec::{not_applied, Check, CheckSpec, GainOver, Judged, Subject};
 use crate::image::Frame;
 use crate::metrics::{compare_frames, frame_fraction_over};
 use crate::perf::TimingSummary;
+use rayon::prelude::*;
 use std::collections::BTreeMap;
 
 #[derive(Debug, thiserror::Error)]
@@ -268,32 +269,40 @@ pub fn judge(
             _ => None,
         })
         .collect();
-    let mut frames = Vec::with_capacity(images.len());
-    for (n, (frame, golden)) in images.iter().zip(&goldens).enumerate() {
-        let n = n as u32;
-        let err = |source| JudgeError::Metrics {
-            scene: on.scene.into(),
-            frame: n,
-            source,
-        };
-        let (metrics, flip) = compare_frames(frame, golden).map_err(err)?;
-        let flip_percentiles = flip_ps
-            .iter()
-            .map(|&p| (p.to_string(), flip.weighted_percentile(p)))
-            .collect();
-        let mut fraction = BTreeMap::new();
-        for &k in &lsbs {
-            fraction.insert(k, frame_fraction_over(frame, golden, k).map_err(err)?);
-        }
-        frames.push(FrameResult {
-            frame: n,
-            metrics,
-            fraction_over: fraction,
-            flip_percentiles,
-            failed_checks: Vec::new(),
-            artifacts: Vec::new(),
-        });
-    }
+    // Frames are compared in parallel: FLIP's bands are as tall as a small
+    // frame, so one frame at a time left most of a many-core machine idle
+    // (check's FLIP took 10.6 s of 35.3 on a 16-core host with an H200).
+    let scene = on.scene;
+    let mut frames = images
+        .par_iter()
+        .zip(goldens.par_iter())
+        .enumerate()
+        .map(|(n, (frame, golden))| {
+            let n = n as u32;
+            let err = |source| JudgeError::Metrics {
+                scene: scene.into(),
+                frame: n,
+                source,
+            };
+            let (metrics, flip) = compare_frames(frame, golden).map_err(err)?;
+            let flip_percentiles = flip_ps
+                .iter()
+                .map(|&p| (p.to_string(), flip.weighted_percentile(p)))
+                .collect();
+            let mut fraction = BTreeMap::new();
+            for &k in &lsbs {
+                fraction.insert(k, frame_fraction_over(frame, golden, k).map_err(err)?);
+            }
+            Ok(FrameResult {
+                frame: n,
+                metrics,
+                fraction_over: fraction,
+                flip_percentiles,
+                failed_checks: Vec::new(),
+                artifacts: Vec::new(),
+            })
+        })
+        .collect::<Result<Vec<_>, JudgeError>>()?;
     let judged_frames: Vec<u32> = match on.test {
         TestKind::Static => frames.last().map(|f| f.frame).into_iter().collect(),
         TestKind::Moving => frames.iter().map(|f| f.frame).collect(),
