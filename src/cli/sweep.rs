@@ -274,6 +274,10 @@ pub struct StressArgs {
     /// Luminance reduction on the GPU: auto (block on a CPU adapter, subgroup or tree on a GPU), block, pingpong, tree or subgroup.
     #[arg(long, default_value = "auto", value_parser = crate::cli::by_name::<tonegate::gpu::ReductionMethod>)]
     pub reduction: tonegate::gpu::ReductionMethod,
+    /// Rows run at once (default: the cores, at most 8). 1 runs them one
+    /// after another, for each row's time on a quiet machine.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=256))]
+    pub jobs: Option<u32>,
 }
 
 pub fn stress(a: StressArgs) -> Result<ExitCode> {
@@ -293,7 +297,12 @@ pub fn stress(a: StressArgs) -> Result<ExitCode> {
     } else {
         Some(GpuContext::new(&a.backend.apply(&a.adapter))?)
     };
-    let report = tonegate::stress::run(&cases, ctx.as_ref(), a.reduction);
+    let jobs = a
+        .jobs
+        .map_or_else(tonegate::stress::default_jobs, |j| j as usize);
+    let report = tonegate::stress::run_jobs(&cases, ctx.as_ref(), &[a.reduction], jobs)
+        .pop()
+        .ok_or_else(|| invalid("the stress suite made no report".to_string()))?;
     if a.json {
         println!("{}", json_text("the stress report", &report)?);
     } else {

@@ -379,8 +379,9 @@ fn run_inner(
         )
     });
     if let Some(st) = &stress {
+        clock.phases.stress_s = st.wall_s;
         clock.phases.stress_cpu_s = st.cpu_s;
-        clock.phases.stress_gpu_s = (st.wall_s - st.cpu_s).max(0.0);
+        clock.phases.stress_gpu_s = st.gpu_s;
     }
     let passed = scenes.iter().all(|s| !s.fails_gate())
         && (regressions.is_empty() || !suite.performance.fail_on_regression)

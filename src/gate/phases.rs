@@ -26,7 +26,9 @@ pub struct Phases {
     /// Judging every frame: the metrics and the checks.
     pub metrics_s: f64,
     /// Of that, per metric (SSIM, FLIP or HDR-FLIP, the error sums behind
-    /// MSE/PSNR/SNR, the fraction over k LSB).
+    /// MSE/PSNR/SNR, the fraction over k LSB), summed over a scene's
+    /// frames, which are judged in parallel: on a machine of several cores
+    /// they add up to more than `metrics_s`.
     pub ssim_s: f64,
     pub flip_s: f64,
     pub errors_s: f64,
@@ -35,7 +37,10 @@ pub struct Phases {
     pub artifacts_s: f64,
     /// The history: the run's records and the regression search.
     pub history_s: f64,
-    /// The stress suite: the CPU reference's rows and the GPU's.
+    /// The stress suite's wall time; of that, the CPU reference's rows and
+    /// the GPU's, each summed over rows (several run at once, so the two
+    /// can add up to more than `stress_s`).
+    pub stress_s: f64,
     pub stress_cpu_s: f64,
     pub stress_gpu_s: f64,
 }
@@ -87,7 +92,7 @@ impl Phases {
         format!(
             "time: {} s: device {}, pipelines {}, render {} (readback wait {}, copy {}), \
              goldens {}, metrics {} (SSIM {}, FLIP {}, errors {}, >k LSB {}), artifacts {}, \
-             history {}, stress CPU {}, GPU {}",
+             history {}, stress {} (CPU {}, GPU {}, summed over rows)",
             s(self.total_s),
             s(self.device_s),
             s(self.pipelines_s),
@@ -102,6 +107,7 @@ impl Phases {
             s(self.fraction_over_s),
             s(self.artifacts_s),
             s(self.history_s),
+            s(self.stress_s),
             s(self.stress_cpu_s),
             s(self.stress_gpu_s)
         )

@@ -26,7 +26,9 @@ pub struct GpuContext {
     /// Compiled pipelines by (stage, entry, format, override constants): a
     /// context that renders many images (the server's GPU worker, `check`)
     /// compiles each variant once. Bounded by [`PIPELINE_CACHE_LIMIT`].
-    pipelines: Mutex<std::collections::HashMap<PipelineKey, wgpu::ComputePipeline>>,
+    /// Each entry is filled outside the map's lock, so threads compile
+    /// different variants at once (the stress suite's rows do).
+    pipelines: Mutex<std::collections::HashMap<PipelineKey, PipelineSlot>>,
 }
 
 /// The most bytes per frame pixel any one buffer of a renderer may take:
@@ -34,6 +36,10 @@ pub struct GpuContext {
 /// the ping-pong reduction's first level, a 32-byte partial per 2×2 block;
 /// `luminance_stats` asserts at compile time that it stays within this.
 pub(crate) const MAX_BUFFER_BYTES_PER_PIXEL: u64 = 8;
+
+/// A pipeline being compiled or compiled: the first thread to ask for a
+/// variant compiles it, the others asking meanwhile wait for it.
+type PipelineSlot = std::sync::Arc<std::sync::OnceLock<wgpu::ComputePipeline>>;
 
 /// Stage, entry point, format, override constants (values as f64 bits) and
 /// the operator's module, if the stage includes one.
@@ -228,19 +234,17 @@ impl GpuContext {
         key: PipelineKey,
         compile: impl FnOnce() -> wgpu::ComputePipeline,
     ) -> wgpu::ComputePipeline {
-        let mut cache = self
-            .pipelines
-            .lock()
-            .unwrap_or_else(|poisoned| poisoned.into_inner());
-        if let Some(p) = cache.get(&key) {
-            return p.clone();
-        }
-        let p = compile();
-        if cache.len() >= PIPELINE_CACHE_LIMIT {
-            cache.clear();
-        }
-        cache.insert(key, p.clone());
-        p
+        let slot = {
+            let mut cache = self
+                .pipelines
+                .lock()
+                .unwrap_or_else(|poisoned| poisoned.into_inner());
+            if cache.len() >= PIPELINE_CACHE_LIMIT && !cache.contains_key(&key) {
+                cache.clear();
+            }
+            cache.entry(key).or_default().clone()
+        };
+        slot.get_or_init(compile).clone()
     }
 
     /// How many compiled pipelines the context keeps now.

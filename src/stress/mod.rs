@@ -12,19 +12,18 @@
 pub mod cases;
 #[cfg(test)]
 mod range_safety;
+mod runner;
 
 pub use cases::{Case, Source};
+pub use runner::{default_jobs, run_jobs};
 
-use crate::gpu::{GpuConfig, GpuContext, GpuInput, GpuRenderer, HdrFormat, ReductionMethod};
+use crate::gpu::{GpuContext, ReductionMethod};
 use crate::image::{HdrImage, LinearImage};
 use crate::io::LoadOptions;
 use crate::operators::reinhard::WHITE_CLAMP;
-use crate::plan::{Input, StagePlan};
 use crate::reference::luminance_stats::LuminanceStats;
-use crate::reference::{render_flat, Pipeline};
 use crate::scene::Scene;
 use serde::Serialize;
-use std::time::Instant;
 
 /// The statistics bound (docs/tolerances.md): relative to the f64 value, with
 /// f32's smallest normal as the floor of the denominator (a value that is 0
@@ -116,57 +115,76 @@ pub struct StressReport {
     pub bound: f64,
     pub cases: Vec<Row>,
     pub passed: bool,
-    /// Wall seconds of the CPU reference's rows (loading each case's input
-    /// included), of the whole run's: the rest is the GPU's rows.
+    /// Seconds of the CPU reference's rows (loading each case's input
+    /// included) and of the GPU's rows, each summed over rows: with
+    /// several rows at a time (`jobs`) their sum exceeds `wall_s`.
     pub cpu_s: f64,
+    pub gpu_s: f64,
     pub wall_s: f64,
+    /// Rows run at once.
+    pub jobs: usize,
 }
 
-fn rel(got: f64, want: f64) -> f64 {
+pub(crate) fn rel(got: f64, want: f64) -> f64 {
     if got == want {
         return 0.0;
     }
     (got - want).abs() / want.abs().max(FLOOR)
 }
 
-fn pairwise(v: &[f64]) -> f64 {
-    if v.len() <= 64 {
-        v.iter().sum()
+/// The pairwise sum of `term(i)` over `range`: halves summed apart, down
+/// to runs of 64 summed in order. The halves of long runs are summed on two
+/// threads; the additions and their order are the same on any number of
+/// threads, so the sum is too.
+fn pairwise(range: std::ops::Range<usize>, term: &(impl Fn(usize) -> f64 + Sync)) -> f64 {
+    let n = range.len();
+    if n <= 64 {
+        range.map(term).sum()
     } else {
-        let (a, b) = v.split_at(v.len() / 2);
-        pairwise(a) + pairwise(b)
+        let mid = range.start + n / 2;
+        let (a, b) = (range.start..mid, mid..range.end);
+        if n >= 1 << 14 {
+            let (a, b) = rayon::join(|| pairwise(a, term), || pairwise(b, term));
+            a + b
+        } else {
+            pairwise(a, term) + pairwise(b, term)
+        }
     }
 }
 
 /// The statistics by the definitions, computed independently of
 /// `reference::luminance_stats`: plain pairwise f64 sums.
 pub fn independent_stats(img: &LinearImage, weights: [f64; 3], delta: f64) -> LuminanceStats {
-    let ys: Vec<f64> = img
-        .pixels
-        .iter()
-        .map(|c| weights[0] * c[0] + weights[1] * c[1] + weights[2] * c[2])
-        .collect();
-    let logs: Vec<f64> = ys.iter().map(|y| (delta + y).ln()).collect();
-    let w: Vec<f64> = ys.iter().map(|y| 1.0 - (-y).exp()).collect();
-    let wl: Vec<f64> = w.iter().zip(&logs).map(|(w, l)| w * l).collect();
-    let n = ys.len() as f64;
-    let log_average = (pairwise(&logs) / n).exp();
-    let sw = pairwise(&w);
+    use rayon::prelude::*;
+    let y = |i: usize| {
+        let c = img.pixels[i];
+        weights[0] * c[0] + weights[1] * c[1] + weights[2] * c[2]
+    };
+    let log = |i: usize| (delta + y(i)).ln();
+    let w = |i: usize| 1.0 - (-y(i)).exp();
+    let all = 0..img.pixels.len();
+    let n = all.len() as f64;
+    let log_average = (pairwise(all.clone(), &log) / n).exp();
+    let sw = pairwise(all.clone(), &w);
+    let (min, max) = all.clone().into_par_iter().map(|i| (y(i), y(i))).reduce(
+        || (f64::INFINITY, f64::NEG_INFINITY),
+        |a, b| (a.0.min(b.0), a.1.max(b.1)),
+    );
     LuminanceStats {
         log_average: Some(log_average),
         weighted_log_average: Some(if sw > 0.0 {
-            (pairwise(&wl) / sw).exp()
+            (pairwise(all, &|i| w(i) * log(i)) / sw).exp()
         } else {
             log_average
         }),
-        min: Some(ys.iter().copied().fold(f64::INFINITY, f64::min)),
-        max: Some(ys.iter().copied().fold(f64::NEG_INFINITY, f64::max)),
+        min: Some(min),
+        max: Some(max),
         weight_sum: Some(sw),
     }
 }
 
 /// Largest relative error over the statistics both sides measured.
-fn stats_error(got: &LuminanceStats, want: &LuminanceStats) -> f64 {
+pub(crate) fn stats_error(got: &LuminanceStats, want: &LuminanceStats) -> f64 {
     [
         (got.log_average, want.log_average),
         (got.weighted_log_average, want.weighted_log_average),
@@ -178,8 +196,11 @@ fn stats_error(got: &LuminanceStats, want: &LuminanceStats) -> f64 {
     .fold(0.0, f64::max)
 }
 
-fn all_finite(img: &LinearImage) -> bool {
-    img.pixels.iter().all(|p| p.iter().all(|v| v.is_finite()))
+pub(crate) fn all_finite(img: &LinearImage) -> bool {
+    use rayon::prelude::*;
+    img.pixels
+        .par_iter()
+        .all(|p| p.iter().all(|v| v.is_finite()))
 }
 
 /// The case's input after the loader's policy, or the loader's refusal.
@@ -201,7 +222,11 @@ pub(crate) fn load(case: &Case, width_limit: u32) -> Result<(HdrImage, String), 
                 sanitize: *sanitize,
                 ..LoadOptions::default()
             };
-            let (img, report) = crate::io::load_hdr(&path, &opts).map_err(|e| e.to_string())?;
+            // The loader names the file; the report names it without the
+            // temporary folder, so that two runs' tables are the same.
+            let folder = format!("{}{}", dir.path().display(), std::path::MAIN_SEPARATOR);
+            let (img, report) = crate::io::load_hdr(&path, &opts)
+                .map_err(|e| e.to_string().replace(&folder, ""))?;
             let mut what = Vec::new();
             if report.clamped_negative > 0 {
                 what.push(format!(
@@ -232,212 +257,22 @@ pub fn run(cases: &[Case], ctx: Option<&GpuContext>, reduction: ReductionMethod)
         passed: false,
         cases: Vec::new(),
         cpu_s: 0.0,
+        gpu_s: 0.0,
         wall_s: 0.0,
+        jobs: 1,
     })
 }
 
 /// [`run`] once for each of `reductions`, in their order: a report each,
 /// with the same CPU rows, for the CPU reference renders each case once
 /// (its 8.4 Mpx frame through every pipeline is most of a run's time).
+/// Rows run [`default_jobs`] at a time.
 pub fn run_reductions(
     cases: &[Case],
     ctx: Option<&GpuContext>,
     reductions: &[ReductionMethod],
 ) -> Vec<StressReport> {
-    let width_limit = ctx
-        .map(|c| c.limits.max_texture_dimension_2d)
-        .unwrap_or(16384);
-    let mut rows: Vec<Vec<Row>> = vec![Vec::new(); reductions.len()];
-    let pipelines = pipelines();
-    let started = Instant::now();
-    let mut cpu_time = std::time::Duration::ZERO;
-    for case in cases {
-        for (pname, scene) in &pipelines {
-            let pipeline = Pipeline::of_scene(scene);
-            // A documented exception is for adapters that flush subnormals:
-            // it applies to a GPU row only where the probe found flushing,
-            // and never to the CPU reference.
-            let excused = |renderer: &str| {
-                renderer == "gpu" && ctx.is_some_and(|c| c.adapter.flushes_subnormals == Some(true))
-            };
-            let row = |renderer: &str| Row {
-                name: format!("{}/{pname}", case.name),
-                case: case.name.into(),
-                pipeline: pname.into(),
-                renderer: renderer.into(),
-                finite: true,
-                max_rel_error: None,
-                ms: 0.0,
-                behaviour: case.behaviour.into(),
-                observed: String::new(),
-                bound: case
-                    .exception
-                    .filter(|_| excused(renderer))
-                    .map_or(BOUND, |e| e.1),
-                exception: case
-                    .exception
-                    .filter(|_| excused(renderer))
-                    .map(|e| e.0.to_string()),
-                max_lsb_vs_cpu: None,
-                passed: false,
-            };
-            let must_refuse = |r: &str| case.refused_by.contains(&r);
-            let cpu_started = Instant::now();
-            let input = load(case, width_limit);
-            // CPU reference.
-            let mut cpu = row("cpu");
-            let mut cpu_out = None;
-            match &input {
-                Err(e) => {
-                    cpu.observed = format!("refused: {e}");
-                    cpu.passed = must_refuse("cpu");
-                }
-                Ok((img, note)) => {
-                    let t = Instant::now();
-                    let rendered = render_flat(img, &pipeline);
-                    cpu.ms = t.elapsed().as_secs_f64() * 1e3;
-                    match rendered {
-                        // Plans are built valid: a fault is a tonegate bug, shown as a failed row.
-                        Err(e) => cpu.observed = format!("error: {e}"),
-                        Ok((_, out)) => {
-                            let lum = pipeline.operator.luminance();
-                            let independent = independent_stats(&out.hdr, lum.weights, lum.delta);
-                            let err = stats_error(&out.stats, &independent);
-                            cpu.finite = all_finite(&out.hdr)
-                                && all_finite(&out.toned)
-                                && all_finite(&out.display)
-                                && out.bloom.as_ref().is_none_or(all_finite)
-                                && out.tone.sane();
-                            cpu.max_rel_error = Some(err);
-                            cpu.observed = format!(
-                                "{}{}{}",
-                                resolved_text(&out.tone),
-                                if note.is_empty() { "" } else { "; " },
-                                note
-                            );
-                            cpu.passed = !must_refuse("cpu") && cpu.finite && err <= cpu.bound;
-                            cpu_out = Some(out);
-                        }
-                    }
-                }
-            }
-            cpu_time += cpu_started.elapsed();
-            for (rows, &reduction) in rows.iter_mut().zip(reductions) {
-                rows.push(cpu.clone());
-                let Some(ctx) = ctx else { continue };
-                rows.push(gpu_row(
-                    row("gpu"),
-                    case,
-                    &input,
-                    &cpu_out,
-                    ctx,
-                    &pipeline,
-                    reduction,
-                ));
-            }
-        }
-    }
-    rows.into_iter()
-        .map(|rows| StressReport {
-            adapter: ctx.map(|c| c.adapter.name.clone()),
-            bound: BOUND,
-            passed: rows.iter().all(|r| r.passed),
-            cases: rows,
-            cpu_s: cpu_time.as_secs_f64(),
-            wall_s: started.elapsed().as_secs_f64(),
-        })
-        .collect()
-}
-
-/// A case's GPU row: rendered with `reduction`, held to the CPU
-/// reference's output `reference` of the same input.
-fn gpu_row(
-    mut gpu: Row,
-    case: &Case,
-    input: &Result<(HdrImage, String), String>,
-    reference: &Option<crate::reference::FrameOutputs>,
-    ctx: &GpuContext,
-    pipeline: &Pipeline,
-    reduction: ReductionMethod,
-) -> Row {
-    let must_refuse = |r: &str| case.refused_by.contains(&r);
-    match (input, reference) {
-        (Err(e), _) => {
-            gpu.observed = format!("refused: {e}");
-            gpu.passed = must_refuse("gpu");
-        }
-        (Ok((img, _)), Some(reference)) => {
-            let config = GpuConfig {
-                hdr_format: if case.f16 {
-                    HdrFormat::Rgba16Float
-                } else {
-                    HdrFormat::Rgba32Float
-                },
-                reduction,
-                ..Default::default()
-            };
-            let plan = StagePlan::build(
-                Input::Flat,
-                pipeline.operator,
-                pipeline.bloom,
-                pipeline.grade,
-            );
-            let rendered = GpuRenderer::new(ctx, plan, GpuInput::Flat(img), pipeline, config)
-                .and_then(|r| {
-                    // The first dispatch of a pipeline compiles it on
-                    // llvmpipe: one warm-up render keeps that out of `ms`.
-                    r.render(false)?;
-                    let out = r.render(true)?;
-                    let toned = r.read_output("tonemap")?;
-                    let display = r.read_output("display")?;
-                    Ok((r.notes.clone(), out, toned, display))
-                });
-            match rendered {
-                Err(e) => {
-                    gpu.observed = format!("refused: {e}");
-                    gpu.passed = must_refuse("gpu");
-                }
-                Ok((notes, out, toned, display)) => {
-                    let s = out.stats;
-                    let got = s.luminance_stats();
-                    let tone = pipeline.operator.gpu_resolved(s.tone);
-                    // Only what the plan measured is compared.
-                    let want = reference.stats;
-                    let mut err = stats_error(&got, &want);
-                    if want.log_average.is_some() || want.weighted_log_average.is_some() {
-                        if let (Some(g), Some(w)) =
-                            (tone.get("log_average"), reference.tone.get("log_average"))
-                        {
-                            err = err.max(rel(g, w));
-                        }
-                    }
-                    gpu.finite = [s.log_average, s.weighted_log_average, s.min, s.max]
-                        .iter()
-                        .all(|v| v.is_finite())
-                        && tone.sane()
-                        && toned.as_ref().is_none_or(all_finite)
-                        && display.as_ref().is_none_or(all_finite);
-                    gpu.max_rel_error = Some(err);
-                    gpu.ms = out.timings.iter().map(|t| t.ms).sum();
-                    gpu.max_lsb_vs_cpu = out
-                        .frame
-                        .as_ref()
-                        .and_then(|f| crate::metrics::frame_max_abs_diff(f, &reference.frame).ok());
-                    gpu.observed = format!(
-                        "{}{}{}",
-                        resolved_text(&tone),
-                        if notes.is_empty() { "" } else { "; " },
-                        notes.join("; ")
-                    );
-                    gpu.passed = !must_refuse("gpu") && gpu.finite && err <= gpu.bound;
-                }
-            }
-        }
-        (Ok(_), None) => {
-            gpu.observed = "no CPU reference to compare with".into();
-        }
-    }
-    gpu
+    run_jobs(cases, ctx, reductions, default_jobs())
 }
 
 /// The table as the console prints it.
@@ -475,7 +310,7 @@ pub fn table(r: &StressReport) -> String {
 }
 
 /// A row's resolved values: "key 0.1800, log_average 1.2346e-1, …".
-fn resolved_text(tone: &crate::operators::ToneParams) -> String {
+pub(crate) fn resolved_text(tone: &crate::operators::ToneParams) -> String {
     let parts: Vec<String> = tone
         .values
         .iter()
@@ -490,4 +325,37 @@ fn resolved_text(tone: &crate::operators::ToneParams) -> String {
         })
         .collect();
     parts.join(", ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The pairwise sum as first written: terms into a vector, halves
+    /// summed one after the other on one thread.
+    fn sequential(v: &[f64]) -> f64 {
+        if v.len() <= 64 {
+            v.iter().sum()
+        } else {
+            let (a, b) = v.split_at(v.len() / 2);
+            sequential(a) + sequential(b)
+        }
+    }
+
+    /// The threaded pairwise sum makes the same additions in the same
+    /// order: bit for bit the sequential one, on a length that splits
+    /// unevenly and is long enough to go to two threads.
+    #[test]
+    fn the_threaded_pairwise_sum_is_the_sequential_one_bit_for_bit() {
+        let n = 100_003;
+        let term = |i: usize| ((i as f64 * 0.618_033_988_7).fract() - 0.3) * 1e3 + 1e-7;
+        let terms: Vec<f64> = (0..n).map(term).collect();
+        assert_eq!(
+            pairwise(0..n, &term).to_bits(),
+            sequential(&terms).to_bits()
+        );
+        // And it is not the plain left-to-right sum (so the test can tell).
+        let plain: f64 = terms.iter().sum();
+        assert_ne!(plain.to_bits(), sequential(&terms).to_bits());
+    }
 }

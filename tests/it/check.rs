@@ -918,10 +918,14 @@ fn the_report_says_where_the_time_went() {
         v("device_s") > 0.0 && v("render_s") > 0.0 && v("metrics_s") > 0.0,
         "{p}"
     );
-    // Parts measured inside a phase are within it (1 ms of clock slack).
+    // Parts measured inside a phase are within it (1 ms of clock slack);
+    // a scene's frames are judged in parallel, so the metrics' parts are
+    // within the phase's time on every core.
     let slack = 1e-3;
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get()) as f64;
     assert!(
-        v("ssim_s") + v("flip_s") + v("errors_s") + v("fraction_over_s") <= v("metrics_s") + slack,
+        v("ssim_s") + v("flip_s") + v("errors_s") + v("fraction_over_s")
+            <= v("metrics_s") * cores + slack,
         "{p}"
     );
     assert!(v("ssim_s") > 0.0 && v("flip_s") > 0.0, "{p}");
@@ -938,8 +942,7 @@ fn the_report_says_where_the_time_went() {
         "metrics_s",
         "artifacts_s",
         "history_s",
-        "stress_cpu_s",
-        "stress_gpu_s",
+        "stress_s",
     ]
     .iter()
     .map(|k| v(k))

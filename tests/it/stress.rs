@@ -195,3 +195,37 @@ fn the_workgroup_tree_holds_every_bound_on_the_reduction_cases() {
         assert!(report.passed, "{method:?}");
     }
 }
+
+/// Rows run several at a time give the table one at a time gives: the same
+/// rows in the same order with the same figures (times aside). Two GPU
+/// rows in flight at once share the device, its pipeline cache and its map
+/// callbacks: a row that read another's results, or a map outcome lost to
+/// another thread's poll (which failed the 8.4 Mpx rows before `collect`
+/// waited for it), shows here.
+#[test]
+fn rows_run_at_once_give_the_table_one_at_a_time_gives() {
+    let ctx = GpuContext::new(&AdapterChoice::default())
+        .expect("lavapipe (mesa-vulkan-drivers) is installed");
+    let cases = stress::cases::all(false);
+    let one = stress::run_jobs(&cases, Some(&ctx), &[ReductionMethod::Auto], 1);
+    let four = stress::run_jobs(&cases, Some(&ctx), &[ReductionMethod::Auto], 4);
+    let (one, four) = (&one[0], &four[0]);
+    assert_eq!((one.jobs, four.jobs), (1, 4));
+    assert_eq!(one.cases.len(), cases.len() * stress::pipelines().len() * 2);
+    assert_eq!(one.cases.len(), four.cases.len());
+    for (a, b) in one.cases.iter().zip(&four.cases) {
+        let key = |r: &Row| {
+            (
+                r.name.clone(),
+                r.renderer.clone(),
+                r.finite,
+                r.max_rel_error.map(f64::to_bits),
+                r.max_lsb_vs_cpu,
+                r.observed.clone(),
+                r.passed,
+            )
+        };
+        assert_eq!(key(a), key(b));
+    }
+    assert!(four.passed, "{}", stress::table(four));
+}
