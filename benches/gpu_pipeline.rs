@@ -5,6 +5,13 @@
 //! Both executions are measured in the same run: staged (one kernel per
 //! stage) and fused (the display-referred stages merged).
 //!
+//! `readback_1080p`: where the host's time goes when a 1080p RGBA8 frame
+//! comes back, part by part: the GPU's copy into the mapped-readable
+//! buffer and the wait for it, the map and unmap, a plain memcpy of the
+//! mapped bytes, and the unpacking into RGB (through byte chunks, into a
+//! new vector and a reused one, and through whole pixels; the renderer's
+//! own function last).
+//!
 //! `kept_renderers`: the server's GPU tone map of six images of different
 //! sizes in turn, all in the 1024×512 size class, with renderers kept for
 //! exact sizes (four kept, so every image makes a new one) and for size
@@ -103,5 +110,98 @@ fn kept_renderers(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, full_plan, kept_renderers);
+fn readback(c: &mut Criterion) {
+    let ctx = GpuContext::new(&AdapterChoice::default()).unwrap_or_else(|e| panic!("{e}"));
+    let n = 1920 * 1080;
+    let bytes = n as u64 * 4;
+    let buffer = |label: &str, usage: wgpu::BufferUsages| {
+        ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: bytes,
+            usage,
+            mapped_at_creation: false,
+        })
+    };
+    let source = buffer(
+        "bench.frame",
+        wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+    );
+    let pattern: Vec<u8> = (0..bytes).map(|i| (i * 7 % 251) as u8).collect();
+    ctx.queue.write_buffer(&source, 0, &pattern);
+    let staging = buffer(
+        "bench.frame.read",
+        wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+    );
+    let wait = || {
+        ctx.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .unwrap_or_else(|e| panic!("{e}"));
+    };
+    let map = || {
+        let (tx, rx) = std::sync::mpsc::channel();
+        staging
+            .slice(..)
+            .map_async(wgpu::MapMode::Read, move |r| drop(tx.send(r)));
+        wait();
+        rx.recv()
+            .unwrap_or_else(|e| panic!("{e}"))
+            .unwrap_or_else(|e| panic!("{e}"));
+    };
+    let mut group = c.benchmark_group("readback_1080p");
+    group.sample_size(20);
+    group.bench_function("gpu_copy_and_wait", |b| {
+        b.iter(|| {
+            let mut encoder = ctx.device.create_command_encoder(&Default::default());
+            encoder.copy_buffer_to_buffer(&source, 0, &staging, 0, bytes);
+            ctx.queue.submit([encoder.finish()]);
+            wait();
+        })
+    });
+    group.bench_function("map_and_unmap", |b| {
+        b.iter(|| {
+            map();
+            staging.unmap();
+        })
+    });
+    map();
+    {
+        let view = staging
+            .slice(..)
+            .get_mapped_range()
+            .unwrap_or_else(|e| panic!("{e}"));
+        let mut copy = vec![0u8; bytes as usize];
+        group.bench_function("memcpy", |b| b.iter(|| copy.copy_from_slice(&view)));
+        group.bench_function("unpack_byte_chunks", |b| {
+            b.iter(|| {
+                view.chunks_exact(4)
+                    .take(n)
+                    .map(|c| [c[0], c[1], c[2]])
+                    .collect::<Vec<[u8; 3]>>()
+            })
+        });
+        let mut reused: Vec<[u8; 3]> = Vec::with_capacity(n);
+        group.bench_function("unpack_byte_chunks_reused", |b| {
+            b.iter(|| {
+                reused.clear();
+                reused.extend(view.chunks_exact(4).take(n).map(|c| [c[0], c[1], c[2]]));
+            })
+        });
+        group.bench_function("unpack_pixels", |b| {
+            b.iter(|| {
+                let pixels: &[[u8; 4]] = bytemuck::cast_slice(&view[..n * 4]);
+                pixels
+                    .iter()
+                    .map(|&[r, g, b, _]| [r, g, b])
+                    .collect::<Vec<[u8; 3]>>()
+            })
+        });
+        group.bench_function("unpack_as_renderer", |b| {
+            b.iter(|| tonegate::gpu::readback::unpack_rgba8(&view, n))
+        });
+    }
+    staging.unmap();
+    group.finish();
+}
+
+criterion_group!(benches, full_plan, readback, kept_renderers);
 criterion_main!(benches);

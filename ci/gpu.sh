@@ -115,7 +115,7 @@ print(f"check: exit {check}; {len(scenes) - len(bad)}/{len(scenes)} scenes pass"
 ph = c.get("phases") or {}
 if ph:
     keys = ["device", "pipelines", "render", "readback_wait", "readback_copy", "goldens", "metrics",
-            "ssim", "flip", "errors", "fraction_over", "artifacts", "history", "stress_cpu", "stress_gpu"]
+            "ssim", "flip", "errors", "fraction_over", "artifacts", "history", "stress", "stress_cpu", "stress_gpu"]
     print(f"check's phases (s): total {ph.get('total_s', 0):.2f}; " + ", ".join(f"{k} {ph.get(k + '_s', 0):.2f}" for k in keys))
 for name, st in (("check's stress", c.get("stress")), ("stress", report["stress"])):
     rows = (st or {}).get("cases") or []
@@ -130,16 +130,19 @@ if gl == 0:
 else:
     print(f"GL: check exit {gl}: {gl_first[:200]}")
 print()
-print(f"{'bench (p50)':<34} {'GPU ms':>8} {'+readback':>10} {'floor ms':>9}  stages (x floor)")
+print(f"{'bench (p50)':<34} {'GPU ms':>8} {'+readback':>10} {'serial':>8} {'wait':>7} {'copy':>7} {'floor ms':>9}  stages (x floor)")
 for name, b in report["bench"].items():
     if "error" in b:
         print(f"{name:<34} {b['error'][:80]}")
         continue
     gpu = (b.get("frame_gpu_ms") or {}).get("p50")
     rb = (b.get("frame_wall_ms_with_readback") or {}).get("p50")
+    serial = (b.get("frame_wall_ms_serial") or {}).get("p50")
+    split = b.get("readback_serial") or {}
     stages = ", ".join(f"{s['name']} {s['floor_multiple']:.2f}" for s in b.get("stages", []))
     fmt = lambda v: f"{v:.3f}" if isinstance(v, (int, float)) else "?"
-    print(f"{name:<34} {fmt(gpu):>8} {fmt(rb):>10} {fmt(b.get('floor_ms')):>9}  {stages}")
+    print(f"{name:<34} {fmt(gpu):>8} {fmt(rb):>10} {fmt(serial):>8} {fmt(split.get('wait_ms')):>7} "
+          f"{fmt(split.get('copy_ms')):>7} {fmt(b.get('floor_ms')):>9}  {stages}")
 print(f"report: {os.path.join(out, 'report.json')}")
 PY
 exit $status

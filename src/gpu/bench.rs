@@ -98,6 +98,11 @@ pub struct BenchReport {
     /// Wall time per frame with readback, one frame in flight: submit to
     /// results on the host.
     pub frame_wall_ms_serial: Percentiles,
+    /// Of `frame_wall_ms_serial`, the mean per frame of the host's wait for
+    /// the GPU (rendering, the copy into the mapped-readable buffer, the
+    /// map) and of taking the frame off its mapping (unpacking it into
+    /// RGB). The rest is recording and submitting.
+    pub readback_serial: ReadbackSplit,
     pub frames: u32,
     pub warmup: u32,
     pub config: GpuConfig,
@@ -105,6 +110,13 @@ pub struct BenchReport {
     /// CPU threads the host has and LP_NUM_THREADS if set: llvmpipe's core use.
     pub host_threads: usize,
     pub lp_num_threads: Option<String>,
+}
+
+/// Where a read-back frame's host time goes (ms per frame).
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct ReadbackSplit {
+    pub wait_ms: f64,
+    pub copy_ms: f64,
 }
 
 /// The full plan the speed targets are stated for: sphere + statistics
@@ -304,11 +316,18 @@ pub fn run(ctx: &GpuContext, opts: &BenchOptions) -> Result<BenchReport, GpuErro
     // copied to the host before the next is submitted.
     let mut serial = Vec::with_capacity(opts.frames as usize);
     let start = std::time::Instant::now();
+    let before = crate::perf::clock::Snapshot::now();
     for n in 0..opts.frames {
         set(n);
         serial.push(r.render(true)?.wall_ms);
     }
     let fps_serial_readback = opts.frames as f64 / start.elapsed().as_secs_f64();
+    let after = crate::perf::clock::Snapshot::now();
+    let per_frame = |part| after.since(&before, part).as_secs_f64() * 1e3 / opts.frames as f64;
+    let readback_serial = ReadbackSplit {
+        wait_ms: per_frame(crate::perf::clock::Part::ReadbackWait),
+        copy_ms: per_frame(crate::perf::clock::Part::ReadbackCopy),
+    };
     // With readback, frames in flight: frame n copied out while n+1 renders.
     let mut wall = Vec::with_capacity(opts.frames as usize);
     let start = std::time::Instant::now();
@@ -381,6 +400,7 @@ pub fn run(ctx: &GpuContext, opts: &BenchOptions) -> Result<BenchReport, GpuErro
         frame_gpu_ms: Percentiles::of(&frame_gpu),
         frame_wall_ms_with_readback: Percentiles::of(&wall),
         frame_wall_ms_serial: Percentiles::of(&serial),
+        readback_serial,
         frames: opts.frames,
         warmup: opts.warmup,
         config: r.config,
@@ -462,6 +482,11 @@ impl std::fmt::Display for BenchReport {
             self.frame_wall_ms_serial.p50,
             self.frame_wall_ms_serial.p95,
             self.frame_wall_ms_serial.p99
+        )?;
+        writeln!(
+            f,
+            "one at a time, per frame: {:.3} ms waiting for the GPU and the map, {:.3} ms taking the frame off its mapping",
+            self.readback_serial.wait_ms, self.readback_serial.copy_ms
         )?;
         write!(
             f,
