@@ -11,7 +11,7 @@ use crate::plan::{Input, StagePlan};
 use crate::reference::{render_flat, Pipeline};
 use std::time::Instant;
 
-/// How many rows [`run_reductions`] runs at once: the machine's cores, at
+/// How many rows [`run_reductions`](super::run_reductions) runs at once: the machine's cores, at
 /// most 8. Each row is one case through one pipeline on both renderers;
 /// most of a row's time outside the large case is the GPU driver compiling
 /// pipelines for the case's size (their override constants include it),
@@ -27,7 +27,7 @@ pub fn default_jobs() -> usize {
 const BIG_PIXELS: u64 = 1 << 20;
 const BIG_AT_ONCE: usize = 2;
 
-/// [`run_reductions`] with `jobs` rows at a time (1: one after another, as
+/// [`run_reductions`](super::run_reductions) with `jobs` rows at a time (1: one after another, as
 /// a quiet timing of each row needs). The report lists the rows in the
 /// same order whatever `jobs` is; the CPU and GPU seconds are summed over
 /// rows, so with several jobs they can exceed the wall time.
