@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # What anyone with a GPU runs: a release build, then on one adapter (default
-# the best hardware one, `--adapter hardware`) the gate (`check`), the stiff
-# inputs (`stress --json`) and the frame benchmark (`bench --json` at 720p,
-# 1080p and 2160p, staged and fused; with each TAA variant at 1600x900, seed
-# 002's size, and 1080p), all into one report folder:
+# the best hardware one, `--adapter hardware`) the gate (`check`, FLIP on the
+# GPU, and again with `--metrics cpu`), the stiff inputs (`stress --json`)
+# and the frame benchmark (`bench --json` at 720p, 1080p and 2160p, staged
+# with FLIP timed at the size, and fused; with each TAA variant at 1600x900,
+# seed 002's size, and 1080p), all into one report folder:
 #   ci/gpu.sh [OUT_DIR] [ADAPTER]        (default: gpu-report, hardware)
 # Exits 0 only if check and stress pass; the bench never decides. The GL
 # adapter of the same GPU is tried too: it passes the gate or is refused
@@ -40,9 +41,17 @@ stress=$?
   --json "$out/check-gl.json" >"$out/check-gl.txt" 2>&1
 gl=$?
 
+# The same gate with FLIP on the CPU (nv-flip), for its phase times beside
+# the GPU's (`--metrics auto` takes the GPU on a hardware adapter).
+"$TONEGATE" check --adapter "$adapter" --no-history --metrics cpu \
+  --json "$out/check-metrics-cpu.json" >"$out/check-metrics-cpu.txt" 2>&1
+
 for size in 1280x720 1920x1080 3840x2160; do
   for execution in staged fused; do
-    "$TONEGATE" bench --adapter "$adapter" --size "$size" --execution "$execution" \
+    # The staged runs time FLIP at the size too, on the GPU and on the CPU.
+    flip=()
+    [ "$execution" = staged ] && flip=(--flip)
+    "$TONEGATE" bench --adapter "$adapter" --size "$size" --execution "$execution" "${flip[@]}" \
       --frames "${BENCH_FRAMES:-300}" --json >"$out/bench-$size-$execution.json" \
       2>"$out/bench-$size-$execution.err" || echo "bench $size $execution failed" >&2
   done
@@ -112,11 +121,16 @@ print(f"  subnormals {flush}; divisions {a.get('division', '?')}")
 scenes = c.get("scenes") or []
 bad = [s.get("scene", "?") for s in scenes if any(k.get("passed") is False for k in s.get("checks", []))]
 print(f"check: exit {check}; {len(scenes) - len(bad)}/{len(scenes)} scenes pass" + (f"; failing: {', '.join(bad)}" if bad else ""))
-ph = c.get("phases") or {}
-if ph:
+cm = load(os.path.join(out, "check-metrics-cpu.json"))
+report["check_metrics_cpu"] = cm
+for label, rep in (("check's phases", c), ("check --metrics cpu", cm if isinstance(cm, dict) else {})):
+    ph = rep.get("phases") or {}
+    if not ph:
+        continue
     keys = ["device", "pipelines", "render", "readback_wait", "readback_copy", "goldens", "metrics",
             "ssim", "flip", "errors", "fraction_over", "artifacts", "history", "stress", "stress_cpu", "stress_gpu"]
-    print(f"check's phases (s): total {ph.get('total_s', 0):.2f}; " + ", ".join(f"{k} {ph.get(k + '_s', 0):.2f}" for k in keys))
+    print(f"{label} (s; FLIP on {rep.get('metrics_on', '?')}): total {ph.get('total_s', 0):.2f}; "
+          + ", ".join(f"{k} {ph.get(k + '_s', 0):.2f}" for k in keys))
 for name, st in (("check's stress", c.get("stress")), ("stress", report["stress"])):
     rows = (st or {}).get("cases") or []
     fails = [r for r in rows if not r.get("passed")]
@@ -143,6 +157,12 @@ for name, b in report["bench"].items():
     fmt = lambda v: f"{v:.3f}" if isinstance(v, (int, float)) else "?"
     print(f"{name:<34} {fmt(gpu):>8} {fmt(rb):>10} {fmt(serial):>8} {fmt(split.get('wait_ms')):>7} "
           f"{fmt(split.get('copy_ms')):>7} {fmt(b.get('floor_ms')):>9}  {stages}")
+for name, b in report["bench"].items():
+    f = b.get("flip") if isinstance(b, dict) else None
+    if f:
+        print(f"FLIP {f['size']}: GPU {f['gpu_ms']:.2f} ms, nv-flip {f['cpu_ms']:.2f} ms; means {f['gpu_mean']:.6f} / {f['cpu_mean']:.6f}")
+with open(os.path.join(out, "report.json"), "w") as fh:
+    json.dump(report, fh, indent=1)
 print(f"report: {os.path.join(out, 'report.json')}")
 PY
 exit $status

@@ -231,6 +231,7 @@ pub fn run(opts: &RunnerOptions, say: &mut dyn FnMut(&str)) -> Result<RunnerSumm
             db: Some(opts.db.clone()),
             started: Some(tx),
             scenes: job.scenes.clone(),
+            metrics: crate::gate::MetricsOn::Auto,
         };
         let gate = std::thread::Builder::new()
             .name(format!("job-{}", job.id))

@@ -6,7 +6,7 @@ use super::figures::FRAME_METRICS;
 use super::result::{CheckResult, FrameResult, SceneResult, Summary, TestKind};
 use super::spec::{not_applied, Check, CheckSpec, GainOver, Judged, Subject};
 use crate::image::Frame;
-use crate::metrics::{compare_frames, frame_fraction_over};
+use crate::metrics::{compare_frames_by, frame_fraction_over};
 use crate::perf::TimingSummary;
 use rayon::prelude::*;
 use std::collections::BTreeMap;
@@ -197,6 +197,9 @@ pub struct Judging<'a> {
     /// The scenes rendered before this one in the run, which
     /// `min_psnr_gain_over` checks compare with.
     pub earlier: &'a [SceneResult],
+    /// Where 8-bit frames' FLIP maps are computed (the GPU, under
+    /// `check --metrics gpu`); None: nv-flip on the CPU.
+    pub flip: Option<crate::metrics::FlipBy<'a>>,
 }
 
 /// What a renderer produced for one scene.
@@ -284,7 +287,7 @@ pub fn judge(
                 frame: n,
                 source,
             };
-            let (metrics, flip) = compare_frames(frame, golden).map_err(err)?;
+            let (metrics, flip) = compare_frames_by(frame, golden, on.flip).map_err(err)?;
             let flip_percentiles = flip_ps
                 .iter()
                 .map(|&p| (p.to_string(), flip.weighted_percentile(p)))

@@ -42,6 +42,10 @@ pub struct BenchArgs {
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
+    /// Also time FLIP at this size, on the GPU (tonegate's port) and the CPU
+    /// (nv-flip, on every core): `flip` in the report.
+    #[arg(long)]
+    pub flip: bool,
     #[command(flatten)]
     pub gpu: GpuArgs,
 }
@@ -86,10 +90,29 @@ pub fn bench(a: BenchArgs) -> Result<ExitCode> {
         operator,
     };
     let report = tonegate::gpu::bench::run(&ctx, &opts)?;
+    let flip = a
+        .flip
+        .then(|| tonegate::gpu::flip::time_flip(&ctx, a.size.width, a.size.height, 10))
+        .transpose()
+        .map_err(|e| invalid(format!("--flip: {e}")))?;
     if a.json {
-        write_json(Path::new("-"), "the bench report", &report)?;
+        let mut value =
+            serde_json::to_value(&report).map_err(|e| invalid(format!("the bench report: {e}")))?;
+        if let (Some(flip), Some(o)) = (&flip, value.as_object_mut()) {
+            o.insert(
+                "flip".into(),
+                serde_json::to_value(flip).unwrap_or_default(),
+            );
+        }
+        write_json(Path::new("-"), "the bench report", &value)?;
     } else {
         println!("{report}");
+        if let Some(f) = &flip {
+            println!(
+                "FLIP {}: {:.2} ms on the GPU (median of {}), {:.2} ms nv-flip on the CPU (median of 3); means {:.6} and {:.6}",
+                f.size, f.gpu_ms, f.runs, f.cpu_ms, f.gpu_mean, f.cpu_mean
+            );
+        }
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -56,6 +56,12 @@ pub struct CheckArgs {
     /// skipped.
     #[arg(long = "scene")]
     pub scenes: Vec<String>,
+    /// Where FLIP is computed: cpu (NVIDIA's C++ through nv-flip), gpu
+    /// (tonegate's port of the same pipeline on the check's adapter, within
+    /// 1e-4 of nv-flip's mean), or auto (the GPU on a hardware adapter, the
+    /// CPU on llvmpipe and SwiftShader and with --cpu).
+    #[arg(long, default_value = "auto", value_parser = crate::cli::by_name::<tonegate::gate::MetricsOn>)]
+    pub metrics: tonegate::gate::MetricsOn,
 }
 
 #[derive(Args)]
@@ -98,6 +104,13 @@ pub fn check(a: CheckArgs) -> Result<ExitCode> {
             )));
         }
     }
+    if a.cpu && a.metrics == tonegate::gate::MetricsOn::Gpu {
+        return Err(invalid(
+            "--metrics gpu needs an adapter, and --cpu renders with the CPU reference and none: \
+             leave out --cpu, or use --metrics cpu"
+                .to_string(),
+        ));
+    }
     let renderer = if a.cpu {
         Renderer::Cpu
     } else {
@@ -118,6 +131,7 @@ pub fn check(a: CheckArgs) -> Result<ExitCode> {
         db: (!a.no_history).then(|| a.db.db.clone()),
         started: None,
         scenes: a.scenes.clone(),
+        metrics: a.metrics,
     };
     let outcome = tonegate::gate::run(&opts, &Bar::new());
     if tonegate::gpu::validation::requested() && !a.cpu {

@@ -10,12 +10,14 @@
 mod artifacts;
 pub mod console;
 pub mod junit;
+mod metrics_on;
 mod phases;
 pub mod regress;
 mod report;
 mod stored;
 
 pub use artifacts::{adapter_slug, artifact_name};
+pub use metrics_on::MetricsOn;
 pub use phases::Phases;
 pub use regress::find_regressions;
 pub use report::{AdapterInfo, CheckOutcome, CheckReport, StoredArtifacts};
@@ -47,6 +49,8 @@ pub struct CheckOptions {
     pub started: Option<std::sync::mpsc::Sender<i64>>,
     /// Only these scenes of the suite (empty: all), and then no stress suite.
     pub scenes: Vec<String>,
+    /// Where FLIP is computed (`--metrics`).
+    pub metrics: MetricsOn,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -264,6 +268,21 @@ fn run_inner(
             serde_json::json!({ "spp": spp_json(opts.spp) }),
         ),
     };
+    let metrics_on = opts.metrics.resolve(ctx.as_ref().map(|(c, _)| c));
+    let flip_adapter = adapter.name.clone();
+    let gpu_flip = match (&ctx, metrics_on) {
+        (Some((c, _)), MetricsOn::Gpu) => Some(crate::gpu::flip::GpuFlip::new(c)),
+        _ => None,
+    };
+    let flip_on_gpu = |t: crate::metrics::Raster, r: crate::metrics::Raster, ppd: f64| {
+        gpu_flip.as_ref().map_or_else(
+            || crate::metrics::flip::flip(t, r, ppd),
+            |g| g.flip(t, r, ppd),
+        )
+    };
+    let flip_by = gpu_flip
+        .is_some()
+        .then_some(crate::metrics::FlipBy(&flip_on_gpu));
     if let (Some(h), Some(id)) = (history.as_ref(), run_id) {
         let record = RunAdapter {
             name: adapter.name.clone(),
@@ -313,6 +332,7 @@ fn run_inner(
         )?;
         let judging = crate::check::Judging {
             earlier: &scenes,
+            flip: flip_by,
             ..scene.judging()
         };
         let (mut result, kept) =
@@ -403,7 +423,16 @@ fn run_inner(
         adapter,
         renderer: renderer_json,
         ssim_definition: crate::metrics::SSIM_DEFINITION.into(),
-        flip_definition: crate::metrics::FLIP_DEFINITION.into(),
+        flip_definition: match metrics_on {
+            MetricsOn::Gpu => format!(
+                "{}; 8-bit frames' maps computed on the GPU ({}) by tonegate's port of the same \
+                 pipeline, locked to nv-flip within 1e-4 of the mean",
+                crate::metrics::FLIP_DEFINITION,
+                flip_adapter
+            ),
+            _ => crate::metrics::FLIP_DEFINITION.into(),
+        },
+        metrics_on,
         scenes,
         performance: suite.performance,
         regressions,

@@ -7,6 +7,7 @@ pub mod bench;
 pub mod capability;
 pub mod config;
 pub mod context;
+pub mod flip;
 pub mod listing;
 pub mod pool;
 pub mod readback;

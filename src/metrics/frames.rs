@@ -18,9 +18,7 @@ use super::flip::{Flip, DEFAULT_PPD};
 use super::hdr_flip::{hdr_flip, HdrFlipOptions};
 use super::hdr_input::check_hdr_sizes;
 use super::ssim::{mean_ssim_mapped, ssim_mapped, Ssim};
-use super::{
-    compare_with_flip, fraction_over, heatmap_colour, Metrics, MetricsError, SSIM_DEFINITION,
-};
+use super::{fraction_over, heatmap_colour, Metrics, MetricsError, SSIM_DEFINITION};
 use crate::color::{apply, bt709_to_bt2020, inverse, pq_decode};
 use crate::image::{Frame, HdrImage, Image, Rgb16Image, Rgb8Image};
 use rayon::prelude::*;
@@ -28,8 +26,20 @@ use rayon::prelude::*;
 /// The report's metrics of `test` against `reference`, and the FLIP map
 /// its `flip_mean` comes from. Frames of different depths are refused.
 pub fn compare_frames(test: &Frame, reference: &Frame) -> Result<(Metrics, Flip), MetricsError> {
+    compare_frames_by(test, reference, None)
+}
+
+/// [`compare_frames`] with 8-bit frames' FLIP map from `flip_by` when given
+/// (PQ frames' HDR-FLIP stays on the CPU).
+pub fn compare_frames_by(
+    test: &Frame,
+    reference: &Frame,
+    flip_by: Option<super::FlipBy>,
+) -> Result<(Metrics, Flip), MetricsError> {
     match (test, reference) {
-        (Frame::Rgb8(t), Frame::Rgb8(r)) => compare_with_flip(t.raster(), r.raster()),
+        (Frame::Rgb8(t), Frame::Rgb8(r)) => {
+            super::compare_with_flip_by(t.raster(), r.raster(), flip_by)
+        }
         (Frame::Pq16(t), Frame::Pq16(r)) => compare_pq16(t, r),
         _ => Err(depth_mismatch(test, reference)),
     }

@@ -30,8 +30,8 @@ pub mod visual;
 
 pub use basic::{fraction_over, max_abs_diff, mean_abs_diff, mse, psnr, rmse, snr};
 pub use frames::{
-    compare_frames, frame_diff_heatmap, frame_flip, frame_fraction_over, frame_max_abs_diff,
-    frame_ssim,
+    compare_frames, compare_frames_by, frame_diff_heatmap, frame_flip, frame_fraction_over,
+    frame_max_abs_diff, frame_ssim,
 };
 pub use raster::Raster;
 pub use ssim::{mean_ssim, ssim, Ssim, SSIM_WINDOW};
@@ -116,6 +116,12 @@ pub enum MetricsError {
     /// A metric's parameter is out of its range.
     #[error("{name}: {detail}")]
     BadParameter { name: &'static str, detail: String },
+    /// The device computing a metric failed (the GPU's FLIP).
+    #[error("{metric} on the GPU failed: {detail}")]
+    Device {
+        metric: &'static str,
+        detail: String,
+    },
 }
 
 /// Every metric of one comparison, as reported and gated on.
@@ -173,12 +179,37 @@ pub fn compare_with_flip(
     test: Raster,
     reference: Raster,
 ) -> Result<(Metrics, flip::Flip), MetricsError> {
+    compare_with_flip_by(test, reference, None)
+}
+
+/// How FLIP's map is computed when not by nv-flip on the CPU: the map of
+/// (test, reference) at a number of pixels per degree (the GPU's, in the
+/// gate). It must give nv-flip's map within FLIP's lock.
+pub type FlipFn<'f> = dyn Fn(Raster, Raster, f64) -> Result<flip::Flip, MetricsError> + Sync + 'f;
+
+/// A [`FlipFn`] held by reference, named in debug output by what it is.
+#[derive(Clone, Copy)]
+pub struct FlipBy<'a>(pub &'a FlipFn<'a>);
+
+impl fmt::Debug for FlipBy<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("FlipBy(..)")
+    }
+}
+
+/// [`compare_with_flip`] with FLIP's map from `flip_by` when given.
+pub fn compare_with_flip_by(
+    test: Raster,
+    reference: Raster,
+    flip_by: Option<FlipBy>,
+) -> Result<(Metrics, flip::Flip), MetricsError> {
     // SSIM first: it refuses small images, and it is expensive, so a refusal
     // costs nothing.
     use crate::perf::clock::{timed, Part};
     let ssim = timed(Part::Ssim, || mean_ssim(test, reference))?;
-    let flip = timed(Part::Flip, || {
-        flip::flip(test, reference, flip::DEFAULT_PPD)
+    let flip = timed(Part::Flip, || match flip_by {
+        Some(FlipBy(f)) => f(test, reference, flip::DEFAULT_PPD),
+        None => flip::flip(test, reference, flip::DEFAULT_PPD),
     })?;
     let sums = timed(Part::Errors, || basic::ErrorSums::of(&test, &reference))?;
     let mse = sums.mse();

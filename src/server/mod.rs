@@ -161,6 +161,7 @@ pub async fn start_run(
         db: Some(st.db.clone()),
         started: Some(tx),
         scenes: Vec::new(),
+        metrics: crate::gate::MetricsOn::Auto,
     };
     let state = st.clone();
     std::thread::Builder::new()

@@ -23,6 +23,7 @@ mod fleet;
 mod fuzz_regressions;
 mod golden;
 mod gpu;
+mod gpu_metrics;
 mod history;
 mod hostile;
 mod hostile_runs;

@@ -139,6 +139,7 @@ fn judged_after(checks: &[CheckSpec], frame: Rgb8Image, earlier: &[SceneResult])
         test: TestKind::Static,
         keep_last: false,
         earlier,
+        flip: None,
     };
     let rendered = Rendered {
         renderer: "test".into(),
