@@ -128,7 +128,7 @@ for label, rep in (("check's phases", c), ("check --metrics cpu", cm if isinstan
     if not ph:
         continue
     keys = ["device", "pipelines", "render", "readback_wait", "readback_copy", "goldens", "metrics",
-            "ssim", "flip", "errors", "fraction_over", "artifacts", "history", "stress", "stress_cpu", "stress_gpu"]
+            "ssim", "flip", "errors", "fraction_over", "gpu_metrics", "artifacts", "history", "stress", "stress_cpu", "stress_gpu"]
     print(f"{label} (s; FLIP on {rep.get('metrics_on', '?')}): total {ph.get('total_s', 0):.2f}; "
           + ", ".join(f"{k} {ph.get(k + '_s', 0):.2f}" for k in keys))
 for name, st in (("check's stress", c.get("stress")), ("stress", report["stress"])):
@@ -160,7 +160,8 @@ for name, b in report["bench"].items():
 for name, b in report["bench"].items():
     f = b.get("flip") if isinstance(b, dict) else None
     if f:
-        print(f"FLIP {f['size']}: GPU {f['gpu_ms']:.2f} ms, nv-flip {f['cpu_ms']:.2f} ms; means {f['gpu_mean']:.6f} / {f['cpu_mean']:.6f}")
+        print(f"FLIP {f['size']}: GPU {f['gpu_ms']:.2f} ms, nv-flip {f['cpu_ms']:.2f} ms; means {f['gpu_mean']:.6f} / {f['cpu_mean']:.6f}; "
+              f"every metric: GPU {f['gpu_all_ms']:.2f} ms, CPU {f['cpu_all_ms']:.2f} ms")
 with open(os.path.join(out, "report.json"), "w") as fh:
     json.dump(report, fh, indent=1)
 print(f"report: {os.path.join(out, 'report.json')}")

@@ -197,9 +197,9 @@ pub struct Judging<'a> {
     /// The scenes rendered before this one in the run, which
     /// `min_psnr_gain_over` checks compare with.
     pub earlier: &'a [SceneResult],
-    /// Where 8-bit frames' FLIP maps are computed (the GPU, under
-    /// `check --metrics gpu`); None: nv-flip on the CPU.
-    pub flip: Option<crate::metrics::FlipBy<'a>>,
+    /// What compares 8-bit frames when not the CPU (the GPU, under
+    /// `check --metrics gpu`).
+    pub compare: Option<crate::metrics::CompareBy<'a>>,
 }
 
 /// What a renderer produced for one scene.
@@ -287,7 +287,7 @@ pub fn judge(
                 frame: n,
                 source,
             };
-            let (metrics, flip) = compare_frames_by(frame, golden, on.flip).map_err(err)?;
+            let (metrics, flip) = compare_frames_by(frame, golden, on.compare).map_err(err)?;
             let flip_percentiles = flip_ps
                 .iter()
                 .map(|&p| (p.to_string(), flip.weighted_percentile(p)))

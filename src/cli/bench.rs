@@ -43,7 +43,8 @@ pub struct BenchArgs {
     #[arg(long)]
     pub json: bool,
     /// Also time FLIP at this size, on the GPU (tonegate's port) and the CPU
-    /// (nv-flip, on every core): `flip` in the report.
+    /// (nv-flip, on every core), and every metric of a pair on each: `flip`
+    /// in the report.
     #[arg(long)]
     pub flip: bool,
     #[command(flatten)]
@@ -92,7 +93,7 @@ pub fn bench(a: BenchArgs) -> Result<ExitCode> {
     let report = tonegate::gpu::bench::run(&ctx, &opts)?;
     let flip = a
         .flip
-        .then(|| tonegate::gpu::flip::time_flip(&ctx, a.size.width, a.size.height, 10))
+        .then(|| tonegate::gpu::compare::time_flip(&ctx, a.size.width, a.size.height, 10))
         .transpose()
         .map_err(|e| invalid(format!("--flip: {e}")))?;
     if a.json {
@@ -109,8 +110,8 @@ pub fn bench(a: BenchArgs) -> Result<ExitCode> {
         println!("{report}");
         if let Some(f) = &flip {
             println!(
-                "FLIP {}: {:.2} ms on the GPU (median of {}), {:.2} ms nv-flip on the CPU (median of 3); means {:.6} and {:.6}",
-                f.size, f.gpu_ms, f.runs, f.cpu_ms, f.gpu_mean, f.cpu_mean
+                "FLIP {}: {:.2} ms on the GPU (median of {}), {:.2} ms nv-flip on the CPU (median of 3); means {:.6} and {:.6}; every figure: {:.2} ms on the GPU, {:.2} ms on the CPU",
+                f.size, f.gpu_ms, f.runs, f.cpu_ms, f.gpu_mean, f.cpu_mean, f.gpu_all_ms, f.cpu_all_ms
             );
         }
     }

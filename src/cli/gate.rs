@@ -56,10 +56,11 @@ pub struct CheckArgs {
     /// skipped.
     #[arg(long = "scene")]
     pub scenes: Vec<String>,
-    /// Where FLIP is computed: cpu (NVIDIA's C++ through nv-flip), gpu
-    /// (tonegate's port of the same pipeline on the check's adapter, within
-    /// 1e-4 of nv-flip's mean), or auto (the GPU on a hardware adapter, the
-    /// CPU on llvmpipe and SwiftShader and with --cpu).
+    /// Where the 8-bit frames' metrics are computed: cpu (FLIP by NVIDIA's
+    /// C++ through nv-flip), gpu (on the check's adapter: the error figures
+    /// exact, SSIM within 1e-6 and FLIP within 1e-4 of the CPU's), or auto
+    /// (the GPU on a hardware adapter, the CPU on llvmpipe and SwiftShader
+    /// and with --cpu).
     #[arg(long, default_value = "auto", value_parser = crate::cli::by_name::<tonegate::gate::MetricsOn>)]
     pub metrics: tonegate::gate::MetricsOn,
 }

@@ -1,6 +1,7 @@
-//! Where `check` computes FLIP (`--metrics cpu|gpu|auto`): nv-flip on the
-//! CPU, or tonegate's port of the same pipeline on the check's own adapter
-//! (`gpu::flip`, locked to nv-flip within 1e-4 of the mean).
+//! Where `check` computes the 8-bit frames' metrics (`--metrics
+//! cpu|gpu|auto`): on the CPU (FLIP by nv-flip), or on the check's own
+//! adapter (`gpu::compare`: the error figures exact, SSIM within 1e-6 and
+//! FLIP within 1e-4 of the CPU's).
 
 use crate::gpu::GpuContext;
 use serde::{Deserialize, Serialize};
@@ -9,7 +10,7 @@ use serde::{Deserialize, Serialize};
 #[serde(rename_all = "lowercase")]
 pub enum MetricsOn {
     /// The GPU on a hardware adapter; the CPU on a CPU adapter (llvmpipe,
-    /// SwiftShader) and for the CPU reference: on llvmpipe, FLIP on the GPU
+    /// SwiftShader) and for the CPU reference: on llvmpipe, the metrics on the GPU
     /// measured slower than nv-flip on the same cores
     /// (docs/checks.md#metrics-on-the-gpu).
     #[default]

@@ -270,19 +270,19 @@ fn run_inner(
     };
     let metrics_on = opts.metrics.resolve(ctx.as_ref().map(|(c, _)| c));
     let flip_adapter = adapter.name.clone();
-    let gpu_flip = match (&ctx, metrics_on) {
-        (Some((c, _)), MetricsOn::Gpu) => Some(crate::gpu::flip::GpuFlip::new(c)),
+    let gpu_metrics = match (&ctx, metrics_on) {
+        (Some((c, _)), MetricsOn::Gpu) => Some(crate::gpu::compare::GpuMetrics::new(c)),
         _ => None,
     };
-    let flip_on_gpu = |t: crate::metrics::Raster, r: crate::metrics::Raster, ppd: f64| {
-        gpu_flip.as_ref().map_or_else(
-            || crate::metrics::flip::flip(t, r, ppd),
-            |g| g.flip(t, r, ppd),
+    let compare_on_gpu = |t: crate::metrics::Raster, r: crate::metrics::Raster| {
+        gpu_metrics.as_ref().map_or_else(
+            || crate::metrics::compare_with_flip(t, r),
+            |g| g.compare(t, r),
         )
     };
-    let flip_by = gpu_flip
+    let compare_by = gpu_metrics
         .is_some()
-        .then_some(crate::metrics::FlipBy(&flip_on_gpu));
+        .then_some(crate::metrics::CompareBy(&compare_on_gpu));
     if let (Some(h), Some(id)) = (history.as_ref(), run_id) {
         let record = RunAdapter {
             name: adapter.name.clone(),
@@ -332,7 +332,7 @@ fn run_inner(
         )?;
         let judging = crate::check::Judging {
             earlier: &scenes,
-            flip: flip_by,
+            compare: compare_by,
             ..scene.judging()
         };
         let (mut result, kept) =
@@ -425,8 +425,9 @@ fn run_inner(
         ssim_definition: crate::metrics::SSIM_DEFINITION.into(),
         flip_definition: match metrics_on {
             MetricsOn::Gpu => format!(
-                "{}; 8-bit frames' maps computed on the GPU ({}) by tonegate's port of the same \
-                 pipeline, locked to nv-flip within 1e-4 of the mean",
+                "{}; for 8-bit frames computed on the GPU ({}) by tonegate's port of the same \
+                 pipeline, locked to nv-flip within 1e-4 of the mean (SSIM within 1e-6 of the \
+                 CPU's, the error figures exact)",
                 crate::metrics::FLIP_DEFINITION,
                 flip_adapter
             ),

@@ -33,6 +33,9 @@ pub struct Phases {
     pub flip_s: f64,
     pub errors_s: f64,
     pub fraction_over_s: f64,
+    /// Of that, every figure computed on the GPU (`--metrics gpu`), summed
+    /// the same way.
+    pub gpu_metrics_s: f64,
     /// The kept frames' images: encoding, writing, storing.
     pub artifacts_s: f64,
     /// The history: the run's records and the regression search.
@@ -75,6 +78,7 @@ impl Clock {
         p.flip_s += part(Part::Flip);
         p.errors_s += part(Part::Errors);
         p.fraction_over_s += part(Part::FractionOver);
+        p.gpu_metrics_s += part(Part::Gpu);
         out
     }
 
@@ -91,7 +95,7 @@ impl Phases {
         let s = |v: f64| format!("{v:.2}");
         format!(
             "time: {} s: device {}, pipelines {}, render {} (readback wait {}, copy {}), \
-             goldens {}, metrics {} (SSIM {}, FLIP {}, errors {}, >k LSB {}), artifacts {}, \
+             goldens {}, metrics {} (SSIM {}, FLIP {}, errors {}, >k LSB {}, on the GPU {}), artifacts {}, \
              history {}, stress {} (CPU {}, GPU {}, summed over rows)",
             s(self.total_s),
             s(self.device_s),
@@ -105,6 +109,7 @@ impl Phases {
             s(self.flip_s),
             s(self.errors_s),
             s(self.fraction_over_s),
+            s(self.gpu_metrics_s),
             s(self.artifacts_s),
             s(self.history_s),
             s(self.stress_s),

@@ -46,7 +46,8 @@ pub struct CheckReport {
     pub renderer: serde_json::Value,
     pub ssim_definition: String,
     pub flip_definition: String,
-    /// Where FLIP was computed: `cpu` (nv-flip) or `gpu` (`--metrics`).
+    /// Where the 8-bit frames' metrics were computed: `cpu` or `gpu`
+    /// (`--metrics`).
     pub metrics_on: super::MetricsOn,
     pub scenes: Vec<SceneResult>,
     pub performance: Performance,

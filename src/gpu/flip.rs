@@ -69,6 +69,30 @@ impl<'c> GpuFlip<'c> {
     fn map(&self, test: Raster, reference: Raster, ppd: f32) -> Result<Flip, GpuError> {
         let (width, height) = (test.width, test.height);
         self.ctx.check_frame(width, height)?;
+        let input_test = upload(self.ctx, &test, "tonegate.flip.test");
+        let input_ref = upload(self.ctx, &reference, "tonegate.flip.reference");
+        let mut encoder = self
+            .ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("tonegate.flip"),
+            });
+        let read = self.record(&mut encoder, &input_test, &input_ref, (width, height), ppd);
+        self.ctx.queue.submit([encoder.finish()]);
+        read_map(self.ctx, &read, (width, height), ppd)
+    }
+
+    /// Records the three passes over two uploaded images ([`upload`]) of
+    /// `size`, and the map's copy into the mapped-readable buffer returned.
+    pub(super) fn record(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        input_test: &wgpu::Buffer,
+        input_ref: &wgpu::Buffer,
+        size: (u32, u32),
+        ppd: f32,
+    ) -> wgpu::Buffer {
+        let (width, height) = size;
         let ctx = self.ctx;
         let n = width as u64 * height as u64;
         let filters = Filters::new(ppd);
@@ -101,8 +125,6 @@ impl<'c> GpuFlip<'c> {
             bytemuck::cast_slice(&filters.weights),
             storage,
         );
-        let input_ref = init("tonegate.flip.reference", &packed(&reference), storage);
-        let input_test = init("tonegate.flip.test", &packed(&test), storage);
         let scratch = |label: &str, bytes_per_pixel: u64, extra: wgpu::BufferUsages| {
             ctx.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
@@ -141,8 +163,8 @@ impl<'c> GpuFlip<'c> {
                     &self.ycxcz,
                     &[
                         (0, &params),
-                        (1, &input_ref),
-                        (2, &input_test),
+                        (1, input_ref),
+                        (2, input_test),
                         (3, &ycxcz_ref),
                         (4, &ycxcz_test),
                     ],
@@ -180,11 +202,6 @@ impl<'c> GpuFlip<'c> {
                 ),
             ),
         ];
-        let mut encoder = ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("tonegate.flip"),
-            });
         for (pipeline, group) in &passes {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("tonegate.flip"),
@@ -195,21 +212,44 @@ impl<'c> GpuFlip<'c> {
             pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), 1);
         }
         encoder.copy_buffer_to_buffer(&map, 0, &read, 0, n * 4);
-        ctx.queue.submit([encoder.finish()]);
-        let bytes = ctx.read_buffer(&read)?;
-        let pixels: Vec<f32> = bytes[..n as usize * 4]
-            .chunks_exact(4)
-            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-            .collect();
-        Ok(Flip {
-            map: Image {
-                width,
-                height,
-                pixels,
-            },
-            ppd: f64::from(ppd),
-        })
+        read
     }
+}
+
+/// The map [`GpuFlip::record`] copied into `read`, once its submission is
+/// done.
+pub(super) fn read_map(
+    ctx: &GpuContext,
+    read: &wgpu::Buffer,
+    size: (u32, u32),
+    ppd: f32,
+) -> Result<Flip, GpuError> {
+    let (width, height) = size;
+    let n = width as usize * height as usize;
+    let bytes = ctx.read_buffer(read)?;
+    let pixels: Vec<f32> = bytes[..n * 4]
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .collect();
+    Ok(Flip {
+        map: Image {
+            width,
+            height,
+            pixels,
+        },
+        ppd: f64::from(ppd),
+    })
+}
+
+/// An image's pixels in a storage buffer, packed as the shaders read them.
+pub(super) fn upload(ctx: &GpuContext, image: &Raster, label: &str) -> wgpu::Buffer {
+    use wgpu::util::DeviceExt;
+    ctx.device
+        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents: &packed(image),
+            usage: wgpu::BufferUsages::STORAGE,
+        })
 }
 
 /// The pixels packed as r | g << 8 | b << 16 (grey replicated, alpha
@@ -350,71 +390,4 @@ fn colour_maximum() -> (f32, f32) {
     let hyab = (g[0] - b[0]).abs() + ((g[1] - b[1]).powi(2) + (g[2] - b[2]).powi(2)).sqrt();
     let cmax = hyab.powf(QC);
     (cmax, PC * cmax)
-}
-
-/// FLIP's time at one size on both sides (`tonegate bench --flip`): the
-/// GPU's median over `runs` (after one warm-up: upload, passes, readback
-/// of the map), nv-flip's over three, with both means, on two synthetic
-/// frames of shared structure that differ everywhere.
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct FlipTiming {
-    pub size: String,
-    pub gpu_ms: f64,
-    pub cpu_ms: f64,
-    pub gpu_mean: f64,
-    pub cpu_mean: f64,
-    pub runs: u32,
-}
-
-pub fn time_flip(
-    ctx: &GpuContext,
-    width: u32,
-    height: u32,
-    runs: u32,
-) -> Result<FlipTiming, MetricsError> {
-    let frame = |seed: u32| -> Vec<u8> {
-        (0..width * height * 3)
-            .map(|i| {
-                let (x, y, c) = ((i / 3) % width, (i / 3) / width, i % 3);
-                let noise = (i.wrapping_mul(2_654_435_761) ^ seed.wrapping_mul(0x9E37_79B9)) >> 28;
-                ((x / 3 + y / 2 + c * 70 + noise) % 256) as u8
-            })
-            .collect()
-    };
-    let (a, b) = (frame(1), frame(2));
-    let (ta, tb) = (
-        Raster::new(width, height, 3, &a)?,
-        Raster::new(width, height, 3, &b)?,
-    );
-    let ppd = crate::metrics::flip::DEFAULT_PPD;
-    let g = GpuFlip::new(ctx);
-    let median = |mut v: Vec<f64>| {
-        v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
-    };
-    let gpu_mean = g.flip(ta, tb, ppd)?.mean();
-    let gpu: Vec<f64> = (0..runs.max(1))
-        .map(|_| {
-            let t = std::time::Instant::now();
-            g.flip(ta, tb, ppd).map(|_| t.elapsed().as_secs_f64() * 1e3)
-        })
-        .collect::<Result<_, _>>()?;
-    let mut cpu_mean = 0.0;
-    let cpu: Vec<f64> = (0..3)
-        .map(|_| {
-            let t = std::time::Instant::now();
-            let f = crate::metrics::flip::flip(ta, tb, ppd)?;
-            let ms = t.elapsed().as_secs_f64() * 1e3;
-            cpu_mean = f.mean();
-            Ok(ms)
-        })
-        .collect::<Result<_, MetricsError>>()?;
-    Ok(FlipTiming {
-        size: format!("{width}x{height}"),
-        gpu_ms: median(gpu),
-        cpu_ms: median(cpu),
-        gpu_mean,
-        cpu_mean,
-        runs: runs.max(1),
-    })
 }

@@ -5,6 +5,7 @@
 pub mod adapters;
 pub mod bench;
 pub mod capability;
+pub mod compare;
 pub mod config;
 pub mod context;
 pub mod flip;

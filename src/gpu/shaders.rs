@@ -95,6 +95,7 @@ const SOURCES: &[(&str, &str)] = &[
     ("taa.wgsl", include_str!("../../shaders/taa.wgsl")),
     ("floor.wgsl", include_str!("../../shaders/floor.wgsl")),
     ("flip.wgsl", include_str!("../../shaders/flip.wgsl")),
+    ("compare.wgsl", include_str!("../../shaders/compare.wgsl")),
     ("fused.wgsl", include_str!("../../shaders/fused.wgsl")),
     (
         "subnormal_probe.wgsl",

@@ -29,17 +29,15 @@ pub fn compare_frames(test: &Frame, reference: &Frame) -> Result<(Metrics, Flip)
     compare_frames_by(test, reference, None)
 }
 
-/// [`compare_frames`] with 8-bit frames' FLIP map from `flip_by` when given
-/// (PQ frames' HDR-FLIP stays on the CPU).
+/// [`compare_frames`], 8-bit frames by `by` when given (PQ frames stay on
+/// the CPU).
 pub fn compare_frames_by(
     test: &Frame,
     reference: &Frame,
-    flip_by: Option<super::FlipBy>,
+    by: Option<super::CompareBy>,
 ) -> Result<(Metrics, Flip), MetricsError> {
     match (test, reference) {
-        (Frame::Rgb8(t), Frame::Rgb8(r)) => {
-            super::compare_with_flip_by(t.raster(), r.raster(), flip_by)
-        }
+        (Frame::Rgb8(t), Frame::Rgb8(r)) => super::compare_with_flip_by(t.raster(), r.raster(), by),
         (Frame::Pq16(t), Frame::Pq16(r)) => compare_pq16(t, r),
         _ => Err(depth_mismatch(test, reference)),
     }

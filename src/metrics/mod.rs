@@ -182,38 +182,53 @@ pub fn compare_with_flip(
     compare_with_flip_by(test, reference, None)
 }
 
-/// How FLIP's map is computed when not by nv-flip on the CPU: the map of
-/// (test, reference) at a number of pixels per degree (the GPU's, in the
-/// gate). It must give nv-flip's map within FLIP's lock.
-pub type FlipFn<'f> = dyn Fn(Raster, Raster, f64) -> Result<flip::Flip, MetricsError> + Sync + 'f;
+/// How a pair of 8-bit images is compared when not on the CPU: the report's
+/// metrics and the FLIP map (the GPU's, in the gate: `gpu::compare`). It
+/// must give the CPU's figures within their locks.
+pub type CompareFn<'f> =
+    dyn Fn(Raster, Raster) -> Result<(Metrics, flip::Flip), MetricsError> + Sync + 'f;
 
-/// A [`FlipFn`] held by reference, named in debug output by what it is.
+/// A [`CompareFn`] held by reference, named in debug output by what it is.
 #[derive(Clone, Copy)]
-pub struct FlipBy<'a>(pub &'a FlipFn<'a>);
+pub struct CompareBy<'a>(pub &'a CompareFn<'a>);
 
-impl fmt::Debug for FlipBy<'_> {
+impl fmt::Debug for CompareBy<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str("FlipBy(..)")
+        f.write_str("CompareBy(..)")
     }
 }
 
-/// [`compare_with_flip`] with FLIP's map from `flip_by` when given.
+/// [`compare_with_flip`], by `by` when given.
 pub fn compare_with_flip_by(
     test: Raster,
     reference: Raster,
-    flip_by: Option<FlipBy>,
+    by: Option<CompareBy>,
 ) -> Result<(Metrics, flip::Flip), MetricsError> {
+    use crate::perf::clock::{timed, Part};
+    if let Some(CompareBy(f)) = by {
+        return timed(Part::Gpu, || f(test, reference));
+    }
     // SSIM first: it refuses small images, and it is expensive, so a refusal
     // costs nothing.
-    use crate::perf::clock::{timed, Part};
     let ssim = timed(Part::Ssim, || mean_ssim(test, reference))?;
-    let flip = timed(Part::Flip, || match flip_by {
-        Some(FlipBy(f)) => f(test, reference, flip::DEFAULT_PPD),
-        None => flip::flip(test, reference, flip::DEFAULT_PPD),
+    let flip = timed(Part::Flip, || {
+        flip::flip(test, reference, flip::DEFAULT_PPD)
     })?;
     let sums = timed(Part::Errors, || basic::ErrorSums::of(&test, &reference))?;
+    let over = timed(Part::FractionOver, || fraction_over(test, reference, 1))?;
+    Ok((metrics_from(&sums, ssim, over, flip.mean()), flip))
+}
+
+/// The report's metrics of an 8-bit pair from its error sums, mean SSIM,
+/// fraction over 1 code and FLIP mean: one formula for every device.
+pub(crate) fn metrics_from(
+    sums: &basic::ErrorSums,
+    ssim: f64,
+    fraction_over_1lsb: f64,
+    flip_mean: f64,
+) -> Metrics {
     let mse = sums.mse();
-    let metrics = Metrics {
+    Metrics {
         mse,
         rmse: mse.sqrt(),
         psnr: sums.psnr(),
@@ -221,12 +236,11 @@ pub fn compare_with_flip_by(
         ssim,
         max_abs_diff: u16::from(sums.max_abs_diff),
         mean_abs_diff: sums.mean_abs_diff(),
-        fraction_over_1lsb: timed(Part::FractionOver, || fraction_over(test, reference, 1))?,
-        flip_mean: flip.mean(),
+        fraction_over_1lsb,
+        flip_mean,
         bits: 8,
         ssim_definition: SSIM_DEFINITION.to_owned(),
-    };
-    Ok((metrics, flip))
+    }
 }
 
 impl fmt::Display for Metrics {

@@ -44,6 +44,12 @@ pub struct Ssim {
     pub map: Image<f64>,
 }
 
+/// The Gaussian window's taps 0..=RADIUS (symmetric, normalised to sum 1
+/// over the window), as the CPU's SSIM weighs: the GPU's SSIM takes them.
+pub(crate) fn gaussian_taps() -> [f64; RADIUS + 1] {
+    super::ssim_kernel::kernel_weights()
+}
+
 /// Mean SSIM (see the module documentation for the exact definition).
 ///
 /// Errors when the pair cannot be compared or either side is under 11 pixels.

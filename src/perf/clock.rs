@@ -23,9 +23,12 @@ pub enum Part {
     Errors,
     /// The fraction of pixels over k codes.
     FractionOver,
+    /// Every figure of a pair on the GPU (`check --metrics gpu`): upload,
+    /// passes, readback and the host's sums.
+    Gpu,
 }
 
-const PARTS: usize = 6;
+const PARTS: usize = 7;
 static NANOS: [AtomicU64; PARTS] = [const { AtomicU64::new(0) }; PARTS];
 
 impl Part {
@@ -36,6 +39,7 @@ impl Part {
         Part::Flip,
         Part::Errors,
         Part::FractionOver,
+        Part::Gpu,
     ];
 }
 

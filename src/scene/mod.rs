@@ -326,7 +326,7 @@ impl Scene {
             test: self.test_kind(),
             keep_last: self.taa.is_some(),
             earlier: &[],
-            flip: None,
+            compare: None,
         }
     }
 

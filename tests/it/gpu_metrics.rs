@@ -1,11 +1,15 @@
 //! The metrics computed on the GPU against the CPU's, on real frames (the
 //! goldens of consecutive frames of built-in scenes, which differ by the
-//! sphere's rotation) and on synthetic pairs at odd sizes. FLIP's bound,
-//! 1e-4 of the map's mean, is the issue's: each pixel goes through a few
-//! hundred f32 operations whose exp, pow and sqrt are the adapter's, in
-//! another order than nv-flip's C++; measured worst here is written next to
-//! each assertion.
+//! sphere's rotation) and on synthetic pairs at odd sizes, on lavapipe,
+//! SwiftShader and llvmpipe through GL. The bounds are the gate's
+//! requirement for moving a metric to the GPU: the figures from integer
+//! sums (MSE, RMSE, PSNR, SNR, the differences, the fraction over a code)
+//! bit for bit, SSIM's mean within 1e-6 (f32 window sums against the CPU's
+//! f64), FLIP's within 1e-4 of nv-flip's (a few hundred f32 operations a
+//! pixel, with the adapter's exp, pow and sqrt, in another order than the
+//! C++'s). The measured worst is written next to each set of tests.
 
+use tonegate::gpu::compare::GpuMetrics;
 use tonegate::gpu::flip::GpuFlip;
 use tonegate::gpu::{AdapterChoice, GpuContext};
 use tonegate::image::{Frame, Rgb8Image};
@@ -129,6 +133,98 @@ fn flip_on_the_gpu_is_nv_flips_on_gl() {
     flip_lock("gl:llvmpipe");
 }
 
+/// Every figure of each pair on the GPU against the CPU's on the adapter
+/// `choice` names: the integer-based ones equal, SSIM's mean within 1e-6,
+/// FLIP's within 1e-4.
+fn compare_lock(choice: &str) {
+    let ctx = ctx(choice);
+    let g = GpuMetrics::new(&ctx);
+    let mut pairs: Vec<(String, Rgb8Image, Rgb8Image)> = Vec::new();
+    for scene in ["sky-aces2", "interior-reinhard-global-xyy", "grid-static"] {
+        pairs.push((
+            format!("{scene} 1 vs 0"),
+            golden(scene, 1),
+            golden(scene, 0),
+        ));
+    }
+    for (w, h, seed) in [(97, 61, 1), (11, 11, 5), (300, 13, 9)] {
+        let (a, b) = noise_pair(w, h, seed);
+        pairs.push((format!("noise {w}x{h}"), a, b));
+    }
+    let (a, _) = noise_pair(40, 30, 2);
+    pairs.push(("identical".into(), a.clone(), a));
+    let mut worst_ssim = 0.0f64;
+    for (name, test, reference) in &pairs {
+        let (cpu, _) = tonegate::metrics::compare_with_flip(test.raster(), reference.raster())
+            .expect("the CPU's figures");
+        let (gpu, flip) = g
+            .compare(test.raster(), reference.raster())
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(
+            flip.map.pixels.len(),
+            test.pixels.len(),
+            "{name}: the map comes back whole"
+        );
+        for (what, a, b) in [
+            ("mse", cpu.mse, gpu.mse),
+            ("rmse", cpu.rmse, gpu.rmse),
+            ("psnr", cpu.psnr, gpu.psnr),
+            ("snr", cpu.snr, gpu.snr),
+            ("mean_abs_diff", cpu.mean_abs_diff, gpu.mean_abs_diff),
+            (
+                "fraction_over_1lsb",
+                cpu.fraction_over_1lsb,
+                gpu.fraction_over_1lsb,
+            ),
+        ] {
+            assert_eq!(a.to_bits(), b.to_bits(), "{name}: {what} {a} against {b}");
+        }
+        assert_eq!(cpu.max_abs_diff, gpu.max_abs_diff, "{name}");
+        let ds = (cpu.ssim - gpu.ssim).abs();
+        assert!(
+            ds <= 1e-6,
+            "{name} on {}: SSIM {} against {}",
+            ctx.adapter.name,
+            cpu.ssim,
+            gpu.ssim
+        );
+        assert!(
+            (cpu.flip_mean - gpu.flip_mean).abs() <= 1e-4,
+            "{name}: FLIP"
+        );
+        worst_ssim = worst_ssim.max(ds);
+        eprintln!(
+            "{name}: SSIM {:.9} against {:.9}; MSE {}",
+            cpu.ssim, gpu.ssim, cpu.mse
+        );
+    }
+    eprintln!(
+        "worst |SSIM difference| {worst_ssim:.2e} on {} ({})",
+        ctx.adapter.name, ctx.adapter.backend
+    );
+    // Under SSIM's window: refused as the CPU refuses it.
+    let (a, b) = noise_pair(10, 40, 1);
+    let e = g.compare(a.raster(), b.raster()).unwrap_err();
+    assert!(e.to_string().contains("11×11"), "{e}");
+}
+
+// Measured worst |SSIM difference| on 2026-11-27: 4.9e-8 on each of the
+// three.
+#[test]
+fn every_figure_on_the_gpu_is_the_cpus_on_lavapipe() {
+    compare_lock("default");
+}
+
+#[test]
+fn every_figure_on_the_gpu_is_the_cpus_on_swiftshader() {
+    compare_lock("swiftshader");
+}
+
+#[test]
+fn every_figure_on_the_gpu_is_the_cpus_on_gl() {
+    compare_lock("gl:llvmpipe");
+}
+
 /// Bad input gets the CPU FLIP's errors, not a device fault.
 #[test]
 fn flip_on_the_gpu_refuses_what_nv_flip_refuses() {
@@ -145,11 +241,12 @@ fn flip_on_the_gpu_refuses_what_nv_flip_refuses() {
     assert!(e.to_string().contains("pixels per degree"), "{e}");
 }
 
-/// `check --metrics gpu` judges with the GPU's FLIP and says so; its figures
-/// are the CPU's (FLIP's means within the lock, everything else the same);
+/// `check --metrics gpu` judges with the GPU's figures and says so; they
+/// are the CPU's (FLIP's and SSIM's means within their locks, the rest the
+/// same);
 /// `auto` stays on the CPU on lavapipe; `--cpu --metrics gpu` is refused.
 #[test]
-fn check_takes_flip_from_the_gpu_when_asked() {
+fn check_takes_the_metrics_from_the_gpu_when_asked() {
     let dir = tempfile::tempdir().unwrap();
     let report = |metrics: &str| {
         let json = dir.path().join(format!("{metrics}.json"));
@@ -205,16 +302,11 @@ fn check_takes_flip_from_the_gpu_when_asked() {
             cm["flip_mean"].as_f64().unwrap(),
         );
         assert!(cf > 0.0 && (gf - cf).abs() <= 1e-4, "{gf} against {cf}");
-        for k in [
-            "mse",
-            "psnr",
-            "snr",
-            "ssim",
-            "max_abs_diff",
-            "fraction_over_1lsb",
-        ] {
+        for k in ["mse", "psnr", "snr", "max_abs_diff", "fraction_over_1lsb"] {
             assert_eq!(gm[k], cm[k], "{k}");
         }
+        let (gs, cs) = (gm["ssim"].as_f64().unwrap(), cm["ssim"].as_f64().unwrap());
+        assert!((gs - cs).abs() <= 1e-6, "SSIM {gs} against {cs}");
     }
     let o = crate::common::tonegate(&["check", "--no-history", "--cpu", "--metrics", "gpu"]);
     assert_eq!(o.status.code(), Some(2));

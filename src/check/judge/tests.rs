@@ -139,7 +139,7 @@ fn judged_after(checks: &[CheckSpec], frame: Rgb8Image, earlier: &[SceneResult])
         test: TestKind::Static,
         keep_last: false,
         earlier,
-        flip: None,
+        compare: None,
     };
     let rendered = Rendered {
         renderer: "test".into(),

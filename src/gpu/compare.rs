@@ -1,0 +1,286 @@
+//! Every figure of an 8-bit pair on the GPU (`check --metrics gpu`): both
+//! images uploaded once, then in one submission the error sums and the
+//! fraction over one code (`shaders/compare.wgsl`, integers: exact), SSIM
+//! (the same file: f32, about the window's own mean) and FLIP
+//! ([`super::flip`]). Only the workgroups' partial sums and the FLIP map
+//! come back; the host adds the sums in f64 (integers in u64) and applies
+//! the CPU's formulas (`metrics::metrics_from`), so MSE, RMSE, PSNR, SNR,
+//! the differences and the fraction over one code are the CPU's exactly.
+//!
+//! Locked by `tests/it/gpu_metrics.rs`: SSIM's mean within 1e-6 of the
+//! CPU's, FLIP's within 1e-4 of nv-flip's, the rest equal.
+
+use super::flip::{read_map, upload, GpuFlip};
+use super::stages::{pipeline, read_buffer};
+use super::{GpuContext, GpuError, HdrFormat};
+use crate::metrics::basic::ErrorSums;
+use crate::metrics::flip::{Flip, DEFAULT_PPD};
+use crate::metrics::{Metrics, MetricsError, Raster, SSIM_WINDOW};
+
+pub struct GpuMetrics<'c> {
+    ctx: &'c GpuContext,
+    flip: GpuFlip<'c>,
+    errors: wgpu::ComputePipeline,
+    ssim: wgpu::ComputePipeline,
+}
+
+impl<'c> GpuMetrics<'c> {
+    pub fn new(ctx: &'c GpuContext) -> GpuMetrics<'c> {
+        let p = |entry| pipeline(ctx, "compare", entry, HdrFormat::Rgba32Float, &[]);
+        GpuMetrics {
+            ctx,
+            flip: GpuFlip::new(ctx),
+            errors: p("errors"),
+            ssim: p("ssim"),
+        }
+    }
+
+    /// What `metrics::compare_with_flip` gives for `test` against
+    /// `reference`, computed on the device. RGB images only: grey and RGBA
+    /// ones (whose alpha the CPU's error sums count) are compared on the CPU.
+    pub fn compare(
+        &self,
+        test: Raster,
+        reference: Raster,
+    ) -> Result<(Metrics, Flip), MetricsError> {
+        crate::metrics::raster::check_pair(&test, &reference)?;
+        if test.channels != 3 {
+            return crate::metrics::compare_with_flip(test, reference);
+        }
+        if test.width < SSIM_WINDOW || test.height < SSIM_WINDOW {
+            return Err(MetricsError::TooSmallForSsim {
+                width: test.width,
+                height: test.height,
+            });
+        }
+        self.run(test, reference).map_err(|e| MetricsError::Device {
+            metric: "the metrics",
+            detail: e.to_string(),
+        })
+    }
+
+    fn run(&self, test: Raster, reference: Raster) -> Result<(Metrics, Flip), GpuError> {
+        let ctx = self.ctx;
+        let (width, height) = (test.width, test.height);
+        ctx.check_frame(width, height)?;
+        let input_test = upload(ctx, &test, "tonegate.compare.test");
+        let input_ref = upload(ctx, &reference, "tonegate.compare.reference");
+        let error_groups = (width.div_ceil(8), height.div_ceil(8));
+        let ssim_groups = ((width - 10).div_ceil(8), (height - 10).div_ceil(8));
+        let words = [width, height, error_groups.0, ssim_groups.0];
+        use wgpu::util::DeviceExt;
+        let init = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
+            ctx.device
+                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(label),
+                    contents,
+                    usage,
+                })
+        };
+        let storage = wgpu::BufferUsages::STORAGE;
+        let copy = wgpu::BufferUsages::COPY_SRC;
+        let params = init(
+            "tonegate.compare.params",
+            bytemuck::cast_slice(&words),
+            wgpu::BufferUsages::UNIFORM,
+        );
+        let weights = crate::metrics::ssim::gaussian_taps().map(|w| w as f32);
+        let gauss = init(
+            "tonegate.compare.gauss",
+            bytemuck::cast_slice(&weights),
+            storage,
+        );
+        let n_errors = error_groups.0 as u64 * error_groups.1 as u64;
+        let n_ssim = ssim_groups.0 as u64 * ssim_groups.1 as u64;
+        let error_sums = init(
+            "tonegate.compare.error_sums",
+            &vec![0u8; (n_errors * 16) as usize],
+            storage | copy,
+        );
+        let max_diff = init("tonegate.compare.max_diff", &[0u8; 4], storage | copy);
+        let ssim_sums = init(
+            "tonegate.compare.ssim_sums",
+            &vec![0u8; (n_ssim * 4) as usize],
+            storage | copy,
+        );
+        let bind = |pipeline: &wgpu::ComputePipeline, entries: &[(u32, &wgpu::Buffer)]| {
+            let entries: Vec<wgpu::BindGroupEntry> = entries
+                .iter()
+                .map(|(binding, buffer)| wgpu::BindGroupEntry {
+                    binding: *binding,
+                    resource: buffer.as_entire_binding(),
+                })
+                .collect();
+            ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("tonegate.compare"),
+                layout: &pipeline.get_bind_group_layout(0),
+                entries: &entries,
+            })
+        };
+        let errors_group = bind(
+            &self.errors,
+            &[
+                (0, &params),
+                (1, &input_ref),
+                (2, &input_test),
+                (3, &error_sums),
+                (4, &max_diff),
+            ],
+        );
+        let ssim_group = bind(
+            &self.ssim,
+            &[
+                (0, &params),
+                (1, &input_ref),
+                (2, &input_test),
+                (5, &gauss),
+                (6, &ssim_sums),
+            ],
+        );
+        let mut encoder = ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("tonegate.compare"),
+            });
+        for (pipeline, group, groups) in [
+            (&self.errors, &errors_group, error_groups),
+            (&self.ssim, &ssim_group, ssim_groups),
+        ] {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("tonegate.compare"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, group, &[]);
+            pass.dispatch_workgroups(groups.0, groups.1, 1);
+        }
+        let reads: Vec<(wgpu::Buffer, u64)> = [
+            (&error_sums, n_errors * 16),
+            (&max_diff, 4),
+            (&ssim_sums, n_ssim * 4),
+        ]
+        .into_iter()
+        .map(|(source, bytes)| {
+            let read = read_buffer(ctx, "tonegate.compare.read", bytes.max(16));
+            encoder.copy_buffer_to_buffer(source, 0, &read, 0, bytes);
+            (read, bytes)
+        })
+        .collect();
+        let ppd = DEFAULT_PPD as f32;
+        let flip_read =
+            self.flip
+                .record(&mut encoder, &input_test, &input_ref, (width, height), ppd);
+        ctx.queue.submit([encoder.finish()]);
+        let bytes = |i: usize| -> Result<Vec<u8>, GpuError> {
+            let (read, n) = &reads[i];
+            Ok(ctx.read_buffer(read)?[..*n as usize].to_vec())
+        };
+        let words = |b: Vec<u8>| -> Vec<u32> {
+            b.chunks_exact(4)
+                .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
+                .collect()
+        };
+        let partials = words(bytes(0)?);
+        let mut sums = ErrorSums {
+            samples: width as u64 * height as u64 * 3,
+            ..ErrorSums::default()
+        };
+        let mut over = 0u64;
+        for p in partials.chunks_exact(4) {
+            sums.squared_error += u64::from(p[0]);
+            sums.reference_energy += u64::from(p[1]);
+            sums.abs_error += u64::from(p[2]);
+            over += u64::from(p[3]);
+        }
+        let max = words(bytes(1)?)[0];
+        sums.max_abs_diff = u8::try_from(max).map_err(|_| {
+            GpuError::Readback(format!("a difference of {max} codes between 8-bit images"))
+        })?;
+        let ssim_sum: f64 = bytes(2)?
+            .chunks_exact(4)
+            .map(|w| f64::from(f32::from_le_bytes([w[0], w[1], w[2], w[3]])))
+            .sum();
+        let cropped = (width as u64 - 10) * (height as u64 - 10);
+        let ssim = ssim_sum / cropped as f64;
+        let flip = read_map(ctx, &flip_read, (width, height), ppd)?;
+        let fraction = over as f64 / (width as u64 * height as u64) as f64;
+        Ok((
+            crate::metrics::metrics_from(&sums, ssim, fraction, flip.mean()),
+            flip,
+        ))
+    }
+}
+
+/// FLIP's time at one size on both sides (`tonegate bench --flip`): the
+/// GPU's median over `runs` (after one warm-up: upload, passes, readback
+/// of the map), nv-flip's over three, with both means, on two synthetic
+/// frames of shared structure that differ everywhere; and every figure of
+/// the pair on the GPU in one submission (`gpu_all_ms`, what `check
+/// --metrics gpu` runs per frame) against the CPU's (`cpu_all_ms`).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct FlipTiming {
+    pub size: String,
+    pub gpu_ms: f64,
+    pub cpu_ms: f64,
+    pub gpu_mean: f64,
+    pub cpu_mean: f64,
+    pub gpu_all_ms: f64,
+    pub cpu_all_ms: f64,
+    pub runs: u32,
+}
+
+pub fn time_flip(
+    ctx: &GpuContext,
+    width: u32,
+    height: u32,
+    runs: u32,
+) -> Result<FlipTiming, MetricsError> {
+    let frame = |seed: u32| -> Vec<u8> {
+        (0..width * height * 3)
+            .map(|i| {
+                let (x, y, c) = ((i / 3) % width, (i / 3) / width, i % 3);
+                let noise = (i.wrapping_mul(2_654_435_761) ^ seed.wrapping_mul(0x9E37_79B9)) >> 28;
+                ((x / 3 + y / 2 + c * 70 + noise) % 256) as u8
+            })
+            .collect()
+    };
+    let (a, b) = (frame(1), frame(2));
+    let (ta, tb) = (
+        Raster::new(width, height, 3, &a)?,
+        Raster::new(width, height, 3, &b)?,
+    );
+    let runs = runs.max(1);
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    // Milliseconds of each of `n` calls of `f`, after one untimed call.
+    let time = |n: u32, f: &dyn Fn() -> Result<f64, MetricsError>| {
+        f()?;
+        (0..n)
+            .map(|_| {
+                let t = std::time::Instant::now();
+                f().map(|_| t.elapsed().as_secs_f64() * 1e3)
+            })
+            .collect::<Result<Vec<f64>, MetricsError>>()
+            .map(median)
+    };
+    let flip = GpuFlip::new(ctx);
+    let all = GpuMetrics::new(ctx);
+    let gpu_mean = flip.flip(ta, tb, DEFAULT_PPD)?.mean();
+    let cpu_mean = crate::metrics::flip::flip(ta, tb, DEFAULT_PPD)?.mean();
+    Ok(FlipTiming {
+        size: format!("{width}x{height}"),
+        gpu_ms: time(runs, &|| flip.flip(ta, tb, DEFAULT_PPD).map(|_| 0.0))?,
+        cpu_ms: time(3, &|| {
+            crate::metrics::flip::flip(ta, tb, DEFAULT_PPD).map(|_| 0.0)
+        })?,
+        gpu_mean,
+        cpu_mean,
+        gpu_all_ms: time(runs, &|| all.compare(ta, tb).map(|_| 0.0))?,
+        cpu_all_ms: time(3, &|| {
+            crate::metrics::compare_with_flip(ta, tb).map(|_| 0.0)
+        })?,
+        runs,
+    })
+}
