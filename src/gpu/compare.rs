@@ -171,16 +171,17 @@ impl<'c> GpuMetrics<'c> {
             self.flip
                 .record(&mut encoder, &input_test, &input_ref, (width, height), ppd);
         ctx.queue.submit([encoder.finish()]);
-        let bytes = |i: usize| -> Result<Vec<u8>, GpuError> {
+        // Each buffer's words, read where they are mapped.
+        let words = |i: usize| -> Result<Vec<u32>, GpuError> {
             let (read, n) = &reads[i];
-            Ok(ctx.read_buffer(read)?[..*n as usize].to_vec())
+            ctx.with_mapped(read, |b| {
+                b[..*n as usize]
+                    .chunks_exact(4)
+                    .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
+                    .collect()
+            })
         };
-        let words = |b: Vec<u8>| -> Vec<u32> {
-            b.chunks_exact(4)
-                .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
-                .collect()
-        };
-        let partials = words(bytes(0)?);
+        let partials = words(0)?;
         let mut sums = ErrorSums {
             samples: width as u64 * height as u64 * 3,
             ..ErrorSums::default()
@@ -192,13 +193,13 @@ impl<'c> GpuMetrics<'c> {
             sums.abs_error += u64::from(p[2]);
             over += u64::from(p[3]);
         }
-        let max = words(bytes(1)?)[0];
+        let max = words(1)?[0];
         sums.max_abs_diff = u8::try_from(max).map_err(|_| {
             GpuError::Readback(format!("a difference of {max} codes between 8-bit images"))
         })?;
-        let ssim_sum: f64 = bytes(2)?
-            .chunks_exact(4)
-            .map(|w| f64::from(f32::from_le_bytes([w[0], w[1], w[2], w[3]])))
+        let ssim_sum: f64 = words(2)?
+            .into_iter()
+            .map(|w| f64::from(f32::from_bits(w)))
             .sum();
         let cropped = (width as u64 - 10) * (height as u64 - 10);
         let ssim = ssim_sum / cropped as f64;

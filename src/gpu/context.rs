@@ -305,6 +305,17 @@ impl GpuContext {
 
     /// Reads a mapped-readable buffer's bytes.
     pub fn read_buffer(&self, buffer: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
+        self.with_mapped(buffer, <[u8]>::to_vec)
+    }
+
+    /// Maps a mapped-readable buffer once the device is done with it and
+    /// hands `read` its bytes where they are mapped (no copy), then unmaps
+    /// it: what a reader that only scans or sums them uses.
+    pub fn with_mapped<T>(
+        &self,
+        buffer: &wgpu::Buffer,
+        read: impl FnOnce(&[u8]) -> T,
+    ) -> Result<T, GpuError> {
         let slice = buffer.slice(..);
         let (tx, rx) = std::sync::mpsc::channel();
         slice.map_async(wgpu::MapMode::Read, move |r| {
@@ -314,11 +325,13 @@ impl GpuContext {
         rx.recv()
             .map_err(|e| GpuError::Readback(e.to_string()))?
             .map_err(|e| GpuError::Readback(e.to_string()))?;
-        let bytes = slice
-            .get_mapped_range()
-            .map_err(|e| GpuError::Readback(e.to_string()))?
-            .to_vec();
+        let out = {
+            let view = slice
+                .get_mapped_range()
+                .map_err(|e| GpuError::Readback(e.to_string()))?;
+            read(&view)
+        };
         buffer.unmap();
-        Ok(bytes)
+        Ok(out)
     }
 }

@@ -226,11 +226,12 @@ pub(super) fn read_map(
 ) -> Result<Flip, GpuError> {
     let (width, height) = size;
     let n = width as usize * height as usize;
-    let bytes = ctx.read_buffer(read)?;
-    let pixels: Vec<f32> = bytes[..n * 4]
-        .chunks_exact(4)
-        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-        .collect();
+    let pixels: Vec<f32> = ctx.with_mapped(read, |bytes| {
+        bytes[..n * 4]
+            .chunks_exact(4)
+            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .collect()
+    })?;
     Ok(Flip {
         map: Image {
             width,
