@@ -129,7 +129,7 @@ for label, rep in (("check's phases", c), ("check --metrics cpu", cm if isinstan
         continue
     keys = ["device", "pipelines", "render", "readback_wait", "readback_copy", "goldens", "metrics",
             "ssim", "flip", "errors", "fraction_over", "gpu_metrics", "artifacts", "history", "stress", "stress_cpu", "stress_gpu"]
-    print(f"{label} (s; FLIP on {rep.get('metrics_on', '?')}): total {ph.get('total_s', 0):.2f}; "
+    print(f"{label} (s; metrics on {rep.get('metrics_on', '?')}): total {ph.get('total_s', 0):.2f}; "
           + ", ".join(f"{k} {ph.get(k + '_s', 0):.2f}" for k in keys))
 for name, st in (("check's stress", c.get("stress")), ("stress", report["stress"])):
     rows = (st or {}).get("cases") or []

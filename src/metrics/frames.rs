@@ -1,7 +1,7 @@
 //! The report's metrics of two encoded frames at either depth
 //! (docs/metrics.md#pq-frames).
 //!
-//! 8-bit frames go through [`compare_with_flip`] as they always have.
+//! 8-bit frames go through [`compare_with_flip`](super::compare_with_flip) as they always have.
 //! 16-bit PQ frames are measured on their codes with the same definitions
 //! scaled to 16 bits:
 //! - MSE, RMSE, mean and maximum difference and the fraction over k LSB in

@@ -46,6 +46,7 @@ pub struct Ssim {
 
 /// The Gaussian window's taps 0..=RADIUS (symmetric, normalised to sum 1
 /// over the window), as the CPU's SSIM weighs: the GPU's SSIM takes them.
+#[cfg(feature = "gpu")]
 pub(crate) fn gaussian_taps() -> [f64; RADIUS + 1] {
     super::ssim_kernel::kernel_weights()
 }
