@@ -68,14 +68,8 @@ impl<'c> GpuMetrics<'c> {
         let error_groups = (width.div_ceil(8), height.div_ceil(8));
         let ssim_groups = ((width - 10).div_ceil(8), (height - 10).div_ceil(8));
         let words = [width, height, error_groups.0, ssim_groups.0];
-        use wgpu::util::DeviceExt;
         let init = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
-            ctx.device
-                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some(label),
-                    contents,
-                    usage,
-                })
+            super::stages::buffer_with(ctx, label, contents, usage)
         };
         let storage = wgpu::BufferUsages::STORAGE;
         let copy = wgpu::BufferUsages::COPY_SRC;
@@ -104,18 +98,7 @@ impl<'c> GpuMetrics<'c> {
             storage | copy,
         );
         let bind = |pipeline: &wgpu::ComputePipeline, entries: &[(u32, &wgpu::Buffer)]| {
-            let entries: Vec<wgpu::BindGroupEntry> = entries
-                .iter()
-                .map(|(binding, buffer)| wgpu::BindGroupEntry {
-                    binding: *binding,
-                    resource: buffer.as_entire_binding(),
-                })
-                .collect();
-            ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("tonegate.compare"),
-                layout: &pipeline.get_bind_group_layout(0),
-                entries: &entries,
-            })
+            super::stages::bind_buffers(ctx, "tonegate.compare", pipeline, entries)
         };
         let errors_group = bind(
             &self.errors,

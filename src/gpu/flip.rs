@@ -109,14 +109,8 @@ impl<'c> GpuFlip<'c> {
         for v in [cmax, pccmax, 0.0, 0.0] {
             params.extend_from_slice(&v.to_le_bytes());
         }
-        use wgpu::util::DeviceExt;
         let init = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
-            ctx.device
-                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some(label),
-                    contents,
-                    usage,
-                })
+            super::stages::buffer_with(ctx, label, contents, usage)
         };
         let storage = wgpu::BufferUsages::STORAGE;
         let params = init("tonegate.flip.params", &params, wgpu::BufferUsages::UNIFORM);
@@ -143,18 +137,7 @@ impl<'c> GpuFlip<'c> {
         let map = scratch("tonegate.flip.map", 4, wgpu::BufferUsages::COPY_SRC);
         let read = read_buffer(ctx, "tonegate.flip.map.read", (n * 4).max(16));
         let bind = |pipeline: &wgpu::ComputePipeline, entries: &[(u32, &wgpu::Buffer)]| {
-            let entries: Vec<wgpu::BindGroupEntry> = entries
-                .iter()
-                .map(|(binding, buffer)| wgpu::BindGroupEntry {
-                    binding: *binding,
-                    resource: buffer.as_entire_binding(),
-                })
-                .collect();
-            ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("tonegate.flip"),
-                layout: &pipeline.get_bind_group_layout(0),
-                entries: &entries,
-            })
+            super::stages::bind_buffers(ctx, "tonegate.flip", pipeline, entries)
         };
         let passes = [
             (
@@ -244,13 +227,7 @@ pub(super) fn read_map(
 
 /// An image's pixels in a storage buffer, packed as the shaders read them.
 pub(super) fn upload(ctx: &GpuContext, image: &Raster, label: &str) -> wgpu::Buffer {
-    use wgpu::util::DeviceExt;
-    ctx.device
-        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some(label),
-            contents: &packed(image),
-            usage: wgpu::BufferUsages::STORAGE,
-        })
+    super::stages::buffer_with(ctx, label, &packed(image), wgpu::BufferUsages::STORAGE)
 }
 
 /// The pixels packed as r | g << 8 | b << 16 (grey replicated, alpha
