@@ -270,9 +270,17 @@ fn run_inner(
     };
     let metrics_on = opts.metrics.resolve(ctx.as_ref().map(|(c, _)| c));
     let flip_adapter = adapter.name.clone();
-    let gpu_metrics = match (&ctx, metrics_on) {
-        (Some((c, _)), MetricsOn::Gpu) => Some(crate::gpu::compare::GpuMetrics::new(c)),
-        _ => None,
+    // The GPU's metrics are trusted on an adapter once they pass their
+    // locks there; an adapter that fails judges on the CPU and says why.
+    let (gpu_metrics, metrics_on, metrics_refused) = match (&ctx, metrics_on) {
+        (Some((c, _)), MetricsOn::Gpu) => {
+            let g = crate::gpu::compare::GpuMetrics::new(c);
+            match g.self_check() {
+                Ok(()) => (Some(g), MetricsOn::Gpu, None),
+                Err(why) => (None, MetricsOn::Cpu, Some(why)),
+            }
+        }
+        _ => (None, metrics_on, None),
     };
     let compare_on_gpu = |t: crate::metrics::Raster, r: crate::metrics::Raster| {
         gpu_metrics.as_ref().map_or_else(
@@ -431,7 +439,14 @@ fn run_inner(
                 crate::metrics::FLIP_DEFINITION,
                 flip_adapter
             ),
-            _ => crate::metrics::FLIP_DEFINITION.into(),
+            _ => match &metrics_refused {
+                Some(why) => format!(
+                    "{}; on the CPU: the metrics on the GPU failed their check on this adapter \
+                     ({why})",
+                    crate::metrics::FLIP_DEFINITION
+                ),
+                None => crate::metrics::FLIP_DEFINITION.into(),
+            },
         },
         metrics_on,
         scenes,

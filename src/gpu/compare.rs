@@ -195,6 +195,112 @@ impl<'c> GpuMetrics<'c> {
     }
 }
 
+/// An RGB frame of shared structure (gradients) and per-seed noise: two
+/// seeds differ everywhere by a few codes.
+fn synthetic(width: u32, height: u32, seed: u32) -> Vec<u8> {
+    (0..width * height * 3)
+        .map(|i| {
+            let (x, y, c) = ((i / 3) % width, (i / 3) / width, i % 3);
+            let noise = (i.wrapping_mul(2_654_435_761) ^ seed.wrapping_mul(0x9E37_79B9)) >> 28;
+            ((x / 3 + y / 2 + c * 70 + noise) % 256) as u8
+        })
+        .collect()
+}
+
+impl GpuMetrics<'_> {
+    /// The locks, checked on this adapter before a gate trusts it: one
+    /// synthetic pair (67×53, and the same against a copy shifted by 40
+    /// codes) compared on the device and on the CPU, held to
+    /// [`agrees`]. A check whose adapter fails it judges on the CPU and says
+    /// why (`check --metrics auto|gpu`).
+    pub fn self_check(&self) -> Result<(), String> {
+        let (w, h) = (67, 53);
+        let a = synthetic(w, h, 1);
+        let b = synthetic(w, h, 2);
+        let shifted: Vec<u8> = a.iter().map(|&v| v.saturating_add(40)).collect();
+        for other in [&b, &shifted] {
+            let (t, r) = (
+                Raster::new(w, h, 3, &a).map_err(|e| e.to_string())?,
+                Raster::new(w, h, 3, other).map_err(|e| e.to_string())?,
+            );
+            let (gpu, _) = self.compare(t, r).map_err(|e| e.to_string())?;
+            let (cpu, _) = crate::metrics::compare_with_flip(t, r).map_err(|e| e.to_string())?;
+            agrees(&gpu, &cpu)?;
+        }
+        Ok(())
+    }
+}
+
+/// Whether the GPU's figures are the CPU's within the locks: the ones from
+/// integer sums equal, SSIM's mean within 1e-6, FLIP's within 1e-4; the
+/// first that is not, named.
+pub fn agrees(gpu: &Metrics, cpu: &Metrics) -> Result<(), String> {
+    let exact = [
+        ("MSE", gpu.mse, cpu.mse),
+        ("PSNR", gpu.psnr, cpu.psnr),
+        ("SNR", gpu.snr, cpu.snr),
+        ("mean |diff|", gpu.mean_abs_diff, cpu.mean_abs_diff),
+        (
+            "fraction over 1 code",
+            gpu.fraction_over_1lsb,
+            cpu.fraction_over_1lsb,
+        ),
+        (
+            "max |diff|",
+            f64::from(gpu.max_abs_diff),
+            f64::from(cpu.max_abs_diff),
+        ),
+    ];
+    for (name, g, c) in exact {
+        if g.to_bits() != c.to_bits() {
+            return Err(format!("{name} {g} on the GPU against {c} on the CPU"));
+        }
+    }
+    for (name, g, c, bound) in [
+        ("SSIM", gpu.ssim, cpu.ssim, 1e-6),
+        ("FLIP", gpu.flip_mean, cpu.flip_mean, 1e-4),
+    ] {
+        // A NaN on either side is off too.
+        let within = (g - c).abs() <= bound;
+        if !within {
+            return Err(format!(
+                "{name} {g} on the GPU against {c} on the CPU (bound {bound:e})"
+            ));
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The self-check can fail: each figure moved past its bound is named.
+    #[test]
+    fn agrees_names_the_first_figure_off_its_lock() {
+        let (a, b) = (synthetic(20, 16, 1), synthetic(20, 16, 2));
+        let (t, r) = (
+            Raster::new(20, 16, 3, &a).unwrap(),
+            Raster::new(20, 16, 3, &b).unwrap(),
+        );
+        let (cpu, _) = crate::metrics::compare_with_flip(t, r).unwrap();
+        assert_eq!(agrees(&cpu, &cpu), Ok(()));
+        let mut off = cpu.clone();
+        off.mse = f64::from_bits(cpu.mse.to_bits() + 1);
+        assert!(agrees(&off, &cpu).unwrap_err().starts_with("MSE"));
+        let mut off = cpu.clone();
+        off.ssim += 2e-6;
+        assert!(agrees(&off, &cpu).unwrap_err().starts_with("SSIM"));
+        let mut off = cpu.clone();
+        off.ssim += 5e-7;
+        off.flip_mean += 2e-4;
+        assert!(agrees(&off, &cpu).unwrap_err().starts_with("FLIP"));
+        let mut off = cpu.clone();
+        off.flip_mean = f64::NAN;
+        assert!(agrees(&off, &cpu).is_err());
+    }
+}
+
 /// FLIP's time at one size on both sides (`tonegate bench --flip`): the
 /// GPU's median over `runs` (after one warm-up: upload, passes, readback
 /// of the map), nv-flip's over three, with both means, on two synthetic
@@ -219,16 +325,7 @@ pub fn time_flip(
     height: u32,
     runs: u32,
 ) -> Result<FlipTiming, MetricsError> {
-    let frame = |seed: u32| -> Vec<u8> {
-        (0..width * height * 3)
-            .map(|i| {
-                let (x, y, c) = ((i / 3) % width, (i / 3) / width, i % 3);
-                let noise = (i.wrapping_mul(2_654_435_761) ^ seed.wrapping_mul(0x9E37_79B9)) >> 28;
-                ((x / 3 + y / 2 + c * 70 + noise) % 256) as u8
-            })
-            .collect()
-    };
-    let (a, b) = (frame(1), frame(2));
+    let (a, b) = (synthetic(width, height, 1), synthetic(width, height, 2));
     let (ta, tb) = (
         Raster::new(width, height, 3, &a)?,
         Raster::new(width, height, 3, &b)?,
