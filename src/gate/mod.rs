@@ -274,7 +274,7 @@ fn run_inner(
     // locks there; an adapter that fails judges on the CPU and says why.
     let (gpu_metrics, metrics_on, metrics_refused) = match (&ctx, metrics_on) {
         (Some((c, _)), MetricsOn::Gpu) => {
-            let g = crate::gpu::compare::GpuMetrics::new(c);
+            let g = crate::gpu::compare::GpuCompare::new(c);
             match g.self_check() {
                 Ok(()) => (Some(g), MetricsOn::Gpu, None),
                 Err(why) => (None, MetricsOn::Cpu, Some(why)),
@@ -282,15 +282,12 @@ fn run_inner(
         }
         _ => (None, metrics_on, None),
     };
-    let compare_on_gpu = |t: crate::metrics::Raster, r: crate::metrics::Raster| {
-        gpu_metrics.as_ref().map_or_else(
-            || crate::metrics::compare_with_flip(t, r),
-            |g| g.compare(t, r),
-        )
-    };
-    let compare_by = gpu_metrics
-        .is_some()
-        .then_some(crate::metrics::CompareBy(&compare_on_gpu));
+    let compare_on_gpu = gpu_metrics
+        .as_ref()
+        .map(|g| move |t: crate::metrics::Raster, r: crate::metrics::Raster| g.compare(t, r));
+    let compare_by = compare_on_gpu
+        .as_ref()
+        .map(|f| crate::metrics::CompareBy(f));
     if let (Some(h), Some(id)) = (history.as_ref(), run_id) {
         let record = RunAdapter {
             name: adapter.name.clone(),

@@ -17,17 +17,17 @@ use crate::metrics::basic::ErrorSums;
 use crate::metrics::flip::{Flip, DEFAULT_PPD};
 use crate::metrics::{Metrics, MetricsError, Raster, SSIM_WINDOW};
 
-pub struct GpuMetrics<'c> {
+pub struct GpuCompare<'c> {
     ctx: &'c GpuContext,
     flip: GpuFlip<'c>,
     errors: wgpu::ComputePipeline,
     ssim: wgpu::ComputePipeline,
 }
 
-impl<'c> GpuMetrics<'c> {
-    pub fn new(ctx: &'c GpuContext) -> GpuMetrics<'c> {
+impl<'c> GpuCompare<'c> {
+    pub fn new(ctx: &'c GpuContext) -> GpuCompare<'c> {
         let p = |entry| pipeline(ctx, "compare", entry, HdrFormat::Rgba32Float, &[]);
-        GpuMetrics {
+        GpuCompare {
             ctx,
             flip: GpuFlip::new(ctx),
             errors: p("errors"),
@@ -207,7 +207,7 @@ fn synthetic(width: u32, height: u32, seed: u32) -> Vec<u8> {
         .collect()
 }
 
-impl GpuMetrics<'_> {
+impl GpuCompare<'_> {
     /// The locks, checked on this adapter before a gate trusts it: one
     /// synthetic pair (67×53, and the same against a copy shifted by 40
     /// codes) compared on the device and on the CPU, held to
@@ -347,7 +347,7 @@ pub fn time_flip(
             .map(median)
     };
     let flip = GpuFlip::new(ctx);
-    let all = GpuMetrics::new(ctx);
+    let all = GpuCompare::new(ctx);
     let gpu_mean = flip.flip(ta, tb, DEFAULT_PPD)?.mean();
     let cpu_mean = crate::metrics::flip::flip(ta, tb, DEFAULT_PPD)?.mean();
     Ok(FlipTiming {

@@ -9,7 +9,7 @@
 //! pixel, with the adapter's exp, pow and sqrt, in another order than the
 //! C++'s). The measured worst is written next to each set of tests.
 
-use tonegate::gpu::compare::GpuMetrics;
+use tonegate::gpu::compare::GpuCompare;
 use tonegate::gpu::flip::GpuFlip;
 use tonegate::gpu::{AdapterChoice, GpuContext};
 use tonegate::image::{Frame, Rgb8Image};
@@ -138,7 +138,7 @@ fn flip_on_the_gpu_is_nv_flips_on_gl() {
 /// FLIP's within 1e-4.
 fn compare_lock(choice: &str) {
     let ctx = ctx(choice);
-    let g = GpuMetrics::new(&ctx);
+    let g = GpuCompare::new(&ctx);
     let mut pairs: Vec<(String, Rgb8Image, Rgb8Image)> = Vec::new();
     for scene in ["sky-aces2", "interior-reinhard-global-xyy", "grid-static"] {
         pairs.push((
