@@ -31,6 +31,11 @@ pub struct Case {
     pub exception: Option<(&'static str, f64)>,
     /// The renderers that must refuse this input ("cpu", "gpu").
     pub refused_by: &'static [&'static str],
+    /// Only through the pipelines whose plans measure statistics
+    /// ([`measures_statistics`](super::measures_statistics)): the case is
+    /// about their accumulation, and a pipeline that measures nothing would
+    /// run stages the other cases already run, at this size's cost.
+    pub statistics_only: bool,
 }
 
 /// Every case. `large` adds the ≥ 8 Mpx frame (about a second per renderer).
@@ -43,6 +48,7 @@ pub fn all(large: bool) -> Vec<Case> {
             behaviour: "log-average = delta (1e-4): ln(delta + 0); min = max = 0; the automatic key's span is 0, so it falls back to 0.18; reinhard-auto-key's weights are all 0 (Σw = 0), so the weighted mean falls back to the plain log-average; the frame is black",
             exception: None,
             refused_by: &[],
+            statistics_only: false,
         },
         Case {
             name: "uniform",
@@ -51,6 +57,7 @@ pub fn all(large: bool) -> Vec<Case> {
             behaviour: "Lmax = Lmin, so A + B = 0 in the automatic key: it falls back to 0.18; every pixel maps to the same grey",
             exception: None,
             refused_by: &[],
+            statistics_only: false,
         },
         Case {
             name: "single_bright_pixel",
@@ -63,6 +70,7 @@ pub fn all(large: bool) -> Vec<Case> {
             behaviour: "one 1e4 pixel in black: max = 1e4, log-average barely above delta; the pixel burns white, the rest stays black; bloom spreads the one pixel",
             exception: None,
             refused_by: &[],
+            statistics_only: false,
         },
         Case {
             name: "span_1e-30_to_1e30",
@@ -71,6 +79,7 @@ pub fn all(large: bool) -> Vec<Case> {
             behaviour: "60 decades in one frame: statistics in f32 stay finite (ln of 1e30 is 69); the GPU never squares the white point (it divides L by it twice), so the burn term underflows to 0 where the f64 L/white² rounds to 0 in f32 as well",
             exception: None,
             refused_by: &[],
+            statistics_only: false,
         },
         Case {
             name: "beyond_f16_with_f16",
@@ -79,6 +88,7 @@ pub fn all(large: bool) -> Vec<Case> {
             behaviour: "values up to 2e5 with rgba16float intermediates requested: f16 would store +Inf, so the GPU renderer promotes the intermediates to rgba32float and reports it",
             exception: None,
             refused_by: &[],
+            statistics_only: false,
         },
         Case {
             name: "subnormals",
@@ -90,6 +100,7 @@ pub fn all(large: bool) -> Vec<Case> {
             behaviour: "f32 subnormal inputs (1e-40 ... 2e-37): ln(delta + Y) is ln(delta) to rounding, so the averages are unaffected; a pixel whose Y is under f32's smallest normal is toned to 0 by both renderers (color::SMALLEST_NORMAL), the branch an adapter that flushes subnormals takes too, so no division meets a flushed 0",
             exception: Some(("GPUs may flush subnormals to zero (Vulkan allows it): min and max then read 0 instead of ~1e-40; the relative error is taken against f32's smallest normal, 1.2e-38, so it stays under 2e-2 and has no effect on any output", 2e-2)),
             refused_by: &[],
+            statistics_only: false,
         },
         Case {
             name: "negative_values",
@@ -106,6 +117,7 @@ pub fn all(large: bool) -> Vec<Case> {
             behaviour: "negative components (lossy-EXR ringing) are clamped to 0 by the loader and counted; the pipeline never sees them",
             exception: None,
             refused_by: &[],
+            statistics_only: false,
         },
         Case {
             name: "nan_inf_refused",
@@ -117,6 +129,7 @@ pub fn all(large: bool) -> Vec<Case> {
             behaviour: "NaN and ±Inf are refused by the loader with their count and first coordinate; nothing is rendered",
             exception: None,
             refused_by: &["cpu", "gpu"],
+            statistics_only: false,
         },
         Case {
             name: "nan_inf_sanitized",
@@ -128,6 +141,7 @@ pub fn all(large: bool) -> Vec<Case> {
             behaviour: "with --sanitize, NaN and ±Inf become 0 and are counted; the rest renders normally",
             exception: None,
             refused_by: &[],
+            statistics_only: false,
         },
         Case {
             name: "weights_sum_zero",
@@ -140,6 +154,7 @@ pub fn all(large: bool) -> Vec<Case> {
             behaviour: "Σw = 0 in reinhard-auto-key's weighted mean (every Y = 0): the documented fallback is the plain log-average, here delta",
             exception: None,
             refused_by: &[],
+            statistics_only: false,
         },
         Case {
             name: "size_1x1",
@@ -148,6 +163,7 @@ pub fn all(large: bool) -> Vec<Case> {
             behaviour: "a single pixel: every reduction and the bloom's downsample handle it (downsampled size rounds up to 1)",
             exception: None,
             refused_by: &[],
+            statistics_only: false,
         },
         Case {
             name: "size_1xN",
@@ -156,6 +172,7 @@ pub fn all(large: bool) -> Vec<Case> {
             behaviour: "one column of 257: no row or column dropped by either reduction",
             exception: None,
             refused_by: &[],
+            statistics_only: false,
         },
         Case {
             name: "size_Nx1",
@@ -164,6 +181,7 @@ pub fn all(large: bool) -> Vec<Case> {
             behaviour: "one row of 257: no row or column dropped by either reduction",
             exception: None,
             refused_by: &[],
+            statistics_only: false,
         },
         Case {
             name: "size_prime_127x131",
@@ -172,6 +190,7 @@ pub fn all(large: bool) -> Vec<Case> {
             behaviour: "odd, prime sides: partial blocks and odd ping-pong levels are summed, not dropped",
             exception: None,
             refused_by: &[],
+            statistics_only: false,
         },
         Case {
             name: "beyond_texture_limit",
@@ -180,6 +199,7 @@ pub fn all(large: bool) -> Vec<Case> {
             behaviour: "wider than the adapter's max_texture_dimension_2d: the GPU renderer refuses it with the limit in the message; the CPU reference renders it",
             exception: None,
             refused_by: &["gpu"],
+            statistics_only: false,
         },
     ];
     if large {
@@ -187,9 +207,10 @@ pub fn all(large: bool) -> Vec<Case> {
             name: "large_4096x2048",
             source: Source::Image(HdrImage::ramp(4096, 2048, 0.001, 5000.0)),
             f16: false,
-            behaviour: "8.4 Mpx: f32 accumulation of 8.4 M log terms, kept within 1e-5 by compensated partial sums",
+            behaviour: "8.4 Mpx: f32 accumulation of 8.4 M log terms, kept within 1e-5 by compensated partial sums; through the pipelines that measure statistics",
             exception: None,
             refused_by: &[],
+            statistics_only: true,
         });
     }
     cases

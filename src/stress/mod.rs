@@ -68,6 +68,21 @@ pub fn pipelines() -> Vec<(String, Scene)> {
     out
 }
 
+/// Whether the plan of pipeline `scene` measures luminance statistics (a
+/// fixed-parameter operator without a scaled bright pass measures none).
+pub fn measures_statistics(scene: &Scene) -> bool {
+    crate::plan::stats_needs(&scene.operator, scene.bloom.as_ref()).any()
+}
+
+/// The pipelines case `case` goes through: every one of [`pipelines`], or
+/// only those that measure statistics where the case says so.
+pub fn case_pipelines(case: &Case) -> Vec<(String, Scene)> {
+    pipelines()
+        .into_iter()
+        .filter(|(_, scene)| !case.statistics_only || measures_statistics(scene))
+        .collect()
+}
+
 fn pipeline_scene(body: &str) -> Scene {
     let text = format!(
         "name = \"stress\"\nsize = [2, 2]\nframes = 1\n[environment]\nbuiltin = \"sky\"\nsize = [8, 4]\n[rotation]\ndegrees_per_frame = 0.0\n{body}"

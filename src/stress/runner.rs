@@ -2,8 +2,8 @@
 //! reference and the GPU, several at a time, each case's input loaded once.
 
 use super::{
-    all_finite, independent_stats, load, pipelines, rel, resolved_text, stats_error, Case, Row,
-    Source, StressReport, BOUND,
+    all_finite, independent_stats, load, measures_statistics, pipelines, rel, resolved_text,
+    stats_error, Case, Row, Source, StressReport, BOUND,
 };
 use crate::gpu::{GpuConfig, GpuContext, GpuInput, GpuRenderer, HdrFormat, ReductionMethod};
 use crate::image::HdrImage;
@@ -48,18 +48,19 @@ pub fn run_jobs(
         .iter()
         .map(|(name, scene)| (name.as_str(), Pipeline::of_scene(scene)))
         .collect();
+    let measuring: Vec<bool> = scenes.iter().map(|(_, s)| measures_statistics(s)).collect();
     let started = Instant::now();
-    // Every (case, pipeline), biggest inputs first so that the large case
-    // does not run alone at the end.
+    // Every (case, pipeline) the case goes through, biggest inputs first so
+    // that the large case does not run alone at the end.
     let mut order: Vec<(usize, usize)> = (0..cases.len())
         .flat_map(|c| (0..pipelines.len()).map(move |p| (c, p)))
+        .filter(|&(c, p)| !cases[c].statistics_only || measuring[p])
         .collect();
     order.sort_by_key(|&(c, _)| std::cmp::Reverse(input_pixels(&cases[c], width_limit)));
     // Each case's input is loaded once, by the first row that needs it, and
     // dropped once its last row has taken it.
-    let inputs: Vec<Mutex<(Option<Loaded>, usize)>> = cases
-        .iter()
-        .map(|_| Mutex::new((None, pipelines.len())))
+    let inputs: Vec<Mutex<(Option<Loaded>, usize)>> = (0..cases.len())
+        .map(|c| Mutex::new((None, order.iter().filter(|&&(oc, _)| oc == c).count())))
         .collect();
     let big = (Mutex::new(0usize), Condvar::new());
     let next = AtomicUsize::new(0);
@@ -107,7 +108,8 @@ pub fn run_jobs(
         work();
     });
     // Back into the table's order: case by case, pipelines in turn.
-    let mut by_place: Vec<Option<Done>> = (0..order.len()).map(|_| None).collect();
+    let mut by_place: Vec<Option<Done>> =
+        (0..cases.len() * pipelines.len()).map(|_| None).collect();
     for (i, &(c, p)) in order.iter().enumerate() {
         by_place[c * pipelines.len() + p] =
             done[i].lock().unwrap_or_else(|e| e.into_inner()).take();

@@ -20,12 +20,48 @@ fn rows(case: &str, renderer: &str) -> Vec<&'static Row> {
         .iter()
         .filter(|r| r.case == case && r.renderer == renderer)
         .collect();
+    let case = stress::cases::all(true)
+        .into_iter()
+        .find(|c| c.name == case)
+        .expect("a case of the suite");
+    let through: Vec<String> = stress::case_pipelines(&case)
+        .into_iter()
+        .map(|(name, _)| name)
+        .collect();
+    let got: Vec<&str> = r.iter().map(|row| row.pipeline.as_str()).collect();
     assert_eq!(
-        r.len(),
-        stress::pipelines().len(),
-        "{case} on {renderer}: one row per pipeline"
+        got, through,
+        "{} on {renderer}: one row per pipeline it goes through",
+        case.name
     );
     r
+}
+
+/// The 8.4 Mpx case goes through the pipelines that measure statistics,
+/// every other case through every pipeline.
+#[test]
+fn only_the_large_case_skips_the_pipelines_that_measure_nothing() {
+    let all = stress::pipelines();
+    let measuring: Vec<&str> = all
+        .iter()
+        .filter(|(_, s)| stress::measures_statistics(s))
+        .map(|(n, _)| n.as_str())
+        .collect();
+    // The Reinhard set-ups measure their key; the fixed operators nothing.
+    for name in ["reinhard_global", "auto_key_bloom_grade", "reinhard02"] {
+        assert!(measuring.contains(&name), "{measuring:?}");
+    }
+    for name in ["hable", "aces2", "bt2390"] {
+        assert!(!measuring.contains(&name), "{measuring:?}");
+    }
+    for case in stress::cases::all(true) {
+        let n = stress::case_pipelines(&case).len();
+        if case.name == "large_4096x2048" {
+            assert_eq!(n, measuring.len(), "{}", case.name);
+        } else {
+            assert_eq!(n, all.len(), "{}", case.name);
+        }
+    }
 }
 
 /// The rows of the two Reinhard set-ups, which measure a key and an
