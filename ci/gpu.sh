@@ -69,15 +69,18 @@ done
 
 # The TAA target (docs/taa.md#speed): `taa` within 3x the floor pass and
 # `taa_sobel` within 1.5x. Each box with the defaults (Catmull-Rom history,
-# motion feedback, tone-mapped blend), and the thesis's own TAA (bilinear,
-# luminance feedback, linear blend).
+# motion feedback, tone-mapped blend), the defaults with the history read
+# through the texture unit's filter (9 taps instead of 16 loads), and the
+# thesis's own TAA (bilinear, luminance feedback, linear blend).
 for size in 1600x900 1920x1080; do
   for taa in clip edge-aware variance; do
-    for keys in default thesis; do
+    for keys in default hardware thesis; do
       name="$size-taa-$taa-$keys"
       extra=()
       if [ "$keys" = thesis ]; then
         extra=(--taa-history bilinear --taa-feedback luminance --taa-blend linear)
+      elif [ "$keys" = hardware ]; then
+        extra=(--env-filter hardware)
       fi
       "$TONEGATE" bench --adapter "$adapter" --size "$size" --taa "$taa" "${extra[@]}" \
         --frames "${BENCH_FRAMES:-300}" --json >"$out/bench-$name.json" \

@@ -48,6 +48,9 @@ struct TaaUniforms {
 @group(0) @binding(6) var taa_out: texture_storage_2d<HDR_FORMAT, write>;
 // The sharpen entry's input (this frame's blend) and output.
 @group(0) @binding(7) var blend_in: texture_2d<f32>;
+// The `_hardware` entries' history filter: the texture unit's linear
+// filter, clamping to the edge (`--env-filter hardware`).
+@group(0) @binding(8) var history_sampler: sampler;
 
 const BT709 = vec3<f32>(0.2126, 0.7152, 0.0722);
 
@@ -128,6 +131,50 @@ fn history_bilinear(q: vec2<f32>) -> vec3<f32> {
     let top = p00 * (1.0 - fx) + p10 * fx;
     let bottom = p01 * (1.0 - fx) + p11 * fx;
     return top * (1.0 - fy) + bottom * fy;
+}
+
+// The history at film point q through the texture unit's bilinear filter:
+// one tap for the bilinear history; for Catmull-Rom, each axis's two middle
+// taps (both weights positive) as one bilinear tap between them, so 3×3
+// taps instead of 4×4 loads. Clamping to the edge repeats the border texel
+// as `load_clamped` does. Exact but for the filter's quantised sub-texel
+// weights (docs/conventions.md#bilinear-filtering).
+fn history_hardware(q: vec2<f32>) -> vec3<f32> {
+    let inv = 1.0 / vec2<f32>(textureDimensions(history_in));
+    if (!CATMULL_ROM) {
+        return textureSampleLevel(history_in, history_sampler, q * inv, 0.0).rgb;
+    }
+    let x = q - 0.5;
+    let base = floor(x);
+    let wx = catmull_rom_weights(x.x - base.x);
+    let wy = catmull_rom_weights(x.y - base.y);
+    // Texel centres of the outer taps and the middle pair's weighted point.
+    let middle = vec2<f32>(wx.y + wx.z, wy.y + wy.z);
+    let c0 = (base - 0.5) * inv;
+    let c1 = (base + 0.5 + vec2<f32>(wx.z, wy.z) / middle) * inv;
+    let c2 = (base + 2.5) * inv;
+    let xs = vec3<f32>(c0.x, c1.x, c2.x);
+    let ws = vec3<f32>(wx.x, middle.x, wx.w);
+    let ys = vec3<f32>(c0.y, c1.y, c2.y);
+    let hs = vec3<f32>(wy.x, middle.y, wy.w);
+    var out = vec3<f32>(0.0);
+    for (var j = 0; j < 3; j = j + 1) {
+        var row = vec3<f32>(0.0);
+        for (var i = 0; i < 3; i = i + 1) {
+            row = row + ws[i] * textureSampleLevel(history_in, history_sampler, vec2<f32>(xs[i], ys[j]), 0.0).rgb;
+        }
+        out = out + hs[j] * row;
+    }
+    return max(out, vec3<f32>(0.0));
+}
+
+// Where pixel id's history is on the film, (−1, −1) for none (a reset, or
+// reprojected off the film).
+fn history_point(id: vec2<u32>) -> vec2<f32> {
+    if (taa.has_history == 0u) {
+        return vec2<f32>(-1.0);
+    }
+    return reproject(id.x, id.y, taa.m0.xyz, taa.m1.xyz, taa.m2.xyz, frame);
 }
 
 // The cross (+) and 3×3 neighbourhoods' min and max.
@@ -248,34 +295,32 @@ fn clip_variance(h: vec3<f32>, sum: vec3<f32>, sum_sq: vec3<f32>) -> vec3<f32> {
     return max(from_ycocg(clipped), vec3<f32>(0.0));
 }
 
-// The blend of pixel id given how to clip; writes the new history, its
-// frame count in alpha (and the output when there is no sharpen pass).
-fn finish(id: vec2<u32>, clip: Clip) {
+// The blend of pixel id given how to clip and its history `h`, read at
+// `q` (from `history_point`); writes the new history, its frame count in
+// alpha (and the output when there is no sharpen pass).
+fn finish(id: vec2<u32>, clip: Clip, q: vec2<f32>, history: vec3<f32>) {
     let c = textureLoad(current, vec2<i32>(id), 0).rgb;
     var out = c;
     var frames = 1.0;
-    if (taa.has_history != 0u) {
-        let q = reproject(id.x, id.y, taa.m0.xyz, taa.m1.xyz, taa.m2.xyz, frame);
-        if (q.x >= 0.0) {
-            var h = history_at(q);
-            frames = min(confidence_at(q) + 1.0, CONFIDENCE_CAP);
-            if (!NO_CLIP) {
-                if (clip.variance) {
-                    h = clip_variance(h, clip.sum, clip.sum_sq);
-                } else {
-                    h = clip_to_box(h, clip.lo, clip.hi);
-                }
-            }
-            let d = q - (vec2<f32>(id) + vec2<f32>(0.5));
-            let motion = sqrt(dot(d, d));
-            var w: f32;
-            if (MOTION_FEEDBACK) {
-                w = 1.0 - motion_weight(frames, motion);
+    if (q.x >= 0.0) {
+        var h = history;
+        frames = min(confidence_at(q) + 1.0, CONFIDENCE_CAP);
+        if (!NO_CLIP) {
+            if (clip.variance) {
+                h = clip_variance(h, clip.sum, clip.sum_sq);
             } else {
-                w = feedback(c, h);
+                h = clip_to_box(h, clip.lo, clip.hi);
             }
-            out = blend(c, h, w, motion >= STATIC_PX);
         }
+        let d = q - (vec2<f32>(id) + vec2<f32>(0.5));
+        let motion = sqrt(dot(d, d));
+        var w: f32;
+        if (MOTION_FEEDBACK) {
+            w = 1.0 - motion_weight(frames, motion);
+        } else {
+            w = feedback(c, h);
+        }
+        out = blend(c, h, w, motion >= STATIC_PX);
     }
     textureStore(history_out, vec2<i32>(id), vec4<f32>(out, frames));
     if (SHARPEN == 0.0) {
@@ -292,21 +337,13 @@ fn box_clip(lo: vec3<f32>, hi: vec3<f32>) -> Clip {
 }
 
 // `taa = "clip"`: the two neighbourhoods' bounds averaged.
-@compute @workgroup_size(64, 1)
-fn resolve_clip(@builtin(global_invocation_id) id: vec3<u32>) {
-    if (id.x >= frame.size.x || id.y >= frame.size.y) {
-        return;
-    }
+fn clip_averaged(id: vec2<u32>) -> Clip {
     let n = neighbourhood(i32(id.x), i32(id.y));
-    finish(id.xy, box_clip(0.5 * (n.lo_cross + n.lo_all), 0.5 * (n.hi_cross + n.hi_all)));
+    return box_clip(0.5 * (n.lo_cross + n.lo_all), 0.5 * (n.hi_cross + n.hi_all));
 }
 
 // `taa = "variance"`: the 3×3 neighbourhood's YCoCg moments.
-@compute @workgroup_size(64, 1)
-fn resolve_variance(@builtin(global_invocation_id) id: vec3<u32>) {
-    if (id.x >= frame.size.x || id.y >= frame.size.y) {
-        return;
-    }
+fn clip_moments(id: vec2<u32>) -> Clip {
     var clip: Clip;
     clip.variance = true;
     clip.sum = vec3<f32>(0.0);
@@ -318,16 +355,12 @@ fn resolve_variance(@builtin(global_invocation_id) id: vec3<u32>) {
             clip.sum_sq = clip.sum_sq + q * q;
         }
     }
-    finish(id.xy, clip);
+    return clip;
 }
 
 // `taa = "edge_aware"`: blended by the aliasing amount, shrunk toward the
 // current colour where there is no edge (the TAA thesis, eqs. 4.12–4.16).
-@compute @workgroup_size(64, 1)
-fn resolve_edge_aware(@builtin(global_invocation_id) id: vec3<u32>) {
-    if (id.x >= frame.size.x || id.y >= frame.size.y) {
-        return;
-    }
+fn clip_edge_aware(id: vec2<u32>) -> Clip {
     let x = i32(id.x);
     let y = i32(id.y);
     let centre = amount_at(x, y);
@@ -335,17 +368,77 @@ fn resolve_edge_aware(@builtin(global_invocation_id) id: vec3<u32>) {
     let all = cross + amount_at(x - 1, y - 1) + amount_at(x + 1, y - 1) + amount_at(x - 1, y + 1) + amount_at(x + 1, y + 1);
     let a = clamp(cross / 5.0 + (all / 9.0 - cross / 5.0) * clamp(centre, 0.0, 1.0), 0.0, 1.0);
     let n = neighbourhood(x, y);
-    let c = textureLoad(current, vec2<i32>(id.xy), 0).rgb;
+    let c = textureLoad(current, vec2<i32>(id), 0).rgb;
     let lo = n.lo_cross + (n.lo_all - n.lo_cross) * a;
     let hi = n.hi_cross + (n.hi_all - n.hi_cross) * a;
-    finish(id.xy, box_clip(c + (lo - c) * a, c + (hi - c) * a));
+    return box_clip(c + (lo - c) * a, c + (hi - c) * a);
+}
+
+fn outside(id: vec3<u32>) -> bool {
+    return id.x >= frame.size.x || id.y >= frame.size.y;
+}
+
+// One entry per clip, reading the history with loads (the reference's
+// arithmetic) or, `_hardware`, through the texture unit's filter.
+@compute @workgroup_size(64, 1)
+fn resolve_clip(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (outside(id)) {
+        return;
+    }
+    let q = history_point(id.xy);
+    finish(id.xy, clip_averaged(id.xy), q, history_at(q));
+}
+
+@compute @workgroup_size(64, 1)
+fn resolve_clip_hardware(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (outside(id)) {
+        return;
+    }
+    let q = history_point(id.xy);
+    finish(id.xy, clip_averaged(id.xy), q, history_hardware(q));
+}
+
+@compute @workgroup_size(64, 1)
+fn resolve_variance(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (outside(id)) {
+        return;
+    }
+    let q = history_point(id.xy);
+    finish(id.xy, clip_moments(id.xy), q, history_at(q));
+}
+
+@compute @workgroup_size(64, 1)
+fn resolve_variance_hardware(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (outside(id)) {
+        return;
+    }
+    let q = history_point(id.xy);
+    finish(id.xy, clip_moments(id.xy), q, history_hardware(q));
+}
+
+@compute @workgroup_size(64, 1)
+fn resolve_edge_aware(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (outside(id)) {
+        return;
+    }
+    let q = history_point(id.xy);
+    finish(id.xy, clip_edge_aware(id.xy), q, history_at(q));
+}
+
+@compute @workgroup_size(64, 1)
+fn resolve_edge_aware_hardware(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (outside(id)) {
+        return;
+    }
+    let q = history_point(id.xy);
+    finish(id.xy, clip_edge_aware(id.xy), q, history_hardware(q));
 }
 
 // The sharpen: b + s·(4b − N − S − E − W), limited to the cross
 // neighbourhood's range (reference::taa::sharpen says why).
 @compute @workgroup_size(64, 1)
 fn sharpen(@builtin(global_invocation_id) id: vec3<u32>) {
-    if (id.x >= frame.size.x || id.y >= frame.size.y) {
+    if (outside(id)) {
         return;
     }
     let x = i32(id.x);

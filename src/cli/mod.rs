@@ -117,7 +117,7 @@ pub struct GpuArgs {
     /// Luminance reduction: auto (block on a CPU adapter; on a GPU subgroup where it has subgroup operations, else tree), block (single-pass block partials), pingpong (2x2 ping-pong levels), tree (workgroup shared-memory tree) or subgroup (the tree with subgroup shuffles).
     #[arg(long, default_value = "auto", value_parser = by_name::<ReductionMethod>)]
     pub reduction: ReductionMethod,
-    /// Environment filtering in `sphere`: manual (the reference's bilinear) or hardware (the sampler).
+    /// Texture filtering in `sphere` (the environment) and `taa` (the history): manual (the reference's arithmetic from loads) or hardware (the sampler; needs float32-filterable textures with rgba32float).
     #[arg(long, default_value = "manual", value_parser = by_name::<EnvFilter>)]
     pub env_filter: EnvFilter,
     /// Kernels: staged (one per stage, each timed and readable) or fused (tonemap+composite+encode and bright+downsample merged; fewer full-frame passes).

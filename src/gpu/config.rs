@@ -43,7 +43,7 @@ impl HdrFormat {
     }
 }
 
-/// How `sphere` filters the environment.
+/// How `sphere` filters the environment and `taa` its history.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum EnvFilter {

@@ -1,13 +1,16 @@
 //! `taa` pass: the resolve against the history and the sharpen
 //! (shaders/taa.wgsl). The history is a ping-pong pair: an even frame reads
 //! `history[0]` and writes `history[1]`, an odd frame the other way round,
-//! so the stage has one set of dispatches per parity.
+//! so the stage has one set of dispatches per parity. The history is read
+//! with loads (the reference's arithmetic) or, with `--env-filter hardware`,
+//! through the texture unit's linear filter (`_hardware` entries: 9 taps
+//! for Catmull-Rom instead of 16 loads).
 
-use super::config::TaaFault;
+use super::config::{EnvFilter, TaaFault};
 use super::stages::{
     bind_group, dispatch_2d, hdr_texture, pipeline, uniform_buffer, Bind, Dispatch,
 };
-use super::{GpuContext, HdrFormat};
+use super::{GpuContext, GpuError, HdrFormat};
 use crate::scene::{BlendSpace, FeedbackRule, HistoryFilter, TaaParams, TaaVariant};
 
 /// Mirrors `TaaUniforms` in shaders/taa.wgsl.
@@ -38,11 +41,21 @@ pub fn taa(
     format: HdrFormat,
     params: &TaaParams,
     fault: Option<TaaFault>,
+    filter: EnvFilter,
     frame: &wgpu::Buffer,
     current: &wgpu::Texture,
     amount: Option<&wgpu::Texture>,
     out: &wgpu::Texture,
-) -> TaaDispatches {
+) -> Result<TaaDispatches, GpuError> {
+    let hardware = filter == EnvFilter::Hardware;
+    // f16 textures are filterable everywhere; f32 ones only with the feature.
+    if hardware && format == HdrFormat::Rgba32Float && !ctx.float32_filterable {
+        return Err(GpuError::MissingFeature {
+            adapter: ctx.adapter.name.clone(),
+            feature: "FLOAT32_FILTERABLE",
+            what: "--env-filter hardware (the TAA history)",
+        });
+    }
     let (w, h) = (current.width(), current.height());
     let history = [
         hdr_texture(ctx, "tonegate.taa.history.0", w, h, format),
@@ -82,12 +95,23 @@ pub fn taa(
             flag(params.history_filter == HistoryFilter::CatmullRom),
         ),
     ];
-    let entry = match (params.variant, amount) {
-        (TaaVariant::EdgeAware, Some(_)) => "resolve_edge_aware",
-        (TaaVariant::Variance, _) => "resolve_variance",
-        _ => "resolve_clip",
+    let entry = match (params.variant, amount, hardware) {
+        (TaaVariant::EdgeAware, Some(_), false) => "resolve_edge_aware",
+        (TaaVariant::EdgeAware, Some(_), true) => "resolve_edge_aware_hardware",
+        (TaaVariant::Variance, _, false) => "resolve_variance",
+        (TaaVariant::Variance, _, true) => "resolve_variance_hardware",
+        (_, _, false) => "resolve_clip",
+        (_, _, true) => "resolve_clip_hardware",
     };
     let resolve = pipeline(ctx, "taa", entry, format, &constants);
+    let sampler = hardware.then(|| {
+        ctx.device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("tonegate.taa.history_sampler"),
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
+        })
+    });
     let sharpen =
         (params.sharpen != 0.0).then(|| pipeline(ctx, "taa", "sharpen", format, &constants));
     let parity = |read: &wgpu::Texture, write: &wgpu::Texture| {
@@ -101,6 +125,9 @@ pub fn taa(
         ];
         if let (TaaVariant::EdgeAware, Some(a)) = (params.variant, amount) {
             binds.push((4, Bind::Texture(a)));
+        }
+        if let Some(s) = &sampler {
+            binds.push((8, Bind::Sampler(s)));
         }
         let bg = bind_group(ctx, &resolve, "tonegate.taa", &binds);
         let mut d = vec![dispatch_2d(resolve.clone(), bg, w, h)];
@@ -121,9 +148,9 @@ pub fn taa(
     };
     let even = parity(&history[0], &history[1]);
     let odd = parity(&history[1], &history[0]);
-    TaaDispatches {
+    Ok(TaaDispatches {
         even,
         odd,
         resources: TaaResources { uniforms, history },
-    }
+    })
 }

@@ -84,6 +84,8 @@ pub struct Wiring<'a, 'p> {
     pub fault_gain: Option<f32>,
     /// Fault injection: a broken TAA (`check --taa-fault`).
     pub taa_fault: Option<super::TaaFault>,
+    /// How the stages that resample a texture filter it.
+    pub filter: super::EnvFilter,
     /// The operator's luminance weights and δ.
     pub weights: [f64; 3],
     pub delta: f64,
@@ -174,6 +176,7 @@ impl<'a, 'p> Wiring<'a, 'p> {
             reduction: config.reduction,
             fault_gain: config.fault_gain,
             taa_fault: config.taa_fault,
+            filter: config.env_filter,
             current,
             amount: None,
             taa: None,
@@ -265,11 +268,12 @@ impl<'p> Wiring<'_, 'p> {
                     format,
                     params,
                     self.taa_fault,
+                    self.filter,
                     uniforms,
                     &current,
                     self.amount.as_ref(),
                     &self.hdr,
-                );
+                )?;
                 self.outputs.push((name, self.hdr.clone()));
                 self.taa = Some(made.resources);
                 return Ok(Pass {
