@@ -11,6 +11,9 @@
 //           the image, so no border rule is needed. The variances are sums
 //           of squares about the window's own mean, which in f32 keeps what
 //           uxx − ux² would cancel away.
+//   ssim_map the same S at every pixel, uncropped, the window mirrored at
+//           the image's edges as scipy's mode='reflect' (d c b a | a b c d):
+//           the map of a frame whose artifacts are kept.
 // Locked to the CPU's by tests/it/gpu_metrics.rs.
 
 struct Params {
@@ -31,6 +34,8 @@ struct Params {
 // The Gaussian's taps 0..=5 (symmetric), normalised to sum 1 over 11.
 @group(0) @binding(5) var<storage, read_write> gauss: array<f32, 6>;
 @group(0) @binding(6) var<storage, read_write> ssim_sums: array<f32>;
+// S per pixel, row-major, width × height (the `ssim_map` entry).
+@group(0) @binding(7) var<storage, read_write> ssim_out: array<f32>;
 
 const C1: f32 = 6.5025;
 const C2: f32 = 58.5225;
@@ -87,6 +92,58 @@ fn sample(x: u32, y: u32) -> array<vec3<f32>, 2> {
     return array<vec3<f32>, 2>(vec3<f32>(channels(input_test[i])), vec3<f32>(channels(input_ref[i])));
 }
 
+// Index c + d − 5 of a line of n pixels; at an edge, mirrored as scipy's
+// mode='reflect' (metrics::ssim_kernel::reflect_index). One reflection is
+// enough: the window reaches 5 pixels past a line of at least 11. (No `%`:
+// GLSL leaves a negative operand's remainder undefined.)
+fn tap(c: i32, d: i32, n: i32, edge: bool) -> u32 {
+    let i = c + d - 5;
+    if !edge {
+        return u32(i);
+    }
+    if i < 0 {
+        return u32(-i - 1);
+    }
+    return u32(select(i, 2 * n - 1 - i, i >= n));
+}
+
+// S at pixel (cx, cy), averaged over channels; `edge`: the window reaches
+// past the image and is mirrored.
+fn ssim_at(cx: i32, cy: i32, edge: bool) -> f32 {
+    let w = i32(params.width);
+    let h = i32(params.height);
+    var mx = vec3<f32>(0.0);
+    var my = vec3<f32>(0.0);
+    for (var dy = 0; dy < 11; dy++) {
+        let wy = gauss[u32(abs(dy - 5))];
+        let y = tap(cy, dy, h, edge);
+        for (var dx = 0; dx < 11; dx++) {
+            let wt = gauss[u32(abs(dx - 5))] * wy;
+            let p = sample(tap(cx, dx, w, edge), y);
+            mx += wt * p[0];
+            my += wt * p[1];
+        }
+    }
+    var vx = vec3<f32>(0.0);
+    var vy = vec3<f32>(0.0);
+    var vxy = vec3<f32>(0.0);
+    for (var dy = 0; dy < 11; dy++) {
+        let wy = gauss[u32(abs(dy - 5))];
+        let y = tap(cy, dy, h, edge);
+        for (var dx = 0; dx < 11; dx++) {
+            let wt = gauss[u32(abs(dx - 5))] * wy;
+            let p = sample(tap(cx, dx, w, edge), y);
+            let a = p[0] - mx;
+            let b = p[1] - my;
+            vx += wt * a * a;
+            vy += wt * b * b;
+            vxy += wt * a * b;
+        }
+    }
+    let map = ((2.0 * mx * my + C1) * (2.0 * vxy + C2)) / ((mx * mx + my * my + C1) * (vx + vy + C2));
+    return (map.x + map.y + map.z) / 3.0;
+}
+
 @compute @workgroup_size(8, 8, 1)
 fn ssim(
     @builtin(global_invocation_id) id: vec3<u32>,
@@ -96,36 +153,7 @@ fn ssim(
     // Pixels of the cropped map: (5, 5) onwards, width − 10 by height − 10.
     var s = 0.0;
     if id.x + 10u < params.width && id.y + 10u < params.height {
-        let cx = id.x + 5u;
-        let cy = id.y + 5u;
-        var mx = vec3<f32>(0.0);
-        var my = vec3<f32>(0.0);
-        for (var dy = 0u; dy < 11u; dy++) {
-            let wy = gauss[u32(abs(i32(dy) - 5))];
-            for (var dx = 0u; dx < 11u; dx++) {
-                let w = gauss[u32(abs(i32(dx) - 5))] * wy;
-                let p = sample(cx + dx - 5u, cy + dy - 5u);
-                mx += w * p[0];
-                my += w * p[1];
-            }
-        }
-        var vx = vec3<f32>(0.0);
-        var vy = vec3<f32>(0.0);
-        var vxy = vec3<f32>(0.0);
-        for (var dy = 0u; dy < 11u; dy++) {
-            let wy = gauss[u32(abs(i32(dy) - 5))];
-            for (var dx = 0u; dx < 11u; dx++) {
-                let w = gauss[u32(abs(i32(dx) - 5))] * wy;
-                let p = sample(cx + dx - 5u, cy + dy - 5u);
-                let a = p[0] - mx;
-                let b = p[1] - my;
-                vx += w * a * a;
-                vy += w * b * b;
-                vxy += w * a * b;
-            }
-        }
-        let map = ((2.0 * mx * my + C1) * (2.0 * vxy + C2)) / ((mx * mx + my * my + C1) * (vx + vy + C2));
-        s = (map.x + map.y + map.z) / 3.0;
+        s = ssim_at(i32(id.x) + 5, i32(id.y) + 5, false);
     }
     wg_ssim[li] = s;
     workgroupBarrier();
@@ -138,4 +166,15 @@ fn ssim(
     if li == 0u {
         ssim_sums[wg.y * params.ssim_groups_x + wg.x] = wg_ssim[0];
     }
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn ssim_map(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= params.width || id.y >= params.height {
+        return;
+    }
+    let x = i32(id.x);
+    let y = i32(id.y);
+    let edge = x < 5 || y < 5 || x + 5 >= i32(params.width) || y + 5 >= i32(params.height);
+    ssim_out[id.y * params.width + id.x] = ssim_at(x, y, edge);
 }

@@ -4,6 +4,8 @@
 
 use super::CheckError;
 use crate::check::KeptFrame;
+use crate::gpu::compare::GpuCompare;
+use crate::image::Frame;
 use crate::metrics::{frame_diff_heatmap, frame_flip, frame_ssim, ssim_map_image};
 use std::path::Path;
 
@@ -34,11 +36,14 @@ pub fn artifact_name(scene: &str, frame: u32, adapter_slug: &str, kind: &str) ->
     format!("{scene}-{frame:03}-{adapter_slug}-{kind}.png")
 }
 
-/// The five images of one kept frame as PNG files: (name, bytes).
+/// The five images of one kept frame as PNG files: (name, bytes). With
+/// `gpu` (the check's metrics are on the device), the SSIM and FLIP maps of
+/// an 8-bit frame come from the device's passes, as its figures did.
 pub(super) fn render_frame(
     scene: &str,
     slug: &str,
     f: &KeptFrame,
+    gpu: Option<&GpuCompare>,
 ) -> Result<Vec<(String, Vec<u8>)>, CheckError> {
     let fail = |name: &str, detail: String| CheckError::Artifact {
         path: name.into(),
@@ -47,10 +52,21 @@ pub(super) fn render_frame(
     let name = |kind: &str| artifact_name(scene, f.frame, slug, kind);
     let metric = |e: crate::metrics::MetricsError| fail(&name("diff"), e.to_string());
     let diff = frame_diff_heatmap(&f.actual, &f.golden).map_err(metric)?;
-    let map = ssim_map_image(&frame_ssim(&f.actual, &f.golden).map_err(metric)?);
-    let flip = frame_flip(&f.actual, &f.golden)
-        .map_err(metric)?
-        .magma_image();
+    let on_device = match (gpu, &f.actual, &f.golden) {
+        (Some(g), Frame::Rgb8(a), Frame::Rgb8(b)) => {
+            Some(g.maps(a.raster(), b.raster()).map_err(metric)?)
+        }
+        _ => None,
+    };
+    let (ssim, flip) = match on_device {
+        Some(maps) => maps,
+        None => (
+            frame_ssim(&f.actual, &f.golden).map_err(metric)?,
+            frame_flip(&f.actual, &f.golden).map_err(metric)?,
+        ),
+    };
+    let map = ssim_map_image(&ssim);
+    let flip = flip.magma_image();
     let mut files = Vec::with_capacity(5);
     for (kind, img) in [("actual", &f.actual), ("golden", &f.golden)] {
         let bytes =

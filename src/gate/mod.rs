@@ -354,7 +354,7 @@ fn run_inner(
         let artifacts_started = std::time::Instant::now();
         if opts.artifacts.is_some() || store.is_some() {
             for f in &kept {
-                let files = artifacts::render_frame(&scene.name, &slug, f)?;
+                let files = artifacts::render_frame(&scene.name, &slug, f, gpu_metrics.as_ref())?;
                 if let Some(dir) = &opts.artifacts {
                     artifacts::write_files(dir, &files)?;
                 }

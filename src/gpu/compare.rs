@@ -13,15 +13,25 @@
 use super::flip::{read_map, upload, GpuFlip};
 use super::stages::{pipeline, read_buffer};
 use super::{GpuContext, GpuError, HdrFormat};
+use crate::image::Image;
 use crate::metrics::basic::ErrorSums;
 use crate::metrics::flip::{Flip, DEFAULT_PPD};
-use crate::metrics::{Metrics, MetricsError, Raster, SSIM_WINDOW};
+use crate::metrics::{Metrics, MetricsError, Raster, Ssim, SSIM_WINDOW};
 
 pub struct GpuCompare<'c> {
     ctx: &'c GpuContext,
     flip: GpuFlip<'c>,
     errors: wgpu::ComputePipeline,
     ssim: wgpu::ComputePipeline,
+    ssim_map: wgpu::ComputePipeline,
+}
+
+/// What one comparison on the device gives: the figures, FLIP with its
+/// map, and (when asked for) SSIM's map.
+struct Compared {
+    metrics: Metrics,
+    flip: Flip,
+    ssim_map: Option<Image<f64>>,
 }
 
 impl<'c> GpuCompare<'c> {
@@ -32,6 +42,7 @@ impl<'c> GpuCompare<'c> {
             flip: GpuFlip::new(ctx),
             errors: p("errors"),
             ssim: p("ssim"),
+            ssim_map: p("ssim_map"),
         }
     }
 
@@ -53,13 +64,48 @@ impl<'c> GpuCompare<'c> {
                 height: test.height,
             });
         }
-        self.run(test, reference).map_err(|e| MetricsError::Device {
-            metric: "the metrics",
-            detail: e.to_string(),
-        })
+        let c = self.device(test, reference, false)?;
+        Ok((c.metrics, c.flip))
     }
 
-    fn run(&self, test: Raster, reference: Raster) -> Result<(Metrics, Flip), GpuError> {
+    /// The maps of a frame whose artifacts are kept, from the same passes
+    /// as its figures: SSIM at every pixel (uncropped, mirrored at the
+    /// edges, as `metrics::ssim`'s map) and FLIP's. RGB images at least
+    /// [`SSIM_WINDOW`] wide and tall.
+    pub fn maps(&self, test: Raster, reference: Raster) -> Result<(Ssim, Flip), MetricsError> {
+        crate::metrics::raster::check_pair(&test, &reference)?;
+        if test.channels != 3 || test.width < SSIM_WINDOW || test.height < SSIM_WINDOW {
+            return Err(MetricsError::Device {
+                metric: "the SSIM and FLIP maps",
+                detail: format!(
+                    "{}x{} with {} channels: the device's maps take RGB images of at least {SSIM_WINDOW}x{SSIM_WINDOW}",
+                    test.width, test.height, test.channels
+                ),
+            });
+        }
+        let c = self.device(test, reference, true)?;
+        let map = c.ssim_map.ok_or_else(|| MetricsError::Device {
+            metric: "the SSIM map",
+            detail: "not read back".into(),
+        })?;
+        Ok((
+            Ssim {
+                mean: c.metrics.ssim,
+                map,
+            },
+            c.flip,
+        ))
+    }
+
+    fn device(&self, test: Raster, reference: Raster, map: bool) -> Result<Compared, MetricsError> {
+        self.run(test, reference, map)
+            .map_err(|e| MetricsError::Device {
+                metric: "the metrics",
+                detail: e.to_string(),
+            })
+    }
+
+    fn run(&self, test: Raster, reference: Raster, with_map: bool) -> Result<Compared, GpuError> {
         let ctx = self.ctx;
         let (width, height) = (test.width, test.height);
         ctx.check_frame(width, height)?;
@@ -120,15 +166,41 @@ impl<'c> GpuCompare<'c> {
                 (6, &ssim_sums),
             ],
         );
+        let pixels = width as u64 * height as u64;
+        let map_out = with_map.then(|| {
+            init(
+                "tonegate.compare.ssim_map",
+                &vec![0u8; (pixels * 4) as usize],
+                storage | copy,
+            )
+        });
+        let map_group = map_out.as_ref().map(|out| {
+            bind(
+                &self.ssim_map,
+                &[
+                    (0, &params),
+                    (1, &input_ref),
+                    (2, &input_test),
+                    (5, &gauss),
+                    (7, out),
+                ],
+            )
+        });
         let mut encoder = ctx
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("tonegate.compare"),
             });
+        let map_pass = map_group
+            .as_ref()
+            .map(|g| (&self.ssim_map, g, (width.div_ceil(8), height.div_ceil(8))));
         for (pipeline, group, groups) in [
             (&self.errors, &errors_group, error_groups),
             (&self.ssim, &ssim_group, ssim_groups),
-        ] {
+        ]
+        .into_iter()
+        .chain(map_pass)
+        {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("tonegate.compare"),
                 timestamp_writes: None,
@@ -143,6 +215,7 @@ impl<'c> GpuCompare<'c> {
             (&ssim_sums, n_ssim * 4),
         ]
         .into_iter()
+        .chain(map_out.as_ref().map(|b| (b, pixels * 4)))
         .map(|(source, bytes)| {
             let read = read_buffer(ctx, "tonegate.compare.read", bytes.max(16));
             encoder.copy_buffer_to_buffer(source, 0, &read, 0, bytes);
@@ -187,11 +260,23 @@ impl<'c> GpuCompare<'c> {
         let cropped = (width as u64 - 10) * (height as u64 - 10);
         let ssim = ssim_sum / cropped as f64;
         let flip = read_map(ctx, &flip_read, (width, height), ppd)?;
-        let fraction = over as f64 / (width as u64 * height as u64) as f64;
-        Ok((
-            crate::metrics::metrics_from(&sums, ssim, fraction, flip.mean()),
+        let fraction = over as f64 / pixels as f64;
+        let ssim_map = match with_map {
+            true => Some(Image {
+                width,
+                height,
+                pixels: words(3)?
+                    .into_iter()
+                    .map(|w| f64::from(f32::from_bits(w)))
+                    .collect(),
+            }),
+            false => None,
+        };
+        Ok(Compared {
+            metrics: crate::metrics::metrics_from(&sums, ssim, fraction, flip.mean()),
             flip,
-        ))
+            ssim_map,
+        })
     }
 }
 

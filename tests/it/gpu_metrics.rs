@@ -133,9 +133,17 @@ fn flip_on_the_gpu_is_nv_flips_on_gl() {
     flip_lock("gl:llvmpipe");
 }
 
+/// Each pixel of the SSIM map on the GPU against the CPU's: S is a ratio of
+/// window moments summed in f32 (121 weighted terms, each ≤ 255², about a
+/// relative 1e-6 after the sums), where the CPU's are f64; 1e-5 is ten
+/// times that. A border pixel that did not mirror its window as the CPU
+/// does is off by far more (the mean, over the cropped interior only,
+/// would not see it).
+const SSIM_MAP_BOUND: f64 = 1e-5;
+
 /// Every figure of each pair on the GPU against the CPU's on the adapter
 /// `choice` names: the integer-based ones equal, SSIM's mean within 1e-6,
-/// FLIP's within 1e-4.
+/// FLIP's within 1e-4; and the maps of a kept frame.
 fn compare_lock(choice: &str) {
     let ctx = ctx(choice);
     let g = GpuCompare::new(&ctx);
@@ -154,6 +162,7 @@ fn compare_lock(choice: &str) {
     let (a, _) = noise_pair(40, 30, 2);
     pairs.push(("identical".into(), a.clone(), a));
     let mut worst_ssim = 0.0f64;
+    let mut worst_map = 0.0f64;
     for (name, test, reference) in &pairs {
         let (cpu, _) = tonegate::metrics::compare_with_flip(test.raster(), reference.raster())
             .expect("the CPU's figures");
@@ -193,13 +202,35 @@ fn compare_lock(choice: &str) {
             "{name}: FLIP"
         );
         worst_ssim = worst_ssim.max(ds);
+        // The maps of a kept frame: SSIM's at every pixel against the CPU's
+        // (borders mirrored), FLIP's the figures' own.
+        let (ssim, map_flip) = g
+            .maps(test.raster(), reference.raster())
+            .unwrap_or_else(|e| panic!("{name}: maps: {e}"));
+        let cpu_ssim = tonegate::metrics::ssim(test.raster(), reference.raster()).expect("SSIM");
+        assert_eq!(ssim.mean.to_bits(), gpu.ssim.to_bits(), "{name}");
+        assert_eq!(map_flip.map.pixels, flip.map.pixels, "{name}: FLIP map");
+        assert_eq!(ssim.map.pixels.len(), cpu_ssim.map.pixels.len(), "{name}");
+        let pixel = ssim
+            .map
+            .pixels
+            .iter()
+            .zip(&cpu_ssim.map.pixels)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0f64, f64::max);
+        assert!(
+            pixel <= SSIM_MAP_BOUND,
+            "{name} on {}: SSIM map off by {pixel:e}",
+            ctx.adapter.name
+        );
+        worst_map = worst_map.max(pixel);
         eprintln!(
-            "{name}: SSIM {:.9} against {:.9}; MSE {}",
+            "{name}: SSIM {:.9} against {:.9}; MSE {}; worst SSIM map pixel {pixel:.2e}",
             cpu.ssim, gpu.ssim, cpu.mse
         );
     }
     eprintln!(
-        "worst |SSIM difference| {worst_ssim:.2e} on {} ({})",
+        "worst |SSIM difference| {worst_ssim:.2e}, worst SSIM map pixel {worst_map:.2e} on {} ({})",
         ctx.adapter.name, ctx.adapter.backend
     );
     // Under SSIM's window: refused as the CPU refuses it.
@@ -209,7 +240,8 @@ fn compare_lock(choice: &str) {
 }
 
 // Measured worst |SSIM difference| on 2026-11-27: 4.9e-8 on each of the
-// three.
+// three; worst SSIM map pixel 1.5e-6 (lavapipe, GL) and 1.4e-6
+// (SwiftShader).
 #[test]
 fn every_figure_on_the_gpu_is_the_cpus_on_lavapipe() {
     compare_lock("default");
@@ -250,6 +282,7 @@ fn check_takes_the_metrics_from_the_gpu_when_asked() {
     let dir = tempfile::tempdir().unwrap();
     let report = |metrics: &str| {
         let json = dir.path().join(format!("{metrics}.json"));
+        let artifacts = dir.path().join(metrics);
         let o = crate::common::tonegate(&[
             "check",
             "--no-history",
@@ -261,6 +294,8 @@ fn check_takes_the_metrics_from_the_gpu_when_asked() {
             metrics,
             "--json",
             json.to_str().unwrap(),
+            "--artifacts",
+            artifacts.to_str().unwrap(),
         ]);
         assert_eq!(
             o.status.code(),
@@ -308,6 +343,50 @@ fn check_takes_the_metrics_from_the_gpu_when_asked() {
         let (gs, cs) = (gm["ssim"].as_f64().unwrap(), cm["ssim"].as_f64().unwrap());
         assert!((gs - cs).abs() <= 1e-6, "SSIM {gs} against {cs}");
     }
+    // The kept frames' maps come from the device's passes under `gpu`: the
+    // SSIM and FLIP PNGs are the device's maps of the kept pair, pixel for
+    // pixel.
+    let ctx = ctx("default");
+    let device = GpuCompare::new(&ctx);
+    let mut seen = 0;
+    for entry in std::fs::read_dir(dir.path().join("gpu")).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_str().unwrap().to_owned();
+        let Some(stem) = name.strip_suffix("-actual.png") else {
+            continue;
+        };
+        let actual = tonegate::io::read_png8(&path).unwrap();
+        let scene = ["grid-static", "interior-agx-punchy"]
+            .into_iter()
+            .find(|s| stem.starts_with(s))
+            .unwrap();
+        let n: u32 = stem[scene.len() + 1..scene.len() + 4].parse().unwrap();
+        let (ssim, flip) = device
+            .maps(actual.raster(), golden(scene, n).raster())
+            .unwrap();
+        let png = |kind: &str| {
+            tonegate::io::read_png8(&dir.path().join("gpu").join(format!("{stem}-{kind}.png")))
+                .unwrap()
+        };
+        for (kind, want) in [
+            ("ssim", tonegate::metrics::ssim_map_image(&ssim)),
+            ("flip", flip.magma_image()),
+        ] {
+            let got = png(kind);
+            let differ = got
+                .pixels
+                .iter()
+                .zip(&want.pixels)
+                .filter(|(a, b)| a != b)
+                .count();
+            assert!(
+                (got.width, got.height) == (want.width, want.height) && differ == 0,
+                "{stem}: {differ} pixels of the {kind} map are not the device's"
+            );
+        }
+        seen += 1;
+    }
+    assert!(seen >= 2, "a kept frame per scene, {seen} seen");
     let o = crate::common::tonegate(&["check", "--no-history", "--cpu", "--metrics", "gpu"]);
     assert_eq!(o.status.code(), Some(2));
     let e = String::from_utf8_lossy(&o.stderr);
