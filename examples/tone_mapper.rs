@@ -104,7 +104,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             operator,
             encoding: Encoding::Srgb,
         },
-    );
+    )?;
+    // Every pipeline now, so the first frame does not compile any.
+    mapper.prepare();
 
     // One frame: the application's pass, tonegate's, the copy out.
     let row = (WIDTH * 4).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);

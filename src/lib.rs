@@ -53,4 +53,4 @@ pub mod tradeoff;
 
 pub use error::{Error, Result};
 #[cfg(feature = "gpu")]
-pub use gpu::{ToneMapper, ToneMapperSettings};
+pub use gpu::{ToneMapper, ToneMapperError, ToneMapperSettings};

@@ -248,7 +248,6 @@ impl GpuContext {
     }
 
     /// How many compiled pipelines the context keeps now.
-    #[cfg(test)]
     pub(crate) fn cached_pipelines(&self) -> usize {
         self.pipelines
             .lock()

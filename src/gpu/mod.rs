@@ -30,7 +30,7 @@ pub use luminance_stats::GpuStats;
 pub use pool::{size_class, RendererPool};
 pub use readback::{GpuFrame, Ticket, FRAMES_IN_FLIGHT};
 pub use renderer::GpuRenderer;
-pub use tone_mapper::{ToneMapper, ToneMapperSettings};
+pub use tone_mapper::{TextureRole, ToneMapper, ToneMapperError, ToneMapperSettings};
 pub use wiring::GpuInput;
 // The stages' override constants, for the range-safety proof
 // (`stress::range_safety`), which evaluates the shaders with them.
@@ -96,9 +96,6 @@ pub enum GpuError {
     /// The driver's validation layer reported an error (`WGPU_VALIDATION=1`).
     #[error("validation layer error (a tonegate bug, please report): {0}")]
     LayerError(String),
-    /// A caller's texture that `ToneMapper` cannot use: which, and why.
-    #[error("{0}")]
-    Texture(String),
     /// Reading results back failed.
     #[error("GPU readback failed: {0}")]
     Readback(String),

@@ -29,6 +29,78 @@ pub const INPUT_FORMATS: [wgpu::TextureFormat; 2] = [
     wgpu::TextureFormat::Rgba16Float,
 ];
 
+/// Which of the two textures a [`ToneMapperError`] is about.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TextureRole {
+    /// The HDR texture read.
+    Input,
+    /// The 8-bit texture written.
+    Output,
+}
+
+impl std::fmt::Display for TextureRole {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            TextureRole::Input => "input",
+            TextureRole::Output => "output",
+        })
+    }
+}
+
+/// Why a [`ToneMapper`] refused its settings or a pair of textures, before
+/// anything was recorded. Each variant carries what a caller needs to act
+/// on it; the messages say the same in words.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ToneMapperError {
+    /// PQ frames are 16-bit; the output texture is 8-bit.
+    #[error("encoding pq: a PQ frame is 16-bit, and the tone mapper writes an Rgba8Unorm texture; use the sRGB transfer or a gamma")]
+    PqIntoEightBits,
+    /// The input is not one of [`INPUT_FORMATS`].
+    #[error("the input texture is {format:?}; the tone mapper reads Rgba32Float or Rgba16Float (linear HDR)")]
+    InputFormat {
+        /// The input's format.
+        format: wgpu::TextureFormat,
+    },
+    /// The output is not [`OUTPUT_FORMAT`].
+    #[error("the output texture is {format:?}; the tone mapper writes Rgba8Unorm (sRGB-encoded values; a storage texture cannot be Rgba8UnormSrgb)")]
+    OutputFormat {
+        /// The output's format.
+        format: wgpu::TextureFormat,
+    },
+    /// A texture lacks a usage the mapper binds it with.
+    #[error("the {texture} texture lacks {} usage", usage_name(*.usage))]
+    MissingUsage {
+        /// Which texture.
+        texture: TextureRole,
+        /// The usage it lacks.
+        usage: wgpu::TextureUsages,
+    },
+    /// A texture that is not one 2-D layer with one sample.
+    #[error("the {texture} texture must be a single 2-D layer, not multisampled")]
+    NotSingleLayer {
+        /// Which texture.
+        texture: TextureRole,
+    },
+    /// The two textures differ in size.
+    #[error("the input texture is {}x{} and the output {}x{}; they must be the same size", .input.0, .input.1, .output.0, .output.1)]
+    SizeMismatch {
+        /// The input's width and height.
+        input: (u32, u32),
+        /// The output's width and height.
+        output: (u32, u32),
+    },
+    /// Over the device's limits ([`GpuError::TooLarge`] or
+    /// [`GpuError::FrameTooLarge`]).
+    #[error(transparent)]
+    Limits(GpuError),
+}
+
+fn usage_name(usage: wgpu::TextureUsages) -> String {
+    let names: Vec<&str> = usage.iter_names().map(|(name, _)| name).collect();
+    names.join(" | ")
+}
+
 /// How a [`ToneMapper`] maps: the operator with its parameters, and the
 /// display encoding.
 #[derive(Clone, Debug)]
@@ -37,7 +109,7 @@ pub struct ToneMapperSettings {
     /// `operators::register`).
     pub operator: Operator,
     /// The display encoding: the sRGB transfer or a gamma (a PQ encoding is
-    /// refused by [`ToneMapper::record`]: its output texture is 8-bit).
+    /// refused by [`ToneMapper::new`]: its output texture is 8-bit).
     pub encoding: Encoding,
 }
 
@@ -64,9 +136,11 @@ struct Bound {
 /// caller's device.
 ///
 /// ```no_run
-/// # fn demo(device: &wgpu::Device, queue: &wgpu::Queue, hdr: &wgpu::Texture, ldr: &wgpu::Texture) -> Result<(), tonegate::gpu::GpuError> {
+/// # fn demo(device: &wgpu::Device, queue: &wgpu::Queue, hdr: &wgpu::Texture, ldr: &wgpu::Texture) -> Result<(), tonegate::gpu::ToneMapperError> {
 /// use tonegate::gpu::{ToneMapper, ToneMapperSettings};
-/// let mut mapper = ToneMapper::new(device, queue, ToneMapperSettings::default());
+/// let mut mapper = ToneMapper::new(device, queue, ToneMapperSettings::default())?;
+/// // Every pipeline now, not in the first frame.
+/// mapper.prepare();
 /// let mut encoder = device.create_command_encoder(&Default::default());
 /// mapper.record(&mut encoder, hdr, ldr)?;
 /// queue.submit([encoder.finish()]);
@@ -82,14 +156,16 @@ pub struct ToneMapper {
 }
 
 impl ToneMapper {
-    /// A tone mapper on the caller's `device` and `queue`. Pipelines are
-    /// compiled on the first [`ToneMapper::record`] and kept; the operator's
+    /// A tone mapper on the caller's `device` and `queue`, or why not (a PQ
+    /// encoding). Pipelines are compiled by [`ToneMapper::prepare`], or else
+    /// on the first [`ToneMapper::record`], and kept; the operator's
     /// parameters are written to a uniform through `queue` here.
     pub fn new(
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         settings: ToneMapperSettings,
-    ) -> ToneMapper {
+    ) -> Result<ToneMapper, ToneMapperError> {
+        check_settings(&settings)?;
         let ctx = GpuContext::from_device(device, queue);
         // The reduction tonegate's own renderer picks on this adapter.
         let reduction = ReductionMethod::Auto.resolve(ctx.traits());
@@ -99,19 +175,81 @@ impl ToneMapper {
             "tonegate.luminance_stats",
             std::mem::size_of::<GpuStats>() as u64,
         );
-        ToneMapper {
+        Ok(ToneMapper {
             ctx,
             settings,
             reduction,
             params,
             stats,
             bound: None,
-        }
+        })
     }
 
     /// What it maps with.
     pub fn settings(&self) -> &ToneMapperSettings {
         &self.settings
+    }
+
+    /// Compiles every pipeline the current settings need, so that the
+    /// first [`ToneMapper::record`] does not (a frame's hitch otherwise).
+    /// The pipelines do not depend on the frame's size: a one-pixel pair
+    /// is wired and dropped, and the pipelines stay in the mapper's cache.
+    pub fn prepare(&self) {
+        let texture = |format, usage| {
+            self.ctx.device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("tonegate.tone_mapper.prepare"),
+                size: wgpu::Extent3d {
+                    width: 1,
+                    height: 1,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage,
+                view_formats: &[],
+            })
+        };
+        let input = texture(INPUT_FORMATS[0], wgpu::TextureUsages::TEXTURE_BINDING);
+        let output = texture(OUTPUT_FORMAT, wgpu::TextureUsages::STORAGE_BINDING);
+        drop(self.wire(&input, &output));
+    }
+
+    /// How many pipelines the mapper has compiled so far (each operator,
+    /// operator constants and stage once): what a caller counts to see that
+    /// a settings change compiled nothing.
+    pub fn compiled_pipelines(&self) -> usize {
+        self.ctx.cached_pipelines()
+    }
+
+    /// Maps with `settings` from the next [`ToneMapper::record`] on. The
+    /// same operator with other parameters held in its uniform (the
+    /// exposure, a Reinhard key, …) is one uniform write through the
+    /// queue: nothing is compiled and the bindings stay. A parameter that
+    /// is one of the operator's shader constants, or another operator, is
+    /// a new pipeline, compiled once (on the next `prepare` or `record`)
+    /// and kept, so switching back compiles nothing.
+    pub fn set_settings(&mut self, settings: ToneMapperSettings) -> Result<(), ToneMapperError> {
+        check_settings(&settings)?;
+        let (op, was) = (&settings.operator, &self.settings.operator);
+        let config = ToneParams::config_of(op);
+        let same_shader = op.definition().wgsl() == self.params.module
+            && ToneParams::constants_of(op, None) == self.params.constants
+            && op.needs() == was.needs()
+            && op.luminance() == was.luminance()
+            && settings.encoding == self.settings.encoding
+            && (config.len() * 4) as u64 == self.params.config.size();
+        if same_shader {
+            self.ctx
+                .queue
+                .write_buffer(&self.params.config, 0, bytemuck::cast_slice(&config));
+        } else {
+            self.params = ToneParams::new(&self.ctx, op, None);
+            self.bound = None;
+        }
+        self.settings = settings;
+        Ok(())
     }
 
     /// Records the tone mapping of `input` into `output` as one compute pass
@@ -127,12 +265,7 @@ impl ToneMapper {
         encoder: &mut wgpu::CommandEncoder,
         input: &wgpu::Texture,
         output: &wgpu::Texture,
-    ) -> Result<(), GpuError> {
-        if self.settings.encoding == Encoding::Pq {
-            return Err(GpuError::Texture(
-                "encoding pq: a PQ frame is 16-bit, and the tone mapper writes an Rgba8Unorm texture; use the sRGB transfer or a gamma".into(),
-            ));
-        }
+    ) -> Result<(), ToneMapperError> {
         let reuse = self
             .bound
             .as_ref()
@@ -210,52 +343,51 @@ impl ToneMapper {
     }
 }
 
+/// Refuses settings a [`ToneMapper`] cannot map with.
+fn check_settings(settings: &ToneMapperSettings) -> Result<(), ToneMapperError> {
+    match settings.encoding {
+        Encoding::Pq => Err(ToneMapperError::PqIntoEightBits),
+        _ => Ok(()),
+    }
+}
+
 /// Refuses textures [`ToneMapper::record`] cannot use, naming which and why.
 fn check_textures(
     ctx: &GpuContext,
     input: &wgpu::Texture,
     output: &wgpu::Texture,
-) -> Result<(), GpuError> {
-    let bad = |what: String| Err(GpuError::Texture(what));
+) -> Result<(), ToneMapperError> {
+    use wgpu::TextureUsages as U;
     if !INPUT_FORMATS.contains(&input.format()) {
-        return bad(format!(
-            "the input texture is {:?}; the tone mapper reads Rgba32Float or Rgba16Float (linear HDR)",
-            input.format()
-        ));
-    }
-    if !input.usage().contains(wgpu::TextureUsages::TEXTURE_BINDING) {
-        return bad("the input texture lacks TEXTURE_BINDING usage".into());
+        return Err(ToneMapperError::InputFormat {
+            format: input.format(),
+        });
     }
     if output.format() != OUTPUT_FORMAT {
-        return bad(format!(
-            "the output texture is {:?}; the tone mapper writes Rgba8Unorm (sRGB-encoded values; a storage texture cannot be Rgba8UnormSrgb)",
-            output.format()
-        ));
+        return Err(ToneMapperError::OutputFormat {
+            format: output.format(),
+        });
     }
-    if !output
-        .usage()
-        .contains(wgpu::TextureUsages::STORAGE_BINDING)
-    {
-        return bad("the output texture lacks STORAGE_BINDING usage".into());
-    }
-    for (name, t) in [("input", input), ("output", output)] {
+    for (texture, t, usage) in [
+        (TextureRole::Input, input, U::TEXTURE_BINDING),
+        (TextureRole::Output, output, U::STORAGE_BINDING),
+    ] {
+        if !t.usage().contains(usage) {
+            return Err(ToneMapperError::MissingUsage { texture, usage });
+        }
         if t.dimension() != wgpu::TextureDimension::D2
             || t.depth_or_array_layers() != 1
             || t.sample_count() != 1
         {
-            return bad(format!(
-                "the {name} texture must be a single 2-D layer, not multisampled"
-            ));
+            return Err(ToneMapperError::NotSingleLayer { texture });
         }
     }
     if input.size() != output.size() {
-        return bad(format!(
-            "the input texture is {}x{} and the output {}x{}; they must be the same size",
-            input.width(),
-            input.height(),
-            output.width(),
-            output.height()
-        ));
+        return Err(ToneMapperError::SizeMismatch {
+            input: (input.width(), input.height()),
+            output: (output.width(), output.height()),
+        });
     }
     ctx.check_frame(input.width(), input.height())
+        .map_err(ToneMapperError::Limits)
 }

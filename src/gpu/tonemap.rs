@@ -19,22 +19,30 @@ pub struct ToneParams {
 
 impl ToneParams {
     pub fn new(ctx: &GpuContext, op: &Operator, fault_gain: Option<f32>) -> ToneParams {
-        let def = op.definition();
-        let mut config = def.gpu_config(op.values());
-        // A uniform's size is a multiple of 16 bytes; an empty one still
-        // binds.
-        config.resize(config.len().div_ceil(4).max(1) * 4, 0.0);
-        let mut constants = def.gpu_constants(op.values());
-        constants.push(("FAULT_GAIN", fault_gain.unwrap_or(1.0) as f64));
         ToneParams {
             config: uniform_buffer(
                 ctx,
                 "tonegate.tonemap.config",
-                bytemuck::cast_slice(&config),
+                bytemuck::cast_slice(&ToneParams::config_of(op)),
             ),
-            module: def.wgsl(),
-            constants,
+            module: op.definition().wgsl(),
+            constants: ToneParams::constants_of(op, fault_gain),
         }
+    }
+
+    /// The `OperatorConfig` uniform's contents for `op`, padded to whole
+    /// 16-byte rows (an empty one still binds).
+    pub fn config_of(op: &Operator) -> Vec<f32> {
+        let mut config = op.definition().gpu_config(op.values());
+        config.resize(config.len().div_ceil(4).max(1) * 4, 0.0);
+        config
+    }
+
+    /// The override constants for `op`, then `FAULT_GAIN`.
+    pub fn constants_of(op: &Operator, fault_gain: Option<f32>) -> Vec<(&'static str, f64)> {
+        let mut constants = op.definition().gpu_constants(op.values());
+        constants.push(("FAULT_GAIN", fault_gain.unwrap_or(1.0) as f64));
+        constants
     }
 
     /// The pipeline for `entry` of `stage` (`tonemap` or `fused`) with this

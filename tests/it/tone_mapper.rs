@@ -4,13 +4,14 @@
 //! same image on the same adapter (lavapipe), bit for bit.
 
 use tonegate::gpu::tone_mapper::OUTPUT_FORMAT;
+use tonegate::gpu::TextureRole;
 use tonegate::gpu::{AdapterChoice, GpuConfig, GpuContext, GpuInput, GpuRenderer};
 use tonegate::image::HdrImage;
 use tonegate::operators::{Operator, Value};
 use tonegate::plan::{Input, StagePlan};
 use tonegate::reference::Pipeline;
 use tonegate::scene::Encoding;
-use tonegate::{ToneMapper, ToneMapperSettings};
+use tonegate::{ToneMapper, ToneMapperError, ToneMapperSettings};
 
 /// An application's own device on lavapipe, with no features asked for: a
 /// plain `request_device`, as an application that knows nothing of
@@ -201,7 +202,8 @@ fn the_tone_mapper_on_an_applications_device_writes_tonegates_own_bits() {
                 operator: op.clone(),
                 encoding,
             },
-        );
+        )
+        .unwrap();
         // Twice through the same mapper and textures: the kept resources
         // give the same bytes.
         for round in 0..2 {
@@ -228,7 +230,7 @@ fn the_tone_mapper_on_an_applications_device_writes_tonegates_own_bits() {
 #[test]
 fn textures_the_tone_mapper_cannot_use_are_refused_with_the_reason() {
     let (device, queue) = own_device();
-    let mut mapper = ToneMapper::new(&device, &queue, ToneMapperSettings::default());
+    let mut mapper = ToneMapper::new(&device, &queue, ToneMapperSettings::default()).unwrap();
     let hdr = |size, format| {
         texture(
             &device,
@@ -247,20 +249,32 @@ fn textures_the_tone_mapper_cannot_use_are_refused_with_the_reason() {
     };
     let good_in = hdr((64, 32), wgpu::TextureFormat::Rgba16Float);
     let good_out = ldr((64, 32), OUTPUT_FORMAT);
-    let cases = [
+    type Is = fn(&ToneMapperError) -> bool;
+    let cases: [(wgpu::Texture, wgpu::Texture, Is, &str); 5] = [
         (
             hdr((64, 32), wgpu::TextureFormat::Rgba8Unorm),
             good_out.clone(),
+            |e| matches!(e, ToneMapperError::InputFormat { format } if *format == wgpu::TextureFormat::Rgba8Unorm),
             "the input texture is Rgba8Unorm",
         ),
         (
             good_in.clone(),
             ldr((64, 32), wgpu::TextureFormat::Rgba16Float),
+            |e| matches!(e, ToneMapperError::OutputFormat { format } if *format == wgpu::TextureFormat::Rgba16Float),
             "the output texture is Rgba16Float",
         ),
         (
             good_in.clone(),
             ldr((64, 31), OUTPUT_FORMAT),
+            |e| {
+                matches!(
+                    e,
+                    ToneMapperError::SizeMismatch {
+                        input: (64, 32),
+                        output: (64, 31)
+                    }
+                )
+            },
             "the input texture is 64x32 and the output 64x31",
         ),
         (
@@ -271,13 +285,26 @@ fn textures_the_tone_mapper_cannot_use_are_refused_with_the_reason() {
                 OUTPUT_FORMAT,
                 wgpu::TextureUsages::COPY_SRC,
             ),
-            "lacks STORAGE_BINDING",
+            |e| matches!(e, ToneMapperError::MissingUsage { texture: TextureRole::Output, usage } if *usage == wgpu::TextureUsages::STORAGE_BINDING),
+            "the output texture lacks STORAGE_BINDING usage",
+        ),
+        (
+            texture(
+                &device,
+                (64, 32),
+                wgpu::TextureFormat::Rgba32Float,
+                wgpu::TextureUsages::COPY_DST,
+            ),
+            good_out.clone(),
+            |e| matches!(e, ToneMapperError::MissingUsage { texture: TextureRole::Input, usage } if *usage == wgpu::TextureUsages::TEXTURE_BINDING),
+            "the input texture lacks TEXTURE_BINDING usage",
         ),
     ];
-    for (input, output, want) in cases {
+    for (input, output, is, says) in cases {
         let mut encoder = device.create_command_encoder(&Default::default());
         let e = mapper.record(&mut encoder, &input, &output).unwrap_err();
-        assert!(e.to_string().contains(want), "{e} (wanted {want:?})");
+        assert!(is(&e), "{e:?}");
+        assert!(e.to_string().starts_with(says), "{e} (wanted {says:?})");
     }
     // The good pair (an f16 input) still records and runs after the refusals.
     let mut encoder = device.create_command_encoder(&Default::default());
@@ -285,16 +312,96 @@ fn textures_the_tone_mapper_cannot_use_are_refused_with_the_reason() {
     queue.submit([encoder.finish()]);
     device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
     // PQ frames are 16-bit: not into an 8-bit texture, even from an
-    // operator that has display levels.
-    let mut pq = ToneMapper::new(
-        &device,
-        &queue,
-        ToneMapperSettings {
-            operator: tonegate::scene::Operator::named("bt2390", &[]).unwrap(),
-            encoding: tonegate::scene::Encoding::Pq,
-        },
+    // operator that has display levels; refused when asked for, by `new`
+    // and by `set_settings`, and the mapper keeps what it had.
+    let pq = ToneMapperSettings {
+        operator: Operator::named("bt2390", &[]).unwrap(),
+        encoding: Encoding::Pq,
+    };
+    let e = ToneMapper::new(&device, &queue, pq.clone()).err().unwrap();
+    assert!(matches!(e, ToneMapperError::PqIntoEightBits), "{e:?}");
+    assert!(e.to_string().starts_with("encoding pq"), "{e}");
+    let e = mapper.set_settings(pq).unwrap_err();
+    assert!(matches!(e, ToneMapperError::PqIntoEightBits), "{e:?}");
+    assert_eq!(mapper.settings().encoding, Encoding::Srgb);
+}
+
+/// An application's frame loop: `prepare` compiles every pipeline; then
+/// 100 frames into a ring of three targets (a swap chain's), the exposure
+/// changing every frame, compile nothing more. The frames are the bytes a
+/// mapper made for that exposure gives, so the uniform write took effect;
+/// switching to another operator compiles once, and switching back nothing.
+#[test]
+fn exposure_changes_per_frame_compile_nothing_after_prepare() {
+    let (device, queue) = own_device();
+    let img = night_and_ramp();
+    let input = hdr_input(&device, &queue, &img);
+    let targets: Vec<wgpu::Texture> = (0..3)
+        .map(|_| {
+            texture(
+                &device,
+                (img.width, img.height),
+                OUTPUT_FORMAT,
+                wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::COPY_SRC,
+            )
+        })
+        .collect();
+    let agx = |exposure: f64| ToneMapperSettings {
+        operator: Operator::named("agx", &[("exposure", Value::Number(exposure))]).unwrap(),
+        encoding: Encoding::Srgb,
+    };
+    let exposure = |n: u32| 0.25 * 1.05f64.powi(n as i32);
+    let mut mapper = ToneMapper::new(&device, &queue, agx(exposure(0))).unwrap();
+    assert_eq!(mapper.compiled_pipelines(), 0, "nothing before prepare");
+    mapper.prepare();
+    let prepared = mapper.compiled_pipelines();
+    assert!(prepared >= 2, "tonemap and encode at least: {prepared}");
+    let mut checked = 0;
+    for n in 0..100u32 {
+        mapper.set_settings(agx(exposure(n))).unwrap();
+        let target = &targets[n as usize % 3];
+        let mut encoder = device.create_command_encoder(&Default::default());
+        mapper.record(&mut encoder, &input, target).unwrap();
+        queue.submit([encoder.finish()]);
+        if n % 33 == 0 {
+            let got = read_rgb(&device, &queue, target);
+            let mut fresh = ToneMapper::new(&device, &queue, agx(exposure(n))).unwrap();
+            let other = &targets[(n as usize + 1) % 3];
+            let mut encoder = device.create_command_encoder(&Default::default());
+            fresh.record(&mut encoder, &input, other).unwrap();
+            queue.submit([encoder.finish()]);
+            assert!(got == read_rgb(&device, &queue, other), "frame {n}");
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 4);
+    assert_eq!(
+        mapper.compiled_pipelines(),
+        prepared,
+        "a pipeline was compiled after prepare"
     );
+    // Frames 0 and 99 differ: the exposure moved the image.
     let mut encoder = device.create_command_encoder(&Default::default());
-    let e = pq.record(&mut encoder, &good_in, &good_out).unwrap_err();
-    assert!(e.to_string().contains("encoding pq"), "{e}");
+    mapper.set_settings(agx(exposure(0))).unwrap();
+    mapper.record(&mut encoder, &input, &targets[0]).unwrap();
+    queue.submit([encoder.finish()]);
+    let first = read_rgb(&device, &queue, &targets[0]);
+    mapper.set_settings(agx(exposure(99))).unwrap();
+    let mut encoder = device.create_command_encoder(&Default::default());
+    mapper.record(&mut encoder, &input, &targets[0]).unwrap();
+    queue.submit([encoder.finish()]);
+    assert!(first != read_rgb(&device, &queue, &targets[0]));
+    // Another operator is new pipelines, once; back again is none.
+    let hable = ToneMapperSettings {
+        operator: Operator::named("hable", &[]).unwrap(),
+        encoding: Encoding::Srgb,
+    };
+    mapper.set_settings(hable.clone()).unwrap();
+    mapper.prepare();
+    let with_hable = mapper.compiled_pipelines();
+    assert!(with_hable > prepared);
+    mapper.set_settings(agx(1.0)).unwrap();
+    mapper.set_settings(hable).unwrap();
+    mapper.prepare();
+    assert_eq!(mapper.compiled_pipelines(), with_hable);
 }
