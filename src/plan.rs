@@ -3,7 +3,8 @@
 //! Both renderers execute a plan; a stage that is not in it is neither built,
 //! dispatched nor timed. `tonegate plan scene.toml` prints it.
 
-use crate::scene::{BrightPass, Encoding, Grade, Operator, Scene, TaaParams, TaaVariant};
+use crate::operators::Operator;
+use crate::scene::{BrightPass, Encoding, Grade, Scene, TaaParams, TaaVariant};
 use serde::Serialize;
 use std::fmt;
 

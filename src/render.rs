@@ -121,7 +121,7 @@ impl RenderedFrame {
     }
 
     /// The operator's resolved values for this frame (`op` reads the GPU's).
-    pub fn tone(&self, op: &crate::scene::Operator) -> crate::operators::ToneParams {
+    pub fn tone(&self, op: &crate::operators::Operator) -> crate::operators::ToneParams {
         match &self.detail {
             FrameDetail::Cpu(s) => s.tone.clone(),
             FrameDetail::Gpu { stats, .. } => op.gpu_resolved(stats.tone),

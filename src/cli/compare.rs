@@ -6,7 +6,7 @@ use clap::Args;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use tonegate::error::Result;
-use tonegate::metrics::hdr_flip::ToneMapper;
+use tonegate::metrics::hdr_flip::FlipToneCurve;
 
 #[derive(Args)]
 pub struct CompareArgs {
@@ -39,8 +39,8 @@ pub struct CompareArgs {
     #[arg(long)]
     pub peak: Option<f64>,
     /// HDR-FLIP's tone mapper: aces (the default), hable or reinhard.
-    #[arg(long, value_parser = super::by_name::<ToneMapper>)]
-    pub tone_mapper: Option<ToneMapper>,
+    #[arg(long, value_parser = super::by_name::<FlipToneCurve>)]
+    pub tone_mapper: Option<FlipToneCurve>,
     /// HDR-FLIP's first exposure in stops (default: from the reference's maximum).
     #[arg(long, allow_hyphen_values = true)]
     pub start_exposure: Option<f64>,
@@ -208,7 +208,7 @@ fn compare_hdr(a: &CompareArgs, test: &Path, reference: &Path) -> Result<ExitCod
         peak: a.peak.unwrap_or(tonegate::metrics::pu21::DEFAULT_PEAK),
         flip: HdrFlipOptions {
             ppd: a.ppd.unwrap_or(tonegate::metrics::flip::DEFAULT_PPD),
-            tone_mapper: a.tone_mapper.unwrap_or(ToneMapper::Aces),
+            tone_mapper: a.tone_mapper.unwrap_or(FlipToneCurve::Aces),
             start: a.start_exposure,
             stop: a.stop_exposure,
             exposures: a.exposures,

@@ -10,12 +10,11 @@ use super::timing::TIMING_SLOTS;
 use super::{AdapterReport, GpuConfig, GpuContext, GpuError, GpuInput, GpuRenderer, HdrFormat};
 use crate::conventions::{rotation_matrix, Camera};
 use crate::env::BuiltinEnv;
+use crate::operators::Operator;
 use crate::perf::{quantile, summarise, StageTiming};
 use crate::plan::StagePlan;
 use crate::reference::Pipeline;
-use crate::scene::{
-    Bloom, BrightPass, Encoding, Factor, NonNegative, Operator, Positive, Radius, TaaParams,
-};
+use crate::scene::{Bloom, BrightPass, Encoding, Factor, NonNegative, Positive, Radius, TaaParams};
 use serde::Serialize;
 
 #[derive(Clone, Debug)]

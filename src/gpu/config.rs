@@ -241,7 +241,7 @@ mod tests {
         }
         let plan = StagePlan::build(
             crate::plan::Input::Flat,
-            &crate::scene::Operator::named("reinhard-auto-key", &[]).unwrap(),
+            &crate::operators::Operator::named("reinhard-auto-key", &[]).unwrap(),
             None,
             None,
         );

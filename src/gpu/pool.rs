@@ -4,9 +4,10 @@
 
 use super::{GpuConfig, GpuContext, GpuError, GpuInput, GpuRenderer};
 use crate::image::HdrImage;
+use crate::operators::Operator;
 use crate::plan::StagePlan;
 use crate::reference::Pipeline;
-use crate::scene::{Bloom, Encoding, Grade, Operator};
+use crate::scene::{Bloom, Encoding, Grade};
 
 /// What a kept renderer was built for: its textures' size class, its plan,
 /// the parameters its uniforms and override constants hold, and the GPU

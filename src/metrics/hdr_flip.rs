@@ -9,10 +9,11 @@ use crate::image::{HdrImage, Image};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-/// The tone mapper HDR-FLIP renders each exposure with (FLIP's three).
+/// The tone curve HDR-FLIP renders each exposure with (FLIP's three; not
+/// tonegate's [`ToneMapper`](crate::gpu::ToneMapper) nor an operator).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
-pub enum ToneMapper {
+pub enum FlipToneCurve {
     /// Narkowicz's ACES fit, pre-exposure 0.6 cancelled: FLIP's default.
     #[default]
     Aces,
@@ -22,13 +23,13 @@ pub enum ToneMapper {
     Reinhard,
 }
 
-impl ToneMapper {
+impl FlipToneCurve {
     /// FLIP's rational-curve coefficients (x(c0·x + c1) + c2) / (x(c3·x +
     /// c4) + c5), per channel; Reinhard is c1 = c4 = c5 = 1 on luminance.
     fn coefficients(self) -> [f32; 6] {
         match self {
-            ToneMapper::Reinhard => [0.0, 1.0, 0.0, 0.0, 1.0, 1.0],
-            ToneMapper::Aces => [
+            FlipToneCurve::Reinhard => [0.0, 1.0, 0.0, 0.0, 1.0, 1.0],
+            FlipToneCurve::Aces => [
                 0.6 * 0.6 * 2.51,
                 0.6 * 0.03,
                 0.0,
@@ -36,7 +37,7 @@ impl ToneMapper {
                 0.6 * 0.59,
                 0.14,
             ],
-            ToneMapper::Hable => [0.231683, 0.013791, 0.0, 0.18, 0.3, 0.018],
+            FlipToneCurve::Hable => [0.231683, 0.013791, 0.0, 0.18, 0.3, 0.018],
         }
     }
 
@@ -54,7 +55,7 @@ impl ToneMapper {
     }
 
     fn apply(self, p: [f32; 3]) -> [f32; 3] {
-        if self == ToneMapper::Reinhard {
+        if self == FlipToneCurve::Reinhard {
             let y = 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
             let f = 1.0 / (1.0 + y);
             return p.map(|c| c * f);
@@ -69,7 +70,7 @@ impl ToneMapper {
 #[derive(Clone, Debug)]
 pub struct HdrFlipOptions {
     pub ppd: f64,
-    pub tone_mapper: ToneMapper,
+    pub tone_mapper: FlipToneCurve,
     /// First exposure (stops); default log2(x₀.₈₅ / max luminance of the reference).
     pub start: Option<f64>,
     /// Last exposure (stops); default log2(x₀.₈₅ / median luminance of the reference).
@@ -82,7 +83,7 @@ impl Default for HdrFlipOptions {
     fn default() -> Self {
         HdrFlipOptions {
             ppd: DEFAULT_PPD,
-            tone_mapper: ToneMapper::Aces,
+            tone_mapper: FlipToneCurve::Aces,
             start: None,
             stop: None,
             exposures: None,
@@ -96,7 +97,7 @@ pub struct ExposureRange {
     pub start: f64,
     pub stop: f64,
     pub count: u32,
-    pub tone_mapper: ToneMapper,
+    pub tone_mapper: FlipToneCurve,
 }
 
 /// Max and median luminance (FLIP's weights, in f32 as FLIP computes them),
@@ -241,7 +242,7 @@ mod tests {
         // Half the pixels at 0.25, half at 4: max 4, median (index n/2) 4.
         let img = HdrImage::from_fn(8, 8, |x, _| if x < 4 { [0.25; 3] } else { [4.0; 3] });
         let r = exposure_range(&img, &img, &HdrFlipOptions::default()).unwrap();
-        let x = ToneMapper::Aces.x_at_085();
+        let x = FlipToneCurve::Aces.x_at_085();
         assert!(
             (r.start - f64::from((x / 4.0f32).log2())).abs() < 1e-6,
             "{r:?}"

@@ -17,9 +17,10 @@ pub mod tonemap;
 
 use crate::conventions::{rotation_matrix, Camera};
 use crate::image::{Frame, HdrImage, LinearImage, Rgb8Image};
+use crate::operators::Operator;
 use crate::operators::Tone;
 use crate::plan::{BloomSource, PlanError, Stage, StagePlan};
-use crate::scene::{Bloom, Encoding, Grade, Operator, Scene};
+use crate::scene::{Bloom, Encoding, Grade, Scene};
 use luminance_stats::LuminanceStats;
 use serde::Serialize;
 use tonemap::ToneParams;

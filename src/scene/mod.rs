@@ -15,7 +15,7 @@ mod units;
 
 pub use crate::conventions::MAX_SPP;
 pub use crate::operators::reinhard::{ColourPath, DEFAULT_KEY, DEFAULT_WHITE_FRACTION};
-pub use crate::operators::Operator;
+use crate::operators::Operator;
 pub use display::{
     Bloom, BrightPass, Encoding, Grade, FACTOR_MAX, GAMMA_RANGE, GRADE_MAX, SPAN_MAX,
 };

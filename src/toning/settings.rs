@@ -7,10 +7,10 @@ use super::operator_params::OperatorParams;
 use super::OutputKind;
 use crate::error::{Error, Result};
 use crate::operators;
+use crate::operators::Operator;
 use crate::reference::Pipeline;
 use crate::scene::{
-    Bloom, BrightPass, Encoding, Factor, Grade, NonNegative, Operator, Positive, Radius,
-    DEFAULT_KEY,
+    Bloom, BrightPass, Encoding, Factor, Grade, NonNegative, Positive, Radius, DEFAULT_KEY,
 };
 use serde::{Deserialize, Serialize};
 

@@ -386,7 +386,7 @@ fn each_stage_matches_its_reference_on_the_same_input() {
 #[test]
 fn every_reduction_agrees_with_f64_on_odd_and_prime_sizes() {
     let ctx = context();
-    let op = tonegate::scene::Operator::named("reinhard-auto-key", &[]).unwrap();
+    let op = tonegate::operators::Operator::named("reinhard-auto-key", &[]).unwrap();
     let pipeline = Pipeline {
         operator: &op,
         bloom: None,
@@ -487,7 +487,7 @@ fn a_wrong_gpu_render_fails_the_comparison() {
     let env = scene_environment(&scene).unwrap();
     let cpu = reference::render_frame(&scene, &env, 3, 1).unwrap();
     let key = scene.operator.values().number("key").unwrap();
-    scene.operator = tonegate::scene::Operator::with(
+    scene.operator = tonegate::operators::Operator::with(
         scene.operator.definition_arc(),
         &[("key", tonegate::operators::Value::Number(key * 1.02))],
     )
@@ -533,7 +533,7 @@ fn oversized_frames_are_refused_not_crashed() {
     let ctx = context();
     let limit = ctx.limits.max_texture_dimension_2d;
     let img = tonegate::image::HdrImage::filled(limit + 1, 1, [1.0; 3]);
-    let op = tonegate::scene::Operator::default();
+    let op = tonegate::operators::Operator::default();
     let pipeline = Pipeline {
         operator: &op,
         bloom: None,
@@ -559,7 +559,7 @@ fn a_plan_its_pipeline_cannot_fill_is_an_error_on_both_renderers() {
     // plan is valid, the pairing is a caller's bug, and neither renderer panics.
     let ctx = context();
     let img = tonegate::image::HdrImage::filled(16, 12, [2.0, 1.0, 0.5]);
-    let op = tonegate::scene::Operator::default();
+    let op = tonegate::operators::Operator::default();
     let bloom: tonegate::scene::Bloom =
         toml::from_str("threshold = 0.5\nradius = 2\nsigma = 1.0\nstrength = 0.5").unwrap();
     let plan = StagePlan::build(tonegate::plan::Input::Flat, &op, Some(&bloom), None);
