@@ -1,7 +1,9 @@
-//! The OpenAPI document's list of operators is the registry's: every
+//! The lists of operators written for people are the registry's: every
 //! operator `GET /api/v1/operators` answers with (and each other name) is in
 //! the `operator` parameter of `POST /api/v1/tonemap`, so the text cannot
-//! drift from the code as a hand-written list did (it left out aces2).
+//! drift from the code as a hand-written list did (it left out aces2); and
+//! docs/operators.md's table has a row for each built-in operator and no
+//! other.
 
 use crate::common;
 use crate::common::server::start;
@@ -32,4 +34,36 @@ async fn the_tonemap_operator_parameter_lists_every_registered_operator() {
         assert!(text.contains(name), "{name} missing from: {text}");
     }
     assert!(text.contains("aces2") && text.contains("seed000"), "{text}");
+}
+
+/// docs/operators.md's table of operators (rows opening with a backquoted
+/// name) names exactly the built-in operators, each once.
+#[test]
+fn the_operator_table_in_the_docs_is_the_registry() {
+    let text = std::fs::read_to_string(common::repo().join("docs/operators.md")).unwrap();
+    let start = text
+        .find("| Name | Kind |")
+        .expect("docs/operators.md has the operator table");
+    let rows: Vec<&str> = text[start..]
+        .lines()
+        .skip(2)
+        .take_while(|l| l.starts_with('|'))
+        .collect();
+    let mut documented: Vec<String> = rows
+        .iter()
+        .map(|r| {
+            let cell = r.trim_start_matches('|').trim_start();
+            let name = cell.strip_prefix('`').and_then(|c| c.split('`').next());
+            name.unwrap_or_else(|| panic!("a row without a name: {r}"))
+                .to_owned()
+        })
+        .collect();
+    documented.sort();
+    // The built-in ones: other tests of this binary register their own.
+    let mut registry: Vec<String> = tonegate::operators::builtin()
+        .iter()
+        .map(|op| op.name().to_owned())
+        .collect();
+    registry.sort();
+    assert_eq!(documented, registry);
 }
