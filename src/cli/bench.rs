@@ -72,7 +72,8 @@ pub fn bench(a: BenchArgs) -> Result<ExitCode> {
                     tonegate::operators::names().join(", ")
                 ))
             })?;
-            tonegate::operators::Operator::from_text(def, &a.params.0).map_err(invalid)
+            tonegate::operators::Operator::from_text(def, &a.params.0)
+                .map_err(|e| invalid(e.to_string()))
         })
         .transpose()?;
     let opts = tonegate::gpu::bench::BenchOptions {

@@ -21,6 +21,7 @@ mod aces_narkowicz;
 mod agx;
 mod bt2390;
 mod describe;
+mod error;
 mod fixed;
 mod hable;
 mod params;
@@ -36,6 +37,7 @@ mod table;
 pub use crate::color::pq_decode;
 pub use bt2390::pq_encode;
 pub use describe::{describe, OperatorInfo, ParamInfo, RangeInfo};
+pub use error::OperatorError;
 pub use params::{Kind, Param, Range, Value, Values};
 pub use registry::{all, all_params, builtin, find, names, register};
 pub use reinhard02::preset as reinhard02_preset;
@@ -211,7 +213,10 @@ impl Operator {
     /// Operator `def` with the `given` values (by parameter name), the rest
     /// at their defaults; each value checked against its range, then the
     /// operator's own checks.
-    pub fn with(def: Arc<dyn ToneOperator>, given: &[(&str, Value)]) -> Result<Operator, String> {
+    pub fn with(
+        def: Arc<dyn ToneOperator>,
+        given: &[(&str, Value)],
+    ) -> Result<Operator, OperatorError> {
         for (name, _) in given {
             if !def.params().iter().any(|p| p.name == *name) {
                 return Err(not_taken(def.as_ref(), name));
@@ -228,25 +233,32 @@ impl Operator {
             let v = if v == Value::Unset {
                 v
             } else {
-                p.accept(v)
-                    .map_err(|e| table::auto_hint(def.as_ref(), p.name, v, e))?
+                p.accept(v).map_err(|e| OperatorError::BadValue {
+                    operator: def.name(),
+                    parameter: p.name.to_owned(),
+                    reason: table::auto_hint(def.as_ref(), p.name, v, e),
+                })?
             };
             values.push((p.name, v));
         }
         let values = Values::new(values);
-        def.check(&values)?;
+        def.check(&values)
+            .map_err(|reason| OperatorError::Refused {
+                operator: def.name(),
+                reason,
+            })?;
         Ok(Operator { def, values })
     }
 
     /// The operator called `name` with the `given` values.
-    pub fn named(name: &str, given: &[(&str, Value)]) -> Result<Operator, String> {
+    pub fn named(name: &str, given: &[(&str, Value)]) -> Result<Operator, OperatorError> {
         let def = find(name).ok_or_else(|| unknown_operator(name))?;
         Operator::with(def, given)
     }
 
     /// This operator with parameter `name` set to `value`, the others as
     /// they are.
-    pub fn with_value(&self, name: &str, value: Value) -> Result<Operator, String> {
+    pub fn with_value(&self, name: &str, value: Value) -> Result<Operator, OperatorError> {
         let mut given: Vec<(&str, Value)> = self
             .values
             .iter()
@@ -264,7 +276,7 @@ impl Operator {
     pub fn from_text(
         def: Arc<dyn ToneOperator>,
         given: &[(String, String)],
-    ) -> Result<Operator, String> {
+    ) -> Result<Operator, OperatorError> {
         let mut values: Vec<(&str, Value)> = Vec::with_capacity(given.len());
         for (name, text) in given {
             let takers: Vec<Param> = all()
@@ -290,7 +302,13 @@ impl Operator {
             }
             match read {
                 Some(v) => values.push((name, v)),
-                None => return Err(first_error.unwrap_or_default()),
+                None => {
+                    return Err(OperatorError::BadValue {
+                        operator: def.name(),
+                        parameter: name.clone(),
+                        reason: first_error.unwrap_or_default(),
+                    })
+                }
             }
         }
         Operator::with(def, &values)
@@ -353,38 +371,33 @@ impl Operator {
     }
 }
 
-fn unknown_operator(name: &str) -> String {
-    format!(
-        "operator: unknown operator {name:?}; expected one of {}",
-        names().join(", ")
-    )
+fn unknown_operator(name: &str) -> OperatorError {
+    OperatorError::UnknownOperator {
+        name: name.to_owned(),
+        known: names(),
+    }
 }
 
 /// The error for a parameter `def` does not take: which operators do, or
 /// that none does.
-fn not_taken(def: &dyn ToneOperator, name: &str) -> String {
-    let by: Vec<&str> = all()
+fn not_taken(def: &dyn ToneOperator, name: &str) -> OperatorError {
+    let takers: Vec<&'static str> = all()
         .iter()
         .filter(|o| o.params().iter().any(|p| p.name == name))
         .map(|o| o.name())
         .collect();
-    if by.is_empty() {
-        let takes: Vec<&str> = def.params().iter().map(|p| p.name).collect();
-        format!(
-            "unknown parameter {name:?} for operator {}; it takes {}",
-            def.name(),
-            if takes.is_empty() {
-                "none".to_owned()
-            } else {
-                takes.join(", ")
-            }
-        )
+    if takers.is_empty() {
+        OperatorError::UnknownParameter {
+            operator: def.name(),
+            parameter: name.to_owned(),
+            takes: def.params().iter().map(|p| p.name).collect(),
+        }
     } else {
-        format!(
-            "{name}: applies to operator {} only, not {}",
-            by.join(" and "),
-            def.name()
-        )
+        OperatorError::NotTaken {
+            operator: def.name(),
+            parameter: name.to_owned(),
+            takers,
+        }
     }
 }
 

@@ -4,7 +4,7 @@
 use super::params::{self, Param, Value};
 use super::{
     aces2, aces_hill, aces_narkowicz, agx, bt2390, hable, pbr_neutral, reinhard02,
-    reinhard_auto_key, reinhard_global, ToneOperator,
+    reinhard_auto_key, reinhard_global, OperatorError, ToneOperator,
 };
 use std::sync::{Arc, OnceLock, RwLock};
 
@@ -50,7 +50,7 @@ pub fn names() -> Vec<&'static str> {
 /// it. Refused when its name (or an alias) is taken, when a parameter
 /// shares a name with another operator's parameter of another kind (a
 /// `--flag` means one thing), or when its defaults are out of its ranges.
-pub fn register(op: Arc<dyn ToneOperator>) -> Result<(), String> {
+pub fn register(op: Arc<dyn ToneOperator>) -> Result<(), OperatorError> {
     let mut ops = registry().write().unwrap_or_else(|e| e.into_inner());
     admissible(&ops, op.as_ref())?;
     ops.push(op);
@@ -60,43 +60,45 @@ pub fn register(op: Arc<dyn ToneOperator>) -> Result<(), String> {
 pub(super) fn admissible(
     known: &[Arc<dyn ToneOperator>],
     op: &dyn ToneOperator,
-) -> Result<(), String> {
+) -> Result<(), OperatorError> {
     let new_names = std::iter::once(op.name()).chain(op.aliases().iter().copied());
     for name in new_names {
         if params::RESERVED.contains(&name) || name.is_empty() {
-            return Err(format!("operator name {name:?} is not allowed"));
+            return Err(OperatorError::NameNotAllowed { name });
         }
         if let Some(o) = known
             .iter()
             .find(|o| o.name() == name || o.aliases().contains(&name))
         {
-            return Err(format!("operator {name:?} is taken (by {})", o.name()));
+            return Err(OperatorError::NameTaken { name, by: o.name() });
         }
     }
+    let bad = |reason: String| OperatorError::BadDefinition {
+        operator: op.name(),
+        reason,
+    };
     if op.resolved_names().len() > 4 {
-        return Err(format!(
-            "operator {}: at most 4 resolved values, got {}",
-            op.name(),
+        return Err(bad(format!(
+            "at most 4 resolved values, got {}",
             op.resolved_names().len()
-        ));
+        )));
     }
     for p in op.params() {
-        params::check_name(p.name).map_err(|e| format!("operator {}: {e}", op.name()))?;
+        params::check_name(p.name).map_err(bad)?;
         if p.default != Value::Unset {
             p.accept(p.default)
-                .map_err(|e| format!("operator {}: default of {e}", op.name()))?;
+                .map_err(|e| bad(format!("default of {e}")))?;
         }
         for o in known {
             if let Some(q) = o.params().iter().find(|q| q.name == p.name) {
                 if !q.kind.same_type(&p.kind) {
-                    return Err(format!(
-                        "operator {}: parameter {} is a {} in operator {}, not a {}",
-                        op.name(),
+                    return Err(bad(format!(
+                        "parameter {} is a {} in operator {}, not a {}",
                         p.name,
                         q.kind.type_name(),
                         o.name(),
                         p.kind.type_name()
-                    ));
+                    )));
                 }
             }
         }

@@ -96,7 +96,7 @@ impl ToneOperator for Reinhard02 {
 }
 
 /// pfstmo_reinhard02's global mode with key `key`: the `reinhard02` preset.
-pub fn preset(key: f64) -> Result<super::Operator, String> {
+pub fn preset(key: f64) -> Result<super::Operator, super::OperatorError> {
     super::Operator::with(
         std::sync::Arc::new(Reinhard02),
         &[

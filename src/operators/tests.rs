@@ -84,30 +84,68 @@ fn each_reinhard_variant_resolves_its_white_point() {
 
 #[test]
 fn values_are_held_to_their_ranges_and_their_operator() {
+    use super::OperatorError as E;
     let e =
         Operator::named("reinhard-global", &[("white_fraction", Value::Number(1.5))]).unwrap_err();
-    assert_eq!(e, "white_fraction: must be in [1e-6, 1], got 1.5");
+    assert!(
+        matches!(&e, E::BadValue { operator: "reinhard-global", parameter, .. } if parameter == "white_fraction"),
+        "{e:?}"
+    );
+    assert_eq!(
+        e.to_string(),
+        "white_fraction: must be in [1e-6, 1], got 1.5"
+    );
     let e = Operator::named("reinhard02", &[("key", Value::Number(f64::NAN))]).unwrap_err();
-    assert!(e.starts_with("key: must be in [1e-6, 100]"), "{e}");
+    assert!(
+        e.to_string().starts_with("key: must be in [1e-6, 100]"),
+        "{e}"
+    );
     let e = Operator::named("reinhard-global", &[("key", Value::Auto)]).unwrap_err();
     assert!(
-        e.contains("\"auto\" applies to operator reinhard-auto-key only"),
+        e.to_string()
+            .contains("\"auto\" applies to operator reinhard-auto-key only"),
         "{e}"
     );
     let e = Operator::named("reinhard-auto-key", &[("white", Value::Number(2.0))]).unwrap_err();
     assert_eq!(
         e,
+        E::NotTaken {
+            operator: "reinhard-auto-key",
+            parameter: "white".into(),
+            takers: vec!["reinhard02"],
+        }
+    );
+    assert_eq!(
+        e.to_string(),
         "white: applies to operator reinhard02 only, not reinhard-auto-key"
     );
     let e = Operator::named("reinhard-auto-key", &[("gain", Value::Number(2.0))]).unwrap_err();
-    assert!(e.contains("unknown parameter \"gain\""), "{e}");
+    assert!(
+        matches!(&e, E::UnknownParameter { operator: "reinhard-auto-key", parameter, takes } if parameter == "gain" && takes.contains(&"key")),
+        "{e:?}"
+    );
+    assert!(e.to_string().contains("unknown parameter \"gain\""), "{e}");
     let e = Operator::named("drago", &[]).unwrap_err();
     assert!(
-        e.contains("unknown operator \"drago\"") && e.contains("reinhard02"),
-        "{e}"
+        matches!(&e, E::UnknownOperator { name, known } if name == "drago" && known.contains(&"reinhard02")),
+        "{e:?}"
     );
+    assert!(e.to_string().contains("unknown operator \"drago\""), "{e}");
     let e = Operator::named("reinhard-global", &[("colour", Value::Word("lab"))]).unwrap_err();
-    assert!(e.contains("one of ratio, xyy"), "{e}");
+    assert!(e.to_string().contains("one of ratio, xyy"), "{e}");
+    // The operator's own check, by name.
+    let e = Operator::named(
+        "bt2390",
+        &[
+            ("source_black", Value::Number(10.0)),
+            ("source_peak", Value::Number(5.0)),
+        ],
+    )
+    .unwrap_err();
+    assert!(
+        matches!(&e, E::Refused { operator: "bt2390", reason } if reason.contains("source_black")),
+        "{e:?}"
+    );
 }
 
 #[test]
@@ -117,10 +155,14 @@ fn text_values_are_read_by_the_parameter_they_name() {
     assert!(op.values().is_auto("key"));
     let op = Operator::from_text(def.clone(), &[("colour".into(), "xyy".into())]).unwrap();
     assert_eq!(op.values().word("colour"), "xyy");
-    let e = Operator::from_text(def.clone(), &[("key".into(), "bright".into())]).unwrap_err();
+    let e = Operator::from_text(def.clone(), &[("key".into(), "bright".into())])
+        .unwrap_err()
+        .to_string();
     assert!(e.starts_with("key: expected"), "{e}");
     // A bad value is named as bad even under an operator it does not apply to.
-    let e = Operator::from_text(def, &[("white".into(), "-1".into())]).unwrap_err();
+    let e = Operator::from_text(def, &[("white".into(), "-1".into())])
+        .unwrap_err()
+        .to_string();
     assert!(e.starts_with("white: must be"), "{e}");
 }
 
@@ -154,6 +196,14 @@ impl ToneOperator for Clash {
 fn registering_refuses_taken_names_and_clashing_parameters() {
     let known = builtin();
     let e = admissible(&known, &Clash("seed000", &[])).unwrap_err();
+    assert_eq!(
+        e,
+        super::OperatorError::NameTaken {
+            name: "seed000",
+            by: "reinhard-global"
+        }
+    );
+    let e = e.to_string();
     assert!(e.contains("taken (by reinhard-global)"), "{e}");
     let flag_key: &'static [Param] = &[Param {
         name: "key",
@@ -161,7 +211,9 @@ fn registering_refuses_taken_names_and_clashing_parameters() {
         kind: Kind::Flag,
         default: Value::Flag(false),
     }];
-    let e = admissible(&known, &Clash("mine", flag_key)).unwrap_err();
+    let e = admissible(&known, &Clash("mine", flag_key))
+        .unwrap_err()
+        .to_string();
     assert!(
         e.contains("parameter key is a number in operator reinhard-global"),
         "{e}"
@@ -194,9 +246,12 @@ fn hable_refuses_constants_its_curve_cannot_use() {
         ("toe_strength", Value::Number(1e-200)),
         ("toe_denominator", Value::Number(1e-200)),
     ])
-    .unwrap_err();
+    .unwrap_err()
+    .to_string();
     assert!(e2.contains("toe_strength: must be in [1e-6, 1000]"), "{e2}");
-    let e3 = hable(&[("shoulder_strength", Value::Number(1e6))]).unwrap_err();
+    let e3 = hable(&[("shoulder_strength", Value::Number(1e6))])
+        .unwrap_err()
+        .to_string();
     assert!(
         e3.contains("shoulder_strength: must be in [1e-6, 1000]"),
         "{e3}"

@@ -227,7 +227,7 @@ impl ToneSettings {
             ))
         })?;
         let Some(preset) = self.preset else {
-            return Operator::from_text(def, &self.params.0).map_err(invalid);
+            return Operator::from_text(def, &self.params.0).map_err(|e| invalid(e.to_string()));
         };
         // The preset is the operator: another one named beside it is a
         // conflict, not something to drop without a word.
@@ -258,7 +258,9 @@ impl ToneSettings {
                 .map_err(|_| invalid(format!("key: expected a number, got {text:?}")))?,
         };
         match preset {
-            Preset::Reinhard02 => operators::reinhard02_preset(key).map_err(invalid),
+            Preset::Reinhard02 => {
+                operators::reinhard02_preset(key).map_err(|e| invalid(e.to_string()))
+            }
         }
     }
 

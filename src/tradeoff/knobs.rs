@@ -195,7 +195,10 @@ pub fn sweep(scene: &Scene, spps: &[u32], downsamples: &[u32]) -> Vec<Knobs> {
 pub fn with_operator_knob(scene: &Scene, knob: Option<OperatorKnob>) -> Result<Scene, String> {
     let mut variant = scene.clone();
     if let Some(k) = knob {
-        variant.operator = scene.operator.with_value(k.param, k.value)?;
+        variant.operator = scene
+            .operator
+            .with_value(k.param, k.value)
+            .map_err(|e| e.to_string())?;
     }
     Ok(variant)
 }
