@@ -132,9 +132,17 @@ pub fn render_hash(scene: &Scene) -> Result<String, GoldenError> {
 /// golden blessed before (docs/operators.md). A string value cannot hold
 /// these patterns: its quotes are escaped.
 fn first_spellings(json: &str) -> String {
-    json.replace(r#""kind":"reinhard-global""#, r#""kind":"seed000""#)
-        .replace(r#""kind":"reinhard-auto-key""#, r#""kind":"seed001""#)
-        .replace(r#""bright_pass":"scaled""#, r#""bright_pass":"seed001""#)
+    // A built-in operator's first alias is the name it had then.
+    let mut out = json.to_owned();
+    for op in crate::operators::builtin() {
+        if let Some(first) = op.aliases().first() {
+            out = out.replace(
+                &format!(r#""kind":"{}""#, op.name()),
+                &format!(r#""kind":"{first}""#),
+            );
+        }
+    }
+    out.replace(r#""bright_pass":"scaled""#, r#""bright_pass":"seed001""#)
 }
 
 /// File name of frame `n`.

@@ -122,7 +122,8 @@ pub struct ReadbackSplit {
 /// (`reinhard-auto-key`'s: weighted log-average, min, max) + tonemap + bloom
 /// at ½ + encode.
 pub fn bench_operator() -> (Operator, Bloom) {
-    let op = Operator::named("reinhard-auto-key", &[]).unwrap_or_else(|_| unreachable!());
+    let op = Operator::named(crate::operators::REINHARD_AUTO_KEY, &[])
+        .unwrap_or_else(|_| unreachable!());
     let bloom = Bloom {
         bright_pass: BrightPass::Scaled,
         threshold: NonNegative::try_from(50.0).unwrap_or_else(|_| unreachable!()),

@@ -43,6 +43,16 @@ pub use registry::{all, all_params, builtin, find, names, register};
 pub use reinhard02::preset as reinhard02_preset;
 pub use stats::{LuminanceStats, StatsNeeds, Unmeasured};
 
+/// The names of the operators that other parts of tonegate set up by name
+/// (the default, the flat tone-map's preset, the bench's plan, the stress
+/// suite's statistics set-ups): each operator's own `name` is this
+/// constant, so a rename happens here only.
+pub const REINHARD_GLOBAL: &str = "reinhard-global";
+/// `reinhard-auto-key`'s name.
+pub const REINHARD_AUTO_KEY: &str = "reinhard-auto-key";
+/// `reinhard02`'s name (also the `--preset` of pfstmo's global mode).
+pub const REINHARD02: &str = "reinhard02";
+
 use serde::ser::SerializeMap;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;

@@ -29,7 +29,7 @@ const PARAMS: &[Param] = &[
 
 impl ToneOperator for Reinhard02 {
     fn name(&self) -> &'static str {
-        "reinhard02"
+        super::REINHARD02
     }
     fn summary(&self) -> &'static str {
         "Reinhard 2002 global as pfstmo_reinhard02: key a and an absolute or scaled-maximum Lwhite"

@@ -22,7 +22,7 @@ const PARAMS: &[Param] = &[
 
 impl ToneOperator for ReinhardAutoKey {
     fn name(&self) -> &'static str {
-        "reinhard-auto-key"
+        super::REINHARD_AUTO_KEY
     }
     fn aliases(&self) -> &'static [&'static str] {
         &["seed001"]

@@ -31,7 +31,7 @@ const PARAMS: &[Param] = &[
 
 impl ToneOperator for ReinhardGlobal {
     fn name(&self) -> &'static str {
-        "reinhard-global"
+        super::REINHARD_GLOBAL
     }
     fn aliases(&self) -> &'static [&'static str] {
         &["seed000"]

@@ -37,29 +37,35 @@ const FLOOR: f64 = f32::MIN_POSITIVE as f64;
 /// docs/bibliography.md), and `reinhard-auto-key`'s weighted mean with the
 /// automatic key, bloom and a contrast/saturation grade (so every statistic
 /// and every stage runs).
-const REINHARD: [(&str, &str); 2] = [
-    (
-        "reinhard_global",
-        "[operator]\nkind = \"reinhard-global\"\nkey = 0.18\nwhite_fraction = 0.9\n",
-    ),
-    (
-        "auto_key_bloom_grade",
-        "[operator]\nkind = \"reinhard-auto-key\"\nkey = \"auto\"\ncolour = \"xyy\"\n\
-         [bloom]\nbright_pass = \"scaled\"\nthreshold = 1.0\ndownsample = 2\nradius = 3\nsigma = 1.5\nstrength = 0.5\n\
-         [grade]\ncontrast = 1.2\nsaturation = 0.9\n",
-    ),
-];
+fn reinhard() -> [(&'static str, String); 2] {
+    use crate::operators::{REINHARD_AUTO_KEY, REINHARD_GLOBAL};
+    [
+        (
+            "reinhard_global",
+            format!("[operator]\nkind = \"{REINHARD_GLOBAL}\"\nkey = 0.18\nwhite_fraction = 0.9\n"),
+        ),
+        (
+            "auto_key_bloom_grade",
+            format!(
+                "[operator]\nkind = \"{REINHARD_AUTO_KEY}\"\nkey = \"auto\"\ncolour = \"xyy\"\n\
+                 [bloom]\nbright_pass = \"scaled\"\nthreshold = 1.0\ndownsample = 2\nradius = 3\nsigma = 1.5\nstrength = 0.5\n\
+                 [grade]\ncontrast = 1.2\nsaturation = 0.9\n"
+            ),
+        ),
+    ]
+}
 
 /// The pipelines every case goes through, by name: the two Reinhard
 /// set-ups, then every other operator known (built-in or registered) at its
 /// defaults, named after it (`pbr_neutral`).
 pub fn pipelines() -> Vec<(String, Scene)> {
-    let mut out: Vec<(String, Scene)> = REINHARD
+    use crate::operators::{REINHARD_AUTO_KEY, REINHARD_GLOBAL};
+    let mut out: Vec<(String, Scene)> = reinhard()
         .iter()
         .map(|(name, body)| (name.to_string(), pipeline_scene(body)))
         .collect();
     for op in crate::operators::all() {
-        if ["reinhard-global", "reinhard-auto-key"].contains(&op.name()) {
+        if [REINHARD_GLOBAL, REINHARD_AUTO_KEY].contains(&op.name()) {
             continue;
         }
         let body = format!("[operator]\nkind = \"{}\"\n", op.name());

@@ -26,7 +26,7 @@ pub enum Preset {
 impl Preset {
     pub fn as_str(self) -> &'static str {
         match self {
-            Preset::Reinhard02 => "reinhard02",
+            Preset::Reinhard02 => crate::operators::REINHARD02,
         }
     }
 }
@@ -45,7 +45,10 @@ pub struct ToneSettings {
     #[cfg_attr(feature = "cli", arg(long, value_enum))]
     pub preset: Option<Preset>,
     /// The operator (`tonegate operators` lists them with their parameters).
-    #[cfg_attr(feature = "cli", arg(long, default_value = "reinhard-global"))]
+    #[cfg_attr(
+        feature = "cli",
+        arg(long, default_value = crate::operators::REINHARD_GLOBAL)
+    )]
     pub operator: String,
     /// The operator's parameters as given, by name, as text: one flag per
     /// parameter any operator takes (`--white-fraction`), one API parameter
@@ -92,7 +95,7 @@ impl Default for ToneSettings {
     fn default() -> Self {
         ToneSettings {
             preset: None,
-            operator: "reinhard-global".to_owned(),
+            operator: crate::operators::REINHARD_GLOBAL.to_owned(),
             params: OperatorParams::default(),
             bloom: 0.0,
             bloom_pass: None,

@@ -322,3 +322,41 @@ fn the_import_reader_finds_cycles_and_grouped_imports() {
     assert_eq!(gpu.get("GpuRenderer").map(String::as_str), Some("renderer"));
     assert_eq!(gpu.get("GpuInput").map(String::as_str), Some("wiring"));
 }
+
+/// No module outside `src/operators/` names a built-in operator in a
+/// string (its tests aside): the names other modules need are the
+/// registry's constants (`operators::REINHARD_GLOBAL`), so adding or
+/// renaming an operator touches `operators/` only. A file's tests start at
+/// its `#[cfg(test)]`; `tests.rs` and `*_tests.rs` files are tests whole.
+#[test]
+fn only_the_operators_module_names_an_operator() {
+    let src = repo().join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    // Names, not the old aliases: `seed001` is also the bright pass's old
+    // spelling.
+    let names: Vec<String> = tonegate::operators::builtin()
+        .iter()
+        .map(|op| format!("\"{}\"", op.name()))
+        .collect();
+    let mut found = Vec::new();
+    for file in files {
+        let rel = file
+            .strip_prefix(&src)
+            .unwrap()
+            .to_string_lossy()
+            .into_owned();
+        let stem = file.file_stem().unwrap().to_string_lossy().into_owned();
+        if rel.starts_with("operators/") || stem == "tests" || stem.ends_with("_tests") {
+            continue;
+        }
+        let code = code_of(&file);
+        let code = code.split("#[cfg(test)]").next().unwrap_or_default();
+        for n in &names {
+            if code.contains(n.as_str()) {
+                found.push(format!("src/{rel}: {n}"));
+            }
+        }
+    }
+    assert!(found.is_empty(), "{}", found.join("\n"));
+}
