@@ -11,7 +11,6 @@
 //! OPERATOR is any of `tonegate operators` (default `agx`); without OUT.png
 //! it only prints what it did.
 
-use tonegate::gpu::tone_mapper::OUTPUT_FORMAT;
 use tonegate::operators::Operator;
 use tonegate::scene::Encoding;
 use tonegate::{ToneMapper, ToneMapperSettings};
@@ -73,7 +72,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING,
     );
     let ldr = texture(
-        OUTPUT_FORMAT,
+        wgpu::TextureFormat::Rgba8Unorm,
         wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::COPY_SRC,
     );
 
@@ -103,6 +102,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ToneMapperSettings {
             operator,
             encoding: Encoding::Srgb,
+            ..Default::default()
         },
     )?;
     // Every pipeline now, so the first frame does not compile any.
@@ -123,7 +123,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         pass.set_bind_group(0, &scene_bindings, &[]);
         pass.dispatch_workgroups(WIDTH.div_ceil(8), HEIGHT.div_ceil(8), 1);
     }
-    mapper.record(&mut encoder, &hdr, &ldr)?;
+    mapper.record(
+        &mut encoder,
+        &hdr.create_view(&Default::default()),
+        &ldr.create_view(&Default::default()),
+    )?;
     encoder.copy_texture_to_buffer(
         ldr.as_image_copy(),
         wgpu::TexelCopyBufferInfo {

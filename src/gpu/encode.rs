@@ -1,6 +1,6 @@
 //! `encode` pass.
 
-use super::stages::{bind_group, dispatch_2d, pipeline, Bind, Dispatch};
+use super::stages::{bind_group, bind_group_for, dispatch_2d, pipeline, Bind, Dispatch};
 use super::{GpuContext, HdrFormat};
 use crate::color::bt709_to_bt2020;
 use crate::operators::DisplayLevels;
@@ -73,28 +73,185 @@ pub fn encode(
     dispatch_2d(p, bg, src.width(), src.height()).sized(ctx, extent)
 }
 
-/// `encode` into a caller's Rgba8Unorm storage texture (the same bytes as
-/// [`encode`] packs into its buffer).
-pub fn encode_to_texture(
+/// What a caller's texture holds of a pixel: the `TARGET` constant of
+/// shaders/shared/encode.wgsl, by the texture's format.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Texel {
+    /// The 8-bit codes (`…8Unorm`).
+    Codes8,
+    /// The 8-bit codes through a format that applies the sRGB OETF as it
+    /// stores (`…8UnormSrgb`).
+    Codes8Srgb,
+    /// 10-bit codes (`Rgb10a2Unorm`): the SDR transfer's, or PQ's.
+    Codes10,
+    /// scRGB (`Rgba16Float`): linear BT.709, 1.0 = 80 cd/m².
+    ScRgb,
+}
+
+impl Texel {
+    /// What a texture of `format` holds, or `None` for a format no target
+    /// takes.
+    pub fn of(format: wgpu::TextureFormat) -> Option<Texel> {
+        use wgpu::TextureFormat as F;
+        match format {
+            F::Rgba8Unorm | F::Bgra8Unorm => Some(Texel::Codes8),
+            F::Rgba8UnormSrgb | F::Bgra8UnormSrgb => Some(Texel::Codes8Srgb),
+            F::Rgb10a2Unorm => Some(Texel::Codes10),
+            F::Rgba16Float => Some(Texel::ScRgb),
+            _ => None,
+        }
+    }
+
+    fn constant(self) -> f64 {
+        match self {
+            Texel::Codes8 => 0.0,
+            Texel::Codes8Srgb => 1.0,
+            Texel::Codes10 => 2.0,
+            Texel::ScRgb => 3.0,
+        }
+    }
+
+    /// Bits per colour sample of what it holds (scRGB: a half float).
+    pub fn bits(self) -> u32 {
+        match self {
+            Texel::Codes8 | Texel::Codes8Srgb => 8,
+            Texel::Codes10 => 10,
+            Texel::ScRgb => 16,
+        }
+    }
+}
+
+/// The entry point that stores into a storage texture of `format`, where
+/// WGSL can name the format (`to_texture*` in shaders/encode.wgsl).
+pub fn storage_entry(format: wgpu::TextureFormat) -> Option<&'static str> {
+    use wgpu::TextureFormat as F;
+    match format {
+        F::Rgba8Unorm => Some("to_texture"),
+        F::Bgra8Unorm => Some("to_texture_bgra8"),
+        F::Rgba16Float => Some("to_texture_rgba16f"),
+        _ => None,
+    }
+}
+
+/// The binding of the storage texture `entry` writes.
+fn storage_binding(entry: &str) -> u32 {
+    match entry {
+        "to_texture" => 2,
+        "to_texture_rgba16f" => 4,
+        _ => 5,
+    }
+}
+
+/// [`encode_constants`] and the target's texel.
+pub fn target_constants(
+    encoding: Encoding,
+    levels: Option<DisplayLevels>,
+    texel: Texel,
+) -> Vec<(&'static str, f64)> {
+    let mut c = encode_constants(encoding, levels);
+    c.push(("TARGET", texel.constant()));
+    c
+}
+
+/// `encode` into a caller's storage texture of `target_format` (one with an
+/// entry in [`storage_entry`]) through a compute pass, the image at
+/// `origin` (a uniform of one `vec4<u32>`, xy used) in it.
+#[allow(clippy::too_many_arguments)]
+pub fn encode_to_storage(
     ctx: &GpuContext,
     format: HdrFormat,
     encoding: Encoding,
+    levels: Option<DisplayLevels>,
     src: &wgpu::Texture,
-    frame_out: &wgpu::Texture,
+    target: &wgpu::TextureView,
+    target_format: wgpu::TextureFormat,
+    origin: &wgpu::Buffer,
     extent: &wgpu::Buffer,
 ) -> Dispatch {
+    let entry = storage_entry(target_format).expect("a storage target format");
+    let texel = Texel::of(target_format).expect("a target format");
     let p = pipeline(
         ctx,
         "encode",
-        "to_texture",
+        entry,
         format,
-        &encode_constants(encoding, None),
+        &target_constants(encoding, levels, texel),
     );
     let bg = bind_group(
         ctx,
         &p,
         "tonegate.encode.to_texture",
-        &[(0, Bind::Texture(src)), (2, Bind::Texture(frame_out))],
+        &[
+            (0, Bind::Texture(src)),
+            (3, Bind::Buffer(origin)),
+            (storage_binding(entry), Bind::View(target)),
+        ],
     );
     dispatch_2d(p, bg, src.width(), src.height()).sized(ctx, extent)
+}
+
+/// The render pipeline that draws `encode` into a render attachment of
+/// `target_format` (a fullscreen triangle; `to_attachment` in
+/// shaders/encode.wgsl), and its constants. Blending off: the codes are
+/// written as they are.
+pub fn encode_render_pipeline(
+    ctx: &GpuContext,
+    encoding: Encoding,
+    levels: Option<DisplayLevels>,
+    target_format: wgpu::TextureFormat,
+) -> wgpu::RenderPipeline {
+    let texel = Texel::of(target_format).expect("a target format");
+    let constants = target_constants(encoding, levels, texel);
+    let module = ctx
+        .device
+        .create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("tonegate.encode.to_attachment"),
+            source: wgpu::ShaderSource::Wgsl(
+                super::shaders::compose("encode", HdrFormat::Rgba32Float, ctx.subgroups).into(),
+            ),
+        });
+    ctx.device
+        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("tonegate.encode.to_attachment"),
+            layout: None,
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("fullscreen"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: None,
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("to_attachment"),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants: &constants,
+                    zero_initialize_workgroup_memory: false,
+                },
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: target_format,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+}
+
+/// The bind group of [`encode_render_pipeline`]'s pass.
+pub fn encode_render_bind_group(
+    ctx: &GpuContext,
+    pipeline: &wgpu::RenderPipeline,
+    src: &wgpu::Texture,
+    origin: &wgpu::Buffer,
+) -> wgpu::BindGroup {
+    bind_group_for(
+        ctx,
+        &pipeline.get_bind_group_layout(0),
+        "tonegate.encode.to_attachment",
+        &[(0, Bind::Texture(src)), (3, Bind::Buffer(origin))],
+    )
 }

@@ -2,7 +2,9 @@
 //! training simulators), 2×2 ping-pong (from Reinhard's global operator in
 //! real time; both in docs/bibliography.md) or a workgroup tree.
 
-use super::stages::{bind_group, groups, pipeline, storage_buffer, uniform_buffer, Bind, Dispatch};
+use super::stages::{
+    bind_group, groups, pipeline, storage_buffer, uniform_buffer, Bind, Dispatch, ImageView,
+};
 use super::{GpuContext, HdrFormat, ReductionMethod};
 use crate::plan::StatsNeeds;
 use serde::Serialize;
@@ -79,11 +81,11 @@ pub fn luminance_stats(
     needs: StatsNeeds,
     weights: [f64; 3],
     delta: f64,
-    hdr: &wgpu::Texture,
+    hdr: &ImageView,
     stats: &wgpu::Buffer,
     extent: &wgpu::Buffer,
 ) -> Vec<Dispatch> {
-    let (w, h) = (hdr.width(), hdr.height());
+    let (w, h) = (hdr.width, hdr.height);
     let constants = stats_constants(needs, weights, delta);
     let level = |src: (u32, u32), dst: (u32, u32)| {
         let words = [src.0, src.1, dst.0, dst.1];
@@ -125,7 +127,7 @@ pub fn luminance_stats(
                 ctx,
                 &p,
                 "tonegate.luminance_stats",
-                &[(0, Bind::Texture(hdr)), (1, Bind::Buffer(&a))],
+                &[(0, Bind::View(&hdr.view)), (1, Bind::Buffer(&a))],
             );
             out.push(Dispatch::new(p, bg, first_groups).sized(ctx, extent));
             let lv = level((n, 1), (1, 1));
@@ -163,7 +165,7 @@ pub fn luminance_stats(
                 &p,
                 "tonegate.luminance_stats.first",
                 &[
-                    (0, Bind::Texture(hdr)),
+                    (0, Bind::View(&hdr.view)),
                     (1, Bind::Buffer(&bufs[0])),
                     (4, Bind::Buffer(&lv)),
                 ],

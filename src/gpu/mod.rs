@@ -30,7 +30,10 @@ pub use luminance_stats::GpuStats;
 pub use pool::{size_class, RendererPool};
 pub use readback::{GpuFrame, Ticket, FRAMES_IN_FLIGHT};
 pub use renderer::GpuRenderer;
-pub use tone_mapper::{TextureRole, ToneMapper, ToneMapperError, ToneMapperSettings};
+pub use tone_mapper::{
+    OutputPath, SourceView, TargetView, TextureRole, ToneMapper, ToneMapperError,
+    ToneMapperSettings,
+};
 pub use wiring::GpuInput;
 // The stages' override constants, for the range-safety proof
 // (`stress::range_safety`), which evaluates the shaders with them.

@@ -244,16 +244,39 @@ pub fn uniform_buffer(ctx: &GpuContext, label: &str, bytes: &[u8]) -> wgpu::Buff
 
 /// A resource bound at one binding of group 0.
 pub enum Bind<'a> {
+    /// The whole texture (its default view).
     Texture(&'a wgpu::Texture),
+    /// A view of one, as given.
+    View(&'a wgpu::TextureView),
     Buffer(&'a wgpu::Buffer),
     Sampler(&'a wgpu::Sampler),
 }
 
-/// A bind group for `pipeline` from (binding, resource) pairs: only the
-/// bindings the entry point uses, since layouts are derived per entry.
-pub fn bind_group(
+/// An image a stage reads: a view of a texture, with the size of the image
+/// in it, which a view does not tell (its mip level's size, or less: an
+/// image in the view's top-left corner).
+#[derive(Clone, Debug)]
+pub struct ImageView {
+    pub view: wgpu::TextureView,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl ImageView {
+    /// The whole of `texture`'s first level.
+    pub fn whole(texture: &wgpu::Texture) -> ImageView {
+        ImageView {
+            view: texture.create_view(&wgpu::TextureViewDescriptor::default()),
+            width: texture.width(),
+            height: texture.height(),
+        }
+    }
+}
+
+/// A bind group for `layout` from (binding, resource) pairs.
+pub fn bind_group_for(
     ctx: &GpuContext,
-    pipeline: &wgpu::ComputePipeline,
+    layout: &wgpu::BindGroupLayout,
     label: &str,
     binds: &[(u32, Bind)],
 ) -> wgpu::BindGroup {
@@ -261,7 +284,7 @@ pub fn bind_group(
         .iter()
         .map(|(_, b)| match b {
             Bind::Texture(t) => Some(t.create_view(&wgpu::TextureViewDescriptor::default())),
-            Bind::Buffer(_) | Bind::Sampler(_) => None,
+            Bind::View(_) | Bind::Buffer(_) | Bind::Sampler(_) => None,
         })
         .collect();
     let entries: Vec<wgpu::BindGroupEntry> = binds
@@ -272,6 +295,7 @@ pub fn bind_group(
             resource: match (b, v) {
                 (Bind::Buffer(buf), _) => buf.as_entire_binding(),
                 (Bind::Sampler(s), _) => wgpu::BindingResource::Sampler(s),
+                (Bind::View(view), _) => wgpu::BindingResource::TextureView(view),
                 (Bind::Texture(_), Some(view)) => wgpu::BindingResource::TextureView(view),
                 (Bind::Texture(_), None) => unreachable!("views are made for every texture"),
             },
@@ -279,9 +303,20 @@ pub fn bind_group(
         .collect();
     ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some(label),
-        layout: &pipeline.get_bind_group_layout(0),
+        layout,
         entries: &entries,
     })
+}
+
+/// A bind group for `pipeline` from (binding, resource) pairs: only the
+/// bindings the entry point uses, since layouts are derived per entry.
+pub fn bind_group(
+    ctx: &GpuContext,
+    pipeline: &wgpu::ComputePipeline,
+    label: &str,
+    binds: &[(u32, Bind)],
+) -> wgpu::BindGroup {
+    bind_group_for(ctx, &pipeline.get_bind_group_layout(0), label, binds)
 }
 
 /// Workgroups of `size` needed to cover `n`.

@@ -2,7 +2,9 @@
 //! statistics into the curve's values), then its curve on every pixel. The
 //! operator's module is part of the pipeline (src/operators/mod.rs).
 
-use super::stages::{bind_group, dispatch_2d, pipeline_with, uniform_buffer, Bind, Dispatch};
+use super::stages::{
+    bind_group, dispatch_2d, pipeline_with, uniform_buffer, Bind, Dispatch, ImageView,
+};
 use super::{GpuContext, HdrFormat};
 use crate::operators::Operator;
 
@@ -84,7 +86,7 @@ pub fn tonemap(
     format: HdrFormat,
     params: &ToneParams,
     stats: &wgpu::Buffer,
-    hdr: &wgpu::Texture,
+    hdr: &ImageView,
     toned_out: &wgpu::Texture,
     extent: &wgpu::Buffer,
 ) -> Vec<Dispatch> {
@@ -95,13 +97,13 @@ pub fn tonemap(
         "tonegate.tonemap",
         &[
             (0, Bind::Buffer(&params.config)),
-            (2, Bind::Texture(hdr)),
+            (2, Bind::View(&hdr.view)),
             (3, Bind::Texture(toned_out)),
             (4, Bind::Buffer(stats)),
         ],
     );
     vec![
         resolve(ctx, format, params, stats),
-        dispatch_2d(main, bg, hdr.width(), hdr.height()).sized(ctx, extent),
+        dispatch_2d(main, bg, hdr.width, hdr.height).sized(ctx, extent),
     ]
 }

@@ -5,7 +5,7 @@
 
 use super::luminance_stats::GpuStats;
 use super::sphere::{Environment, FrameUniforms};
-use super::stages::{hdr_texture, shared_buffer, storage_buffer, upload, Dispatch};
+use super::stages::{hdr_texture, shared_buffer, storage_buffer, upload, Dispatch, ImageView};
 use super::tonemap::ToneParams;
 use super::{GpuConfig, GpuContext, GpuError, HdrFormat};
 use crate::conventions::Camera;
@@ -289,7 +289,7 @@ impl<'p> Wiring<'_, 'p> {
                 *needs,
                 self.weights,
                 self.delta,
-                &self.hdr,
+                &ImageView::whole(&self.hdr),
                 &self.stats,
                 &self.extent,
             ),
@@ -301,7 +301,7 @@ impl<'p> Wiring<'_, 'p> {
                     format,
                     &params,
                     &self.stats,
-                    &self.hdr,
+                    &ImageView::whole(&self.hdr),
                     &out,
                     &self.extent,
                 );

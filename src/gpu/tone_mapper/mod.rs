@@ -1,0 +1,514 @@
+//! [`ToneMapper`]: tonegate's tone mapper inside someone else's wgpu
+//! application, on the caller's device and queue, recorded into the
+//! caller's command encoder, from a view of the caller's HDR texture to a
+//! view of the caller's target (docs/embedding.md).
+//!
+//! It runs the stages tonegate's own renderer runs for a flat image with no
+//! bloom or grade: the luminance statistics (when the operator needs them),
+//! the operator (its resolve step, then its curve), and the display
+//! encoding, written into the target by a compute pass or a fullscreen
+//! triangle (`target`). The same shaders and pipelines, so the same bits:
+//! an input texture in `Rgba32Float` gives the bytes `tonegate tonemap
+//! --gpu` writes on the same adapter, in every 8-bit target and by either
+//! path.
+
+mod target;
+
+pub use target::{
+    OutputPath, SourceView, TargetView, TextureRole, ToneMapperError, INPUT_FORMATS, TARGET_FORMATS,
+};
+
+use super::config::ReductionMethod;
+use super::encode::{encode_render_bind_group, encode_render_pipeline, encode_to_storage, Texel};
+use super::stages::{
+    extent_buffer, hdr_texture, shared_buffer, uniform_buffer, Dispatch, Extent, ImageView,
+};
+use super::tonemap::ToneParams;
+use super::{GpuContext, GpuStats, HdrFormat};
+use crate::operators::Operator;
+use crate::scene::Encoding;
+use std::collections::HashMap;
+use target::{check_texture, level_size, storable};
+
+/// How a [`ToneMapper`] maps: the operator with its parameters, the display
+/// encoding, the target's format and the path into it.
+#[derive(Clone, Debug)]
+pub struct ToneMapperSettings {
+    /// The operator (`Operator::named("agx", &[])`, or a caller's own after
+    /// `operators::register`).
+    pub operator: Operator,
+    /// The display encoding: the sRGB transfer, a gamma, or PQ (into a
+    /// 10-bit or scRGB target, for an operator with display levels).
+    pub encoding: Encoding,
+    /// The format of the views [`ToneMapper::record`] writes: one of
+    /// [`TARGET_FORMATS`]. A swap chain's, typically.
+    pub target: wgpu::TextureFormat,
+    /// A compute pass, a render pass, or whichever the target allows.
+    pub path: OutputPath,
+}
+
+impl Default for ToneMapperSettings {
+    /// `reinhard-global` at its defaults, sRGB-encoded into `Rgba8Unorm`:
+    /// what `tonegate tonemap` does with no flags.
+    fn default() -> ToneMapperSettings {
+        ToneMapperSettings {
+            operator: Operator::default(),
+            encoding: Encoding::Srgb,
+            target: wgpu::TextureFormat::Rgba8Unorm,
+            path: OutputPath::Auto,
+        }
+    }
+}
+
+/// What one pair of views was wired for.
+#[derive(Clone, PartialEq)]
+struct BoundKey {
+    input: wgpu::TextureView,
+    size: (u32, u32),
+    output: wgpu::TextureView,
+    origin: (u32, u32),
+    compute: bool,
+}
+
+/// The fullscreen triangle into a render attachment.
+struct Draw {
+    pipeline: wgpu::RenderPipeline,
+    bind_group: wgpu::BindGroup,
+}
+
+/// The resources of one pair of views: kept while the caller passes the
+/// same two.
+struct Bound {
+    key: BoundKey,
+    dispatches: Vec<Dispatch>,
+    draw: Option<Draw>,
+}
+
+/// The render pipelines a mapper compiled: by target format and the
+/// encoding's constants.
+type RenderKey = (wgpu::TextureFormat, Vec<(String, u64)>);
+
+/// Tone-maps a caller's HDR texture into a caller's target on the caller's
+/// device.
+///
+/// ```no_run
+/// # fn demo(device: &wgpu::Device, queue: &wgpu::Queue, hdr: &wgpu::TextureView, swap: &wgpu::TextureView) -> Result<(), tonegate::gpu::ToneMapperError> {
+/// use tonegate::gpu::{ToneMapper, ToneMapperSettings};
+/// let mut mapper = ToneMapper::new(device, queue, ToneMapperSettings {
+///     target: wgpu::TextureFormat::Bgra8UnormSrgb,
+///     ..ToneMapperSettings::default()
+/// })?;
+/// // Every pipeline now, not in the first frame.
+/// mapper.prepare();
+/// let mut encoder = device.create_command_encoder(&Default::default());
+/// mapper.record(&mut encoder, hdr, swap)?;
+/// queue.submit([encoder.finish()]);
+/// # Ok(()) }
+/// ```
+pub struct ToneMapper {
+    ctx: GpuContext,
+    settings: ToneMapperSettings,
+    reduction: ReductionMethod,
+    params: ToneParams,
+    stats: wgpu::Buffer,
+    bound: Option<Bound>,
+    render: HashMap<RenderKey, wgpu::RenderPipeline>,
+}
+
+impl ToneMapper {
+    /// A tone mapper on the caller's `device` and `queue`, or why not.
+    /// Pipelines are compiled by [`ToneMapper::prepare`], or else on the
+    /// first [`ToneMapper::record`], and kept; the operator's parameters
+    /// are written to a uniform through `queue` here.
+    pub fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        settings: ToneMapperSettings,
+    ) -> Result<ToneMapper, ToneMapperError> {
+        check_settings(&settings, device.features())?;
+        let ctx = GpuContext::from_device(device, queue);
+        // The reduction tonegate's own renderer picks on this adapter.
+        let reduction = ReductionMethod::Auto.resolve(ctx.traits());
+        let params = ToneParams::new(&ctx, &settings.operator, None);
+        let stats = shared_buffer(
+            &ctx,
+            "tonegate.luminance_stats",
+            std::mem::size_of::<GpuStats>() as u64,
+        );
+        Ok(ToneMapper {
+            ctx,
+            settings,
+            reduction,
+            params,
+            stats,
+            bound: None,
+            render: HashMap::new(),
+        })
+    }
+
+    /// What it maps with.
+    pub fn settings(&self) -> &ToneMapperSettings {
+        &self.settings
+    }
+
+    /// Compiles every pipeline the current settings need, so that the
+    /// first [`ToneMapper::record`] does not (a frame's hitch otherwise):
+    /// under [`OutputPath::Auto`], both paths' where the target format
+    /// allows both. The pipelines do not depend on the frame's size: a
+    /// one-pixel pair is wired and dropped, and the pipelines stay in the
+    /// mapper's cache.
+    pub fn prepare(&mut self) {
+        let texture = |format, usage| {
+            self.ctx.device.create_texture(&wgpu::TextureDescriptor {
+                label: Some("tonegate.tone_mapper.prepare"),
+                size: wgpu::Extent3d {
+                    width: 1,
+                    height: 1,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage,
+                view_formats: &[],
+            })
+        };
+        let input = ImageView::whole(&texture(
+            INPUT_FORMATS[0],
+            wgpu::TextureUsages::TEXTURE_BINDING,
+        ));
+        let target = self.settings.target;
+        let (compute, render) = self.paths();
+        let output = texture(
+            target,
+            if compute {
+                wgpu::TextureUsages::STORAGE_BINDING
+            } else {
+                wgpu::TextureUsages::RENDER_ATTACHMENT
+            },
+        );
+        let view = output.create_view(&Default::default());
+        drop(self.wire(&input, &view, (0, 0), compute));
+        if render {
+            self.render_pipeline();
+        }
+    }
+
+    /// The paths the settings allow: (compute, render pass).
+    fn paths(&self) -> (bool, bool) {
+        let storage = storable(self.settings.target, self.ctx.device.features());
+        match self.settings.path {
+            OutputPath::Auto => (storage, true),
+            OutputPath::Compute => (true, false),
+            OutputPath::RenderPass => (false, true),
+        }
+    }
+
+    /// How many pipelines the mapper has compiled so far (each operator,
+    /// operator constants, stage and target once): what a caller counts to
+    /// see that a settings change compiled nothing.
+    pub fn compiled_pipelines(&self) -> usize {
+        self.ctx.cached_pipelines() + self.render.len()
+    }
+
+    /// Maps with `settings` from the next [`ToneMapper::record`] on. The
+    /// same operator with other parameters held in its uniform (the
+    /// exposure, a Reinhard key, …) is one uniform write through the
+    /// queue: nothing is compiled and the bindings stay. A parameter that
+    /// is one of the operator's shader constants, another operator,
+    /// encoding, target or path is new pipelines, compiled once (on the
+    /// next `prepare` or `record`) and kept, so switching back compiles
+    /// nothing.
+    pub fn set_settings(&mut self, settings: ToneMapperSettings) -> Result<(), ToneMapperError> {
+        check_settings(&settings, self.ctx.device.features())?;
+        let (op, was) = (&settings.operator, &self.settings.operator);
+        let config = ToneParams::config_of(op);
+        let same_shader = op.definition().wgsl() == self.params.module
+            && ToneParams::constants_of(op, None) == self.params.constants
+            && op.needs() == was.needs()
+            && op.luminance() == was.luminance()
+            && settings.encoding == self.settings.encoding
+            && (settings.encoding != Encoding::Pq || op.display_levels() == was.display_levels())
+            && settings.target == self.settings.target
+            && settings.path == self.settings.path
+            && (config.len() * 4) as u64 == self.params.config.size();
+        if same_shader {
+            self.ctx
+                .queue
+                .write_buffer(&self.params.config, 0, bytemuck::cast_slice(&config));
+        } else {
+            self.params = ToneParams::new(&self.ctx, op, None);
+            self.bound = None;
+        }
+        self.settings = settings;
+        Ok(())
+    }
+
+    /// Records the tone mapping of `input` into `output`: the statistics
+    /// and the curve as one compute pass of `encoder`, and the target
+    /// written in that pass or in a render pass after it; nothing is
+    /// submitted.
+    ///
+    /// `input`: a view of a texture in one of [`INPUT_FORMATS`], with
+    /// `TEXTURE_BINDING`. `output`: a view in the settings' `target`
+    /// format, with `STORAGE_BINDING` for the compute path or
+    /// `RENDER_ATTACHMENT` for the render pass, holding the image's size at
+    /// its origin. Either being otherwise is an error that says which and
+    /// why, before anything is recorded. Resources for a pair of views are
+    /// kept until another pair is passed.
+    pub fn record<'a>(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        input: impl Into<SourceView<'a>>,
+        output: impl Into<TargetView<'a>>,
+    ) -> Result<(), ToneMapperError> {
+        let (input, output) = (input.into(), output.into());
+        let key = self.key(&input, &output)?;
+        if self.bound.as_ref().is_none_or(|b| b.key != key) {
+            let source = ImageView {
+                view: key.input.clone(),
+                width: key.size.0,
+                height: key.size.1,
+            };
+            let (dispatches, draw) = self.wire(&source, &key.output, key.origin, key.compute);
+            self.bound = Some(Bound {
+                key,
+                dispatches,
+                draw,
+            });
+        }
+        let bound = self.bound.as_ref().expect("bound above");
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("tonegate.tone_mapper"),
+                timestamp_writes: None,
+            });
+            for d in &bound.dispatches {
+                d.record(&mut pass);
+            }
+        }
+        if let Some(draw) = &bound.draw {
+            let (x, y) = bound.key.origin;
+            let (w, h) = bound.key.size;
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("tonegate.tone_mapper.to_attachment"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &bound.key.output,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Load,
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_viewport(x as f32, y as f32, w as f32, h as f32, 0.0, 1.0);
+            pass.set_scissor_rect(x, y, w, h);
+            pass.set_pipeline(&draw.pipeline);
+            pass.set_bind_group(0, &draw.bind_group, &[]);
+            pass.draw(0..3, 0..1);
+        }
+        Ok(())
+    }
+
+    /// The pair's key, or why the mapper cannot use it.
+    fn key(&self, input: &SourceView, output: &TargetView) -> Result<BoundKey, ToneMapperError> {
+        use wgpu::TextureUsages as U;
+        let (itex, otex) = (input.view.texture(), output.view.texture());
+        if !INPUT_FORMATS.contains(&itex.format()) {
+            return Err(ToneMapperError::InputFormat {
+                format: itex.format(),
+            });
+        }
+        let target = self.settings.target;
+        if otex.format().remove_srgb_suffix() != target.remove_srgb_suffix() {
+            return Err(ToneMapperError::OutputFormat {
+                format: otex.format(),
+                target,
+            });
+        }
+        check_texture(itex, TextureRole::Input, U::TEXTURE_BINDING)?;
+        let (compute, render) = self.paths();
+        let compute = match (compute, render) {
+            (true, true) => otex.usage().contains(U::STORAGE_BINDING),
+            (compute, _) => compute,
+        };
+        let usage = if compute {
+            U::STORAGE_BINDING
+        } else {
+            U::RENDER_ATTACHMENT
+        };
+        check_texture(otex, TextureRole::Output, usage)?;
+        let level = level_size(itex, TextureRole::Input, input.mip_level)?;
+        let size = input.size.unwrap_or(level);
+        if size.0 == 0 || size.1 == 0 || size.0 > level.0 || size.1 > level.1 {
+            return Err(ToneMapperError::Outside {
+                texture: TextureRole::Input,
+                region: (0, 0, size.0, size.1),
+                level,
+            });
+        }
+        let out_level = level_size(otex, TextureRole::Output, output.mip_level)?;
+        let origin = match output.origin {
+            None if out_level != size => {
+                return Err(ToneMapperError::SizeMismatch {
+                    input: size,
+                    output: out_level,
+                })
+            }
+            None => (0, 0),
+            Some((x, y)) => {
+                let fits = |o: u32, s: u32, l: u32| o.checked_add(s).is_some_and(|e| e <= l);
+                if !fits(x, size.0, out_level.0) || !fits(y, size.1, out_level.1) {
+                    return Err(ToneMapperError::Outside {
+                        texture: TextureRole::Output,
+                        region: (x, y, size.0, size.1),
+                        level: out_level,
+                    });
+                }
+                (x, y)
+            }
+        };
+        self.ctx
+            .check_frame(size.0, size.1)
+            .map_err(ToneMapperError::Limits)?;
+        Ok(BoundKey {
+            input: input.view.clone(),
+            size,
+            output: output.view.clone(),
+            origin,
+            compute,
+        })
+    }
+
+    /// The render pipeline into the settings' target, compiled once.
+    fn render_pipeline(&mut self) -> wgpu::RenderPipeline {
+        let s = &self.settings;
+        let levels = s.operator.display_levels();
+        let texel = Texel::of(s.target).expect("checked by check_settings");
+        let constants = super::encode::target_constants(s.encoding, levels, texel);
+        let key = (
+            s.target,
+            constants
+                .iter()
+                .map(|(k, v)| ((*k).to_owned(), v.to_bits()))
+                .collect(),
+        );
+        let ctx = &self.ctx;
+        self.render
+            .entry(key)
+            .or_insert_with(|| encode_render_pipeline(ctx, s.encoding, levels, s.target))
+            .clone()
+    }
+
+    /// The work from `input` to `output`: statistics, tone map, and the
+    /// target written by a last dispatch (`compute`) or a draw, with an
+    /// intermediate texture for the tone-mapped frame.
+    fn wire(
+        &mut self,
+        input: &ImageView,
+        output: &wgpu::TextureView,
+        origin: (u32, u32),
+        compute: bool,
+    ) -> (Vec<Dispatch>, Option<Draw>) {
+        // Intermediates in f32, as tonegate's renderer keeps them by default.
+        let format = HdrFormat::Rgba32Float;
+        let (width, height) = (input.width, input.height);
+        let ctx = &self.ctx;
+        let extent = extent_buffer(
+            ctx,
+            Extent {
+                frame: [width, height],
+                low: [width.div_ceil(2).max(1), height.div_ceil(2).max(1)],
+            },
+        );
+        let op = &self.settings.operator;
+        let mut dispatches = Vec::new();
+        let needs = op.needs();
+        if needs.any() {
+            let lum = op.luminance();
+            dispatches.extend(super::luminance_stats::luminance_stats(
+                ctx,
+                format,
+                self.reduction,
+                needs,
+                lum.weights,
+                lum.delta,
+                input,
+                &self.stats,
+                &extent,
+            ));
+        }
+        let toned = hdr_texture(ctx, "tonegate.tonemap", width, height, format);
+        dispatches.extend(super::tonemap::tonemap(
+            ctx,
+            format,
+            &self.params,
+            &self.stats,
+            input,
+            &toned,
+            &extent,
+        ));
+        let origin_words = [origin.0, origin.1, 0, 0];
+        let origin = uniform_buffer(
+            ctx,
+            "tonegate.encode.target_origin",
+            bytemuck::cast_slice(&origin_words),
+        );
+        let s = &self.settings;
+        if compute {
+            dispatches.push(encode_to_storage(
+                ctx,
+                format,
+                s.encoding,
+                s.operator.display_levels(),
+                &toned,
+                output,
+                s.target,
+                &origin,
+                &extent,
+            ));
+            return (dispatches, None);
+        }
+        let pipeline = self.render_pipeline();
+        let bind_group = encode_render_bind_group(&self.ctx, &pipeline, &toned, &origin);
+        (
+            dispatches,
+            Some(Draw {
+                pipeline,
+                bind_group,
+            }),
+        )
+    }
+}
+
+/// Refuses settings a [`ToneMapper`] cannot map with on a device with
+/// `features`.
+fn check_settings(
+    settings: &ToneMapperSettings,
+    features: wgpu::Features,
+) -> Result<(), ToneMapperError> {
+    let format = settings.target;
+    let Some(texel) = Texel::of(format) else {
+        return Err(ToneMapperError::TargetFormat { format });
+    };
+    if settings.encoding == Encoding::Pq {
+        if texel.bits() == 8 {
+            return Err(ToneMapperError::PqIntoEightBits { format });
+        }
+        if settings.operator.display_levels().is_none() {
+            return Err(ToneMapperError::PqWithoutLevels {
+                operator: settings.operator.name().to_owned(),
+            });
+        }
+    }
+    if settings.path == OutputPath::Compute && !storable(format, features) {
+        return Err(ToneMapperError::ComputeTarget { format });
+    }
+    Ok(())
+}
