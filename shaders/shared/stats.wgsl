@@ -6,6 +6,10 @@ struct Stats {
     min_y: f32,
     max_y: f32,
     weight_sum: f32,
+    // The scale of the operator's input: key / the adapted luminance, set
+    // by `adaptation` for an operator that keys on no log average and read
+    // by `tonemap` under ADAPTED; nothing reads it otherwise.
+    exposure: f32,
     // The operator's resolved values (its `operator_resolve`, run by
     // tonemap's resolve step), at offset 32: vec4 alignment.
     tone: vec4<f32>,

@@ -25,8 +25,12 @@ pub struct GpuStats {
     pub min: f32,
     pub max: f32,
     pub weight_sum: f32,
+    /// The scale of the operator's input under adaptation
+    /// (shaders/adaptation.wgsl), for an operator that keys on no log
+    /// average.
+    pub exposure: f32,
     /// Padding: `tone` is a vec4, 16-byte aligned.
-    pub _pad: [f32; 3],
+    pub _pad: [f32; 2],
     /// The operator's resolved values (`operator_resolve`), read through
     /// [`crate::operators::Operator::gpu_resolved`].
     pub tone: [f32; 4],

@@ -104,6 +104,7 @@ pub enum GpuError {
     Readback(String),
 }
 
+pub mod adaptation;
 mod bloom_blur;
 mod bloom_bright;
 mod bloom_composite;

@@ -62,6 +62,10 @@ const SOURCES: &[(&str, &str)] = &[
     ),
     ("sphere.wgsl", include_str!("../../shaders/sphere.wgsl")),
     (
+        "adaptation.wgsl",
+        include_str!("../../shaders/adaptation.wgsl"),
+    ),
+    (
         "luminance_stats.wgsl",
         include_str!("../../shaders/luminance_stats.wgsl"),
     ),

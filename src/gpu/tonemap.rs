@@ -81,6 +81,7 @@ pub fn resolve(
     Dispatch::new(p, bg, (1, 1))
 }
 
+#[allow(clippy::too_many_arguments)]
 pub fn tonemap(
     ctx: &GpuContext,
     format: HdrFormat,
@@ -89,8 +90,11 @@ pub fn tonemap(
     hdr: &ImageView,
     toned_out: &wgpu::Texture,
     extent: &wgpu::Buffer,
+    exposed: bool,
 ) -> Vec<Dispatch> {
-    let main = params.pipeline(ctx, "tonemap", "main", format, &[]);
+    // Auto-exposure from `adaptation` (its `exposure`), when `exposed`.
+    let adapted: &[(&str, f64)] = if exposed { &[("ADAPTED", 1.0)] } else { &[] };
+    let main = params.pipeline(ctx, "tonemap", "main", format, adapted);
     let bg = bind_group(
         ctx,
         &main,

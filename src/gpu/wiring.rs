@@ -304,6 +304,7 @@ impl<'p> Wiring<'_, 'p> {
                     &ImageView::whole(&self.hdr),
                     &out,
                     &self.extent,
+                    false,
                 );
                 self.outputs.push((name, out.clone()));
                 self.toned = Some(out.clone());

@@ -2,6 +2,7 @@
 //! WGSL files and GPU passes are. `run_plan` executes a [`StagePlan`] and keeps
 //! every stage's output so each can be compared with the GPU's on its own.
 
+pub mod adaptation;
 pub mod bloom_blur;
 pub mod bloom_bright;
 pub mod bloom_composite;

@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
 
+mod adaptation;
 mod display;
 mod sequence;
 mod taa;
@@ -16,6 +17,7 @@ mod units;
 pub use crate::conventions::MAX_SPP;
 pub use crate::operators::reinhard::{ColourPath, DEFAULT_KEY, DEFAULT_WHITE_FRACTION};
 use crate::operators::Operator;
+pub use adaptation::{Adaptation, DEFAULT_ADAPTATION_KEY, DEFAULT_DOWN, DEFAULT_UP};
 pub use display::{
     Bloom, BrightPass, Encoding, Grade, FACTOR_MAX, GAMMA_RANGE, GRADE_MAX, SPAN_MAX,
 };

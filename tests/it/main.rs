@@ -10,6 +10,7 @@
 mod common;
 
 mod aces2;
+mod adaptation;
 mod adapters;
 mod api;
 mod architecture;

@@ -22,7 +22,7 @@ use wgpu::TextureUsages as U;
 /// (an application that stores into a BGRA swap chain would ask): a plain
 /// `request_device`, as an application that knows nothing of tonegate
 /// would open it. `adapter`: tonegate's `--adapter` for the same one.
-fn own_device(adapter: &str) -> (wgpu::Device, wgpu::Queue) {
+pub(crate) fn own_device(adapter: &str) -> (wgpu::Device, wgpu::Queue) {
     let (backend, name) = match adapter {
         "llvmpipe" => (wgpu::Backends::VULKAN, "llvmpipe"),
         "swiftshader" => {
@@ -49,7 +49,7 @@ fn own_device(adapter: &str) -> (wgpu::Device, wgpu::Queue) {
     .expect("the adapter opens")
 }
 
-fn texture(
+pub(crate) fn texture(
     device: &wgpu::Device,
     (w, h): (u32, u32),
     levels: u32,
@@ -72,7 +72,7 @@ fn texture(
     })
 }
 
-fn view(t: &wgpu::Texture) -> wgpu::TextureView {
+pub(crate) fn view(t: &wgpu::Texture) -> wgpu::TextureView {
     t.create_view(&Default::default())
 }
 
@@ -128,13 +128,17 @@ fn hdr_input_in(
     t
 }
 
-fn hdr_input(device: &wgpu::Device, queue: &wgpu::Queue, img: &HdrImage) -> wgpu::Texture {
+pub(crate) fn hdr_input(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    img: &HdrImage,
+) -> wgpu::Texture {
     hdr_input_in(device, queue, img, (img.width, img.height), 1, 0)
 }
 
 /// One pixel of a target as read back: what its format holds.
 #[derive(Clone, Copy, Debug, PartialEq)]
-enum Texel {
+pub(crate) enum Texel {
     /// R, G, B codes (8-bit formats in RGB order whatever the layout).
     Codes([u16; 3]),
     /// scRGB, as the half floats stored.
@@ -142,7 +146,12 @@ enum Texel {
 }
 
 /// The pixels of `t`'s level `level`, as the application reads them back.
-fn read(device: &wgpu::Device, queue: &wgpu::Queue, t: &wgpu::Texture, level: u32) -> Vec<Texel> {
+pub(crate) fn read(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    t: &wgpu::Texture,
+    level: u32,
+) -> Vec<Texel> {
     let (w, h) = ((t.width() >> level).max(1), (t.height() >> level).max(1));
     let bytes = t.format().block_copy_size(None).unwrap();
     let row = (w * bytes).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
@@ -235,7 +244,7 @@ fn tonegate_frame(ctx: &GpuContext, img: &HdrImage, op: &Operator, encoding: Enc
     r.render(true).unwrap().frame.unwrap()
 }
 
-fn night_and_ramp() -> HdrImage {
+pub(crate) fn night_and_ramp() -> HdrImage {
     // A size that is no multiple of a workgroup, a night map's decades and
     // a ramp over 1e-3…1e4.
     let night = tonegate::env::BuiltinEnv::Night.generate(150, 40);
@@ -388,6 +397,7 @@ fn every_target_on(adapter: &str) {
                     encoding: *encoding,
                     target,
                     path,
+                    adaptation: None,
                 };
                 let m = match mapper.as_mut() {
                     Some(m) => {
@@ -732,6 +742,7 @@ fn views_and_settings_the_tone_mapper_cannot_use_are_refused_with_the_reason() {
         encoding,
         target,
         path,
+        adaptation: None,
     };
     let refused: Vec<(ToneMapperSettings, Is, &str)> = vec![
         (

@@ -18,6 +18,7 @@ pub use target::{
     OutputPath, SourceView, TargetView, TextureRole, ToneMapperError, INPUT_FORMATS, TARGET_FORMATS,
 };
 
+use super::adaptation::{adapted_buffer, steps_buffer, Steps};
 use super::config::ReductionMethod;
 use super::encode::{encode_render_bind_group, encode_render_pipeline, encode_to_storage, Texel};
 use super::stages::{
@@ -26,7 +27,8 @@ use super::stages::{
 use super::tonemap::ToneParams;
 use super::{GpuContext, GpuStats, HdrFormat};
 use crate::operators::Operator;
-use crate::scene::Encoding;
+use crate::reference::adaptation::{keys_on_average, measured_needs};
+use crate::scene::{Adaptation, Encoding};
 use std::collections::HashMap;
 use target::{check_texture, level_size, storable};
 
@@ -45,6 +47,11 @@ pub struct ToneMapperSettings {
     pub target: wgpu::TextureFormat,
     /// A compute pass, a render pass, or whichever the target allows.
     pub path: OutputPath,
+    /// Eye adaptation: the log average the operator keys on (or, for one
+    /// that keys on none, its exposure) follows the frames' measurements
+    /// with a time constant up and down, instead of jumping with each
+    /// frame (docs/adaptation.md). `None`: each frame on its own.
+    pub adaptation: Option<Adaptation>,
 }
 
 impl Default for ToneMapperSettings {
@@ -56,6 +63,7 @@ impl Default for ToneMapperSettings {
             encoding: Encoding::Srgb,
             target: wgpu::TextureFormat::Rgba8Unorm,
             path: OutputPath::Auto,
+            adaptation: None,
         }
     }
 }
@@ -113,7 +121,18 @@ pub struct ToneMapper {
     stats: wgpu::Buffer,
     bound: Option<Bound>,
     render: HashMap<RenderKey, wgpu::RenderPipeline>,
+    /// What the frames are adapted to, carried between records.
+    adapted: wgpu::Buffer,
+    /// The adaptation's step, written before each record.
+    steps: wgpu::Buffer,
+    /// Seconds between frames, for the adaptation's step.
+    frame_seconds: f64,
+    /// The next frame takes its measurement as it is.
+    reset: bool,
 }
+
+/// The frame time a [`ToneMapper`] adapts with until told otherwise.
+pub const DEFAULT_FRAME_SECONDS: f64 = 1.0 / 60.0;
 
 impl ToneMapper {
     /// A tone mapper on the caller's `device` and `queue`, or why not.
@@ -136,13 +155,17 @@ impl ToneMapper {
             std::mem::size_of::<GpuStats>() as u64,
         );
         Ok(ToneMapper {
-            ctx,
             settings,
             reduction,
             params,
             stats,
             bound: None,
             render: HashMap::new(),
+            adapted: adapted_buffer(&ctx),
+            steps: steps_buffer(&ctx),
+            frame_seconds: DEFAULT_FRAME_SECONDS,
+            reset: true,
+            ctx,
         })
     }
 
@@ -232,6 +255,7 @@ impl ToneMapper {
             && (settings.encoding != Encoding::Pq || op.display_levels() == was.display_levels())
             && settings.target == self.settings.target
             && settings.path == self.settings.path
+            && settings.adaptation.is_some() == self.settings.adaptation.is_some()
             && (config.len() * 4) as u64 == self.params.config.size();
         if same_shader {
             self.ctx
@@ -243,6 +267,49 @@ impl ToneMapper {
         }
         self.settings = settings;
         Ok(())
+    }
+
+    /// The seconds between the frames recorded from now on, for the
+    /// adaptation's step (a game's frame time; [`DEFAULT_FRAME_SECONDS`]
+    /// until set). Refused unless finite and ≥ 0; 0 holds the adapted
+    /// luminance where it is.
+    pub fn set_frame_seconds(&mut self, seconds: f64) -> Result<(), ToneMapperError> {
+        if !(seconds.is_finite() && seconds >= 0.0) {
+            return Err(ToneMapperError::FrameSeconds { seconds });
+        }
+        self.frame_seconds = seconds;
+        Ok(())
+    }
+
+    /// The next frame adapts at once to its own measurement (a cut, a
+    /// teleport); the first frame after `new` does anyway.
+    pub fn reset_adaptation(&mut self) {
+        self.reset = true;
+    }
+
+    /// The luminance the last frame recorded was adapted to, in scene
+    /// units (exp of the adapted log average), or `None` without
+    /// adaptation or before a frame. It waits for the device: for tests
+    /// and debugging overlays, not for every frame.
+    pub fn read_adapted_luminance(&self) -> Result<Option<f64>, ToneMapperError> {
+        if self.settings.adaptation.is_none() || self.reset {
+            return Ok(None);
+        }
+        let staging = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("tonegate.adaptation.read"),
+            size: 16,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        encoder.copy_buffer_to_buffer(&self.adapted, 0, &staging, 0, 16);
+        self.ctx.queue.submit([encoder.finish()]);
+        let bytes = self
+            .ctx
+            .read_buffer(&staging)
+            .map_err(ToneMapperError::Readback)?;
+        let ln: f32 = bytemuck::pod_read_unaligned(&bytes[..4]);
+        Ok(Some(f64::from(ln).exp()))
     }
 
     /// Records the tone mapping of `input` into `output`: the statistics
@@ -277,6 +344,13 @@ impl ToneMapper {
                 dispatches,
                 draw,
             });
+        }
+        if let Some(adaptation) = &self.settings.adaptation {
+            let steps = Steps::new(adaptation, self.frame_seconds, self.reset);
+            self.ctx
+                .queue
+                .write_buffer(&self.steps, 0, bytemuck::bytes_of(&steps));
+            self.reset = false;
         }
         let bound = self.bound.as_ref().expect("bound above");
         {
@@ -429,19 +503,35 @@ impl ToneMapper {
         );
         let op = &self.settings.operator;
         let mut dispatches = Vec::new();
+        let adapting = self.settings.adaptation.is_some();
         let needs = op.needs();
-        if needs.any() {
+        let measured = if adapting {
+            measured_needs(needs)
+        } else {
+            needs
+        };
+        if measured.any() {
             let lum = op.luminance();
             dispatches.extend(super::luminance_stats::luminance_stats(
                 ctx,
                 format,
                 self.reduction,
-                needs,
+                measured,
                 lum.weights,
                 lum.delta,
                 input,
                 &self.stats,
                 &extent,
+            ));
+        }
+        if adapting {
+            dispatches.push(super::adaptation::adaptation(
+                ctx,
+                format,
+                needs,
+                &self.stats,
+                &self.adapted,
+                &self.steps,
             ));
         }
         let toned = hdr_texture(ctx, "tonegate.tonemap", width, height, format);
@@ -453,6 +543,7 @@ impl ToneMapper {
             input,
             &toned,
             &extent,
+            adapting && !keys_on_average(needs),
         ));
         let origin_words = [origin.0, origin.1, 0, 0];
         let origin = uniform_buffer(

@@ -226,6 +226,15 @@ pub enum ToneMapperError {
         /// The output level's width and height.
         output: (u32, u32),
     },
+    /// A frame time that is negative, infinite or NaN.
+    #[error("frame time {seconds} s: must be a finite number >= 0")]
+    FrameSeconds {
+        /// The seconds given.
+        seconds: f64,
+    },
+    /// The device failed a readback ([`super::ToneMapper::read_adapted_luminance`]).
+    #[error("reading back from the device: {0}")]
+    Readback(GpuError),
     /// Over the device's limits ([`GpuError::TooLarge`] or
     /// [`GpuError::FrameTooLarge`]).
     #[error(transparent)]

@@ -1,0 +1,239 @@
+//! Eye adaptation in `tonegate::ToneMapper`, on a device opened with wgpu
+//! alone (lavapipe): across a sudden light change and back, the adapted
+//! luminance the GPU carries from frame to frame against the f64
+//! reference's (`reference::adaptation`) fed the same frames, and the
+//! frames themselves against the f64 pipeline with the adapted statistics.
+
+use crate::tone_mapper::{hdr_input, night_and_ramp, own_device, read, texture, view, Texel};
+use tonegate::image::HdrImage;
+use tonegate::operators::Operator;
+use tonegate::reference::adaptation::{adapt, measured_needs, Adapted};
+use tonegate::reference::{encode, luminance_stats, tonemap};
+use tonegate::scene::{Adaptation, Encoding};
+use tonegate::{ToneMapper, ToneMapperError, ToneMapperSettings};
+
+const DT: f64 = 1.0 / 60.0;
+
+/// The light of frame `n`: dim, then 30 times brighter from frame 20 (a
+/// door opened), then dim again from frame 80.
+fn light(n: u32) -> f32 {
+    if (20..80).contains(&n) {
+        30.0
+    } else {
+        1.0
+    }
+}
+
+fn scaled(img: &HdrImage, s: f32) -> HdrImage {
+    HdrImage::from_fn(img.width, img.height, |x, y| {
+        img.pixels[(x + img.width * y) as usize].map(|v| v * s)
+    })
+}
+
+/// The adapted luminance per frame, GPU and f64, for `op` over 140
+/// frames; every 20th frame's bytes against the f64 pipeline.
+fn follow(op: Operator) -> Vec<(u32, f32, f64, f64)> {
+    let (device, queue) = own_device("llvmpipe");
+    let img = night_and_ramp();
+    let dim = scaled(&img, 1.0);
+    let bright = scaled(&img, 30.0);
+    let inputs = [
+        view(&hdr_input(&device, &queue, &dim)),
+        view(&hdr_input(&device, &queue, &bright)),
+    ];
+    let output = texture(
+        &device,
+        (img.width, img.height),
+        1,
+        wgpu::TextureFormat::Rgba8Unorm,
+        wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::COPY_SRC,
+    );
+    let out_view = view(&output);
+    let adaptation = Adaptation::new(0.25, 0.8, 0.18).unwrap();
+    let mut mapper = ToneMapper::new(
+        &device,
+        &queue,
+        ToneMapperSettings {
+            operator: op.clone(),
+            adaptation: Some(adaptation),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    mapper.set_frame_seconds(DT).unwrap();
+    mapper.prepare();
+    let compiled = mapper.compiled_pipelines();
+    assert_eq!(
+        mapper.read_adapted_luminance().unwrap(),
+        None,
+        "no frame yet"
+    );
+    let needs = op.needs();
+    let lum = op.luminance();
+    let measure = |i: &HdrImage| {
+        luminance_stats::luminance_stats(
+            &i.to_linear(),
+            measured_needs(needs),
+            lum.weights,
+            lum.delta,
+        )
+    };
+    let measured = [measure(&dim), measure(&bright)];
+    let mut cpu: Option<Adapted> = None;
+    let mut curve = Vec::new();
+    for n in 0..140u32 {
+        let k = usize::from(light(n) > 1.0);
+        let mut encoder = device.create_command_encoder(&Default::default());
+        mapper.record(&mut encoder, &inputs[k], &out_view).unwrap();
+        queue.submit([encoder.finish()]);
+        let gpu = mapper.read_adapted_luminance().unwrap().unwrap();
+        let next = adapt(&measured[k], cpu.as_ref(), adaptation.steps(DT));
+        cpu = Some(next);
+        curve.push((n, light(n), gpu, next.log_average.exp()));
+        if n % 20 == 19 {
+            // The f64 pipeline with the f64 adapted statistics: the
+            // operator's resolve step, the input scaled by the
+            // auto-exposure, the curve, the encoding.
+            let stats = next.statistics(&measured[k]);
+            let tone = op.resolve(&stats).unwrap();
+            let exposure = next.exposure(&adaptation, needs);
+            let input = [&dim, &bright][k].to_linear();
+            let input = input.map(|p| p.map(|v| v * exposure));
+            let want = encode::encode(&tonemap::tonemap(&input, &tone), Encoding::Srgb);
+            let got = read(&device, &queue, &output, 0);
+            // The statistics' f32 error (1e-5 relative) and the curve's
+            // (1e-4) move a value by far less than a code: a code differs
+            // only where its value lies on a rounding boundary, by one.
+            let mut off = 0;
+            for (g, w) in got.iter().zip(&want.pixels) {
+                let Texel::Codes(g) = g else { unreachable!() };
+                for c in 0..3 {
+                    let d = (i32::from(g[c]) - i32::from(w[c])).abs();
+                    assert!(d <= 1, "{} frame {n}: a code {d} off", op.name());
+                    off += usize::from(d == 1);
+                }
+            }
+            assert!(
+                off * 100 <= got.len() * 3,
+                "{} frame {n}: {off} codes one off",
+                op.name()
+            );
+        }
+    }
+    assert_eq!(
+        mapper.compiled_pipelines(),
+        compiled,
+        "nothing compiled after prepare"
+    );
+    curve
+}
+
+/// The bound on |ln L_gpu − ln L_f64| over a sequence: the measurement's
+/// (the statistics' established 1e-5 relative, so 1e-5 in ln), which the
+/// recursion a + (m − a)·α, a convex combination, never amplifies; plus
+/// each frame's f32 rounding (ln, the step, exp: at most 4 ulp of the
+/// largest |ln L|, 2^-22·6) left over from every earlier frame, damped by
+/// (1 − α) a frame, so at most its 1/α_min.
+fn curve_bound(adaptation: &Adaptation) -> f64 {
+    let (up, down) = adaptation.steps(DT);
+    1e-5 + 2f64.powi(-22) * 6.0 / up.min(down)
+}
+
+fn check_curve(name: &str, curve: &[(u32, f32, f64, f64)]) -> f64 {
+    let bound = curve_bound(&Adaptation::new(0.25, 0.8, 0.18).unwrap());
+    let mut worst = 0f64;
+    for &(n, _, gpu, cpu) in curve {
+        let e = (gpu.ln() - cpu.ln()).abs();
+        assert!(
+            e <= bound,
+            "{name} frame {n}: gpu {gpu} f64 {cpu} ({e:.2e} > {bound:.2e})"
+        );
+        worst = worst.max(e / bound);
+    }
+    // The curve adapts: it rises after the light change, not at once, and
+    // falls back more slowly than it rose.
+    let at = |n: usize| curve[n].3;
+    assert!(at(20) > at(19) && at(21) > at(20) && at(79) > at(21));
+    assert!(at(20) < at(79) / 3.0, "no jump at the change");
+    let rise = (at(30) / at(19)).ln();
+    let fall = (at(79) / at(89)).ln();
+    assert!(rise > fall, "light adaptation is faster than dark");
+    worst
+}
+
+#[test]
+fn the_adapted_luminance_follows_a_light_change_as_its_f64_reference_does() {
+    let mut report = Vec::new();
+    // Keys on the log average, which adaptation replaces.
+    let reinhard = Operator::default();
+    assert!(reinhard.needs().log_average);
+    let curve = follow(reinhard);
+    report.push(("reinhard-global", check_curve("reinhard", &curve), curve));
+    // Keys on nothing: auto-exposure, key over the adapted luminance.
+    let agx = Operator::named("agx", &[]).unwrap();
+    assert!(!agx.needs().any());
+    let curve = follow(agx);
+    report.push(("agx", check_curve("agx", &curve), curve));
+    for (name, worst, curve) in &report {
+        println!("{name}: worst {worst:.3} of the bound");
+        for (n, light, gpu, cpu) in curve.iter().step_by(5) {
+            println!("{name} frame {n:3} light {light:4} adapted gpu {gpu:.6} f64 {cpu:.6}");
+        }
+    }
+}
+
+#[test]
+fn a_reset_adapts_at_once_and_a_bad_frame_time_is_refused() {
+    let (device, queue) = own_device("llvmpipe");
+    let img = night_and_ramp();
+    let dim = view(&hdr_input(&device, &queue, &img));
+    let bright = view(&hdr_input(&device, &queue, &scaled(&img, 30.0)));
+    let output = texture(
+        &device,
+        (img.width, img.height),
+        1,
+        wgpu::TextureFormat::Rgba8Unorm,
+        wgpu::TextureUsages::STORAGE_BINDING,
+    );
+    let out = view(&output);
+    let mut mapper = ToneMapper::new(
+        &device,
+        &queue,
+        ToneMapperSettings {
+            adaptation: Some(Adaptation::default()),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let frame = |mapper: &mut ToneMapper, input| {
+        let mut encoder = device.create_command_encoder(&Default::default());
+        mapper.record(&mut encoder, input, &out).unwrap();
+        queue.submit([encoder.finish()]);
+        mapper.read_adapted_luminance().unwrap().unwrap()
+    };
+    // What the bright frame measures: a fresh mapper's first frame.
+    let settings = mapper.settings().clone();
+    let at_bright = frame(
+        &mut ToneMapper::new(&device, &queue, settings).unwrap(),
+        &bright,
+    );
+    let at_dim = frame(&mut mapper, &dim);
+    assert!(at_bright > at_dim * 10.0, "{at_dim} {at_bright}");
+    let step = frame(&mut mapper, &bright);
+    assert!(
+        step > at_dim * 1.01 && step < at_bright * 0.5,
+        "{at_dim} {step}"
+    );
+    mapper.reset_adaptation();
+    let cut = frame(&mut mapper, &bright);
+    assert_eq!(cut, at_bright);
+    // A frame time of 0 holds the adapted luminance.
+    mapper.set_frame_seconds(0.0).unwrap();
+    let held = frame(&mut mapper, &dim);
+    assert_eq!(held, cut);
+    for bad in [-1.0 / 60.0, f64::NAN, f64::INFINITY] {
+        let e = mapper.set_frame_seconds(bad).unwrap_err();
+        assert!(matches!(e, ToneMapperError::FrameSeconds { .. }), "{e:?}");
+        assert!(e.to_string().starts_with("frame time"), "{e}");
+    }
+}
