@@ -50,6 +50,7 @@ fn scene(name: &str, i: usize, shift: f64) -> SceneResult {
             },
             fraction_over: BTreeMap::new(),
             flip_percentiles: BTreeMap::new(),
+            adaptation: None,
             failed_checks: Vec::new(),
             artifacts: Vec::new(),
         })

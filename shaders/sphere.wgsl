@@ -40,7 +40,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         let d = camera_ray(f32(id.x) + 0.5 + j.x, f32(id.y) + 0.5 + j.y, frame);
         acc = acc + bilinear(equirect_uv(sphere_direction(frame, d)));
     }
-    textureStore(hdr_out, vec2<i32>(id.xy), vec4<f32>(acc / f32(SPP), 1.0));
+    textureStore(hdr_out, vec2<i32>(id.xy), vec4<f32>(acc / f32(SPP) * frame.light, 1.0));
 }
 
 @compute @workgroup_size(64, 1)
@@ -55,5 +55,5 @@ fn main_hardware(@builtin(global_invocation_id) id: vec3<u32>) {
         let uv = equirect_uv(sphere_direction(frame, d));
         acc = acc + textureSampleLevel(env_texture, env_sampler, uv, 0.0).rgb;
     }
-    textureStore(hdr_out, vec2<i32>(id.xy), vec4<f32>(acc / f32(SPP), 1.0));
+    textureStore(hdr_out, vec2<i32>(id.xy), vec4<f32>(acc / f32(SPP) * frame.light, 1.0));
 }

@@ -16,9 +16,6 @@
 @group(0) @binding(2) var hdr: texture_2d<f32>;
 @group(0) @binding(3) var toned_out: texture_storage_2d<HDR_FORMAT, write>;
 @group(0) @binding(4) var<uniform> resolved: Stats;
-// Eye adaptation's auto-exposure (shaders/adaptation.wgsl) for an operator
-// that keys on no log average.
-override ADAPTED: bool = false;
 
 @compute @workgroup_size(1)
 fn resolve() {
@@ -31,9 +28,6 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x >= dims.x || id.y >= dims.y) {
         return;
     }
-    var c = textureLoad(hdr, id.xy, 0).rgb;
-    if (ADAPTED) {
-        c = c * resolved.exposure;
-    }
+    let c = textureLoad(hdr, id.xy, 0).rgb;
     textureStore(toned_out, vec2<i32>(id.xy), vec4<f32>(toned(c, resolved.tone), 1.0));
 }

@@ -14,6 +14,9 @@ use std::path::{Path, PathBuf};
 
 /// File name of the manifest inside the golden directory.
 pub const MANIFEST: &str = "manifest.toml";
+/// File name, inside a scene's folder, of the adaptation curve of a scene
+/// with eye adaptation: the luminance each frame was adapted to.
+pub const ADAPTATION_CURVE: &str = "adaptation.csv";
 /// Cap on everything under golden/ (kept small so the repository stays light).
 pub const MAX_GOLDEN_BYTES: u64 = 20 * 1024 * 1024;
 
@@ -34,6 +37,9 @@ pub enum GoldenError {
     /// A golden frame could not be read.
     #[error("{path}: cannot read golden frame: {detail}")]
     Frame { path: PathBuf, detail: String },
+    /// A golden adaptation curve could not be read.
+    #[error("{path}: cannot read the golden adaptation curve: {detail}")]
+    Curve { path: PathBuf, detail: String },
 }
 
 /// What the manifest records about one scene.
@@ -89,6 +95,10 @@ pub enum Problem {
         file: String,
         pixels: usize,
     },
+    CurveDiffers {
+        scene: String,
+        frames: usize,
+    },
 }
 
 impl std::fmt::Display for Problem {
@@ -100,6 +110,7 @@ impl std::fmt::Display for Problem {
             Problem::MissingFile { scene, file } => write!(f, "{scene}: golden frame {file} is missing"),
             Problem::FileChanged { scene, file } => write!(f, "{scene}: golden frame {file} does not match its manifest SHA-256"),
             Problem::PixelsDiffer { scene, file, pixels } => write!(f, "{scene}: re-rendered {file} differs from the golden in {pixels} pixels"),
+            Problem::CurveDiffers { scene, frames } => write!(f, "{scene}: the re-rendered adaptation curve differs from {ADAPTATION_CURVE} in {frames} frames"),
         }
     }
 }
@@ -178,6 +189,57 @@ fn sha256_file(path: &Path) -> Option<String> {
         .map(|b| hex::encode(Sha256::digest(&b)))
 }
 
+/// The adaptation curve's text: a header, then `frame,luminance` a line,
+/// each value printed so that it reads back to the same f64.
+fn curve_text(curve: &[f64]) -> String {
+    let mut text = String::from("frame,adapted_luminance\n");
+    for (n, v) in curve.iter().enumerate() {
+        text.push_str(&format!("{n},{v:e}\n"));
+    }
+    text
+}
+
+/// Reads the golden adaptation curve of `scene`: the luminance each of its
+/// `frames` frames was adapted to.
+pub fn read_adaptation_curve(
+    root: &Path,
+    scene: &str,
+    frames: u32,
+) -> Result<Vec<f64>, GoldenError> {
+    let path = root.join(scene).join(ADAPTATION_CURVE);
+    let bad = |detail: String| GoldenError::Curve {
+        path: path.clone(),
+        detail,
+    };
+    let text = std::fs::read_to_string(&path).map_err(|e| bad(e.to_string()))?;
+    let mut lines = text.lines();
+    if lines.next() != Some("frame,adapted_luminance") {
+        return Err(bad("the first line is not `frame,adapted_luminance`".into()));
+    }
+    let mut curve = Vec::with_capacity(frames as usize);
+    for (i, line) in lines.enumerate() {
+        let value = line
+            .split_once(',')
+            .filter(|(n, _)| n.parse::<usize>().ok() == Some(i))
+            .and_then(|(_, v)| v.parse::<f64>().ok())
+            .filter(|v| v.is_finite() && *v > 0.0)
+            .ok_or_else(|| {
+                bad(format!(
+                    "line {}: not `{i},<luminance > 0>`: {line:?}",
+                    i + 2
+                ))
+            })?;
+        curve.push(value);
+    }
+    if curve.len() != frames as usize {
+        return Err(bad(format!(
+            "{} frames for a sequence of {frames}",
+            curve.len()
+        )));
+    }
+    Ok(curve)
+}
+
 /// Reads golden frame `n` of `scene`.
 pub fn read_frame(root: &Path, scene: &str, n: u32) -> Result<Frame, GoldenError> {
     let path = frame_path(root, scene, n);
@@ -228,6 +290,23 @@ pub fn check_manifest(root: &Path, scenes: &[Scene]) -> Result<Vec<Problem>, Gol
                 _ => {}
             }
         }
+        if scene.adaptation.is_some() {
+            let file = ADAPTATION_CURVE.to_owned();
+            match (
+                entry.files.get(&file),
+                sha256_file(&root.join(&name).join(&file)),
+            ) {
+                (_, None) | (None, _) => problems.push(Problem::MissingFile {
+                    scene: name.clone(),
+                    file,
+                }),
+                (Some(want), Some(got)) if *want != got => problems.push(Problem::FileChanged {
+                    scene: name.clone(),
+                    file,
+                }),
+                _ => {}
+            }
+        }
     }
     Ok(problems)
 }
@@ -248,8 +327,11 @@ pub fn bless(root: &Path, scenes: &[Scene], progress: &dyn Progress) -> Result<(
             detail: e.to_string(),
         })?;
         let mut files = BTreeMap::new();
+        let mut curve = Vec::new();
         for n in 0..scene.frames {
-            let frame = reference.frame(n)?.image;
+            let rendered = reference.frame(n)?;
+            curve.extend(rendered.log_average());
+            let frame = rendered.image;
             let path = frame_path(root, &scene.name, n);
             crate::io::write_frame_png(&path, &frame).map_err(|e| GoldenError::Write {
                 path: path.clone(),
@@ -262,11 +344,24 @@ pub fn bless(root: &Path, scenes: &[Scene], progress: &dyn Progress) -> Result<(
             files.insert(frame_file(n), sha);
             progress.advance(1);
         }
-        // Frames of a longer earlier sequence would be left behind: remove them.
+        if scene.adaptation.is_some() {
+            let path = dir.join(ADAPTATION_CURVE);
+            let write_err = |detail: String| GoldenError::Write {
+                path: path.clone(),
+                detail,
+            };
+            std::fs::write(&path, curve_text(&curve)).map_err(|e| write_err(e.to_string()))?;
+            let sha = sha256_file(&path)
+                .ok_or_else(|| write_err("written file cannot be read back".into()))?;
+            files.insert(ADAPTATION_CURVE.to_owned(), sha);
+        }
+        // Frames of a longer earlier sequence, or the curve of a scene that
+        // no longer adapts, would be left behind: remove them.
         if let Ok(entries) = std::fs::read_dir(&dir) {
             for e in entries.flatten() {
                 let name = e.file_name().to_string_lossy().into_owned();
-                if name.ends_with(".png") && !files.contains_key(&name) {
+                let golden = name.ends_with(".png") || name == ADAPTATION_CURVE;
+                if golden && !files.contains_key(&name) {
                     let _ = std::fs::remove_file(e.path());
                 }
             }
@@ -322,12 +417,21 @@ pub fn verify(
         progress.working_on(&scene.name);
         let env = scene_environment(scene)?;
         let reference = SceneRenderer::cpu(scene, &env, scene.reference_spp);
+        // The blessed curve, when it can be read (else already reported).
+        let curve = scene
+            .adaptation
+            .and_then(|_| read_adaptation_curve(root, &scene.name, scene.frames).ok());
+        let mut curve_differs = 0;
         for n in 0..scene.frames {
             progress.advance(1);
+            let rendered = reference.frame(n)?;
+            if let (Some(c), Some(v)) = (&curve, rendered.log_average()) {
+                curve_differs += usize::from(c[n as usize] != v);
+            }
             let Ok(golden) = read_frame(root, &scene.name, n) else {
                 continue; // already reported as missing
             };
-            let frame = reference.frame(n)?.image;
+            let frame = rendered.image;
             let pixels = match (&golden, &frame) {
                 (Frame::Rgb8(g), Frame::Rgb8(f)) if (g.width, g.height) == (f.width, f.height) => {
                     differing(&g.pixels, &f.pixels)
@@ -345,6 +449,12 @@ pub fn verify(
                     pixels,
                 });
             }
+        }
+        if curve_differs > 0 {
+            problems.push(Problem::CurveDiffers {
+                scene: scene.name.clone(),
+                frames: curve_differs,
+            });
         }
     }
     progress.finish();

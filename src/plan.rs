@@ -44,6 +44,10 @@ pub enum Stage {
     Taa(TaaParams),
     /// Reduces the HDR frame to the statistics the operator needs.
     LuminanceStats(StatsNeeds),
+    /// Eye adaptation (docs/adaptation.md): the measured log average moved
+    /// toward by the frame's step from the one the frames before adapted
+    /// to, in place of the measurement.
+    Adaptation(AdaptationStage),
     /// The operator, by name (its module is the pipeline's key).
     Tonemap {
         operator: &'static str,
@@ -67,11 +71,12 @@ pub enum Stage {
 
 impl Stage {
     /// Every stage's name, in plan order.
-    pub const NAMES: [&'static str; 12] = [
+    pub const NAMES: [&'static str; 13] = [
         "sphere",
         "taa_sobel",
         "taa",
         "luminance_stats",
+        "adaptation",
         "tonemap",
         "bloom_bright",
         "bloom_downsample",
@@ -88,6 +93,7 @@ impl Stage {
             Stage::TaaSobel => "taa_sobel",
             Stage::Taa(_) => "taa",
             Stage::LuminanceStats(_) => "luminance_stats",
+            Stage::Adaptation(_) => "adaptation",
             Stage::Tonemap { .. } => "tonemap",
             Stage::BloomBright { .. } => "bloom_bright",
             Stage::BloomDownsample { .. } => "bloom_downsample",
@@ -98,6 +104,17 @@ impl Stage {
             Stage::Encode => "encode",
         }
     }
+}
+
+/// What the `adaptation` stage runs with.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct AdaptationStage {
+    pub adaptation: crate::scene::Adaptation,
+    /// Seconds between frames.
+    pub frame_seconds: f64,
+    /// What the operator itself reads (the stage adapts those, or gives an
+    /// operator that reads none its auto-exposure).
+    pub operator_needs: StatsNeeds,
 }
 
 /// Where the frame comes from.
@@ -221,7 +238,60 @@ impl StagePlan {
         if let Some(taa) = scene.taa_active().filter(|_| spp == 1) {
             plan = plan.with_taa(taa.params());
         }
+        if let Some(a) = scene.adaptation {
+            plan = plan.with_adaptation(AdaptationStage {
+                adaptation: a,
+                frame_seconds: scene.frame_seconds(),
+                operator_needs: scene.operator.needs(),
+            });
+        }
         plan
+    }
+
+    /// The plan with `adaptation` right after `luminance_stats`, which then
+    /// measures the log average too (and runs for an operator that needs
+    /// nothing measured); unchanged when it has adaptation already.
+    pub fn with_adaptation(mut self, stage: AdaptationStage) -> StagePlan {
+        if self.contains("adaptation") {
+            return self;
+        }
+        let at = match self
+            .stages
+            .iter()
+            .position(|s| matches!(s, Stage::LuminanceStats(_)))
+        {
+            Some(i) => {
+                if let Stage::LuminanceStats(needs) = &mut self.stages[i] {
+                    needs.log_average = true;
+                }
+                i + 1
+            }
+            None => {
+                let tonemap = self
+                    .stages
+                    .iter()
+                    .position(|s| matches!(s, Stage::Tonemap { .. }))
+                    .unwrap_or(0);
+                self.stages.insert(
+                    tonemap,
+                    Stage::LuminanceStats(StatsNeeds {
+                        log_average: true,
+                        ..StatsNeeds::default()
+                    }),
+                );
+                tonemap + 1
+            }
+        };
+        self.stages.insert(at, Stage::Adaptation(stage));
+        self
+    }
+
+    /// The adaptation stage's parameters, when the plan has one.
+    pub fn adaptation(&self) -> Option<AdaptationStage> {
+        self.stages.iter().find_map(|s| match s {
+            Stage::Adaptation(a) => Some(*a),
+            _ => None,
+        })
     }
 
     /// The plan with the TAA stages (`taa_sobel` for the edge-aware variant,
@@ -293,6 +363,12 @@ impl fmt::Display for StagePlan {
                     parts.join(", ")
                 }
                 Stage::Tonemap { operator } => (*operator).to_owned(),
+                Stage::Adaptation(a) => format!(
+                    "up {} s, down {} s, {:.4} s a frame",
+                    a.adaptation.up.get(),
+                    a.adaptation.down.get(),
+                    a.frame_seconds
+                ),
                 Stage::BloomBright { source } => format!("from {source:?}").to_lowercase(),
                 Stage::BloomDownsample { factor } => format!("1/{factor}"),
                 Stage::BloomBlur { radius } => format!("radius {radius}, 2 passes"),
@@ -321,134 +397,4 @@ pub fn encoding_label(e: &Encoding) -> String {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::operators::Value;
-    use crate::scene::{Bloom, Factor, NonNegative, Positive, Radius};
-
-    fn bloom(bright_pass: BrightPass, strength: f64) -> Bloom {
-        Bloom {
-            bright_pass,
-            threshold: NonNegative::try_from(1.0).unwrap(),
-            downsample: Factor::try_from(2).unwrap(),
-            radius: Radius::try_from(4).unwrap(),
-            sigma: Positive::try_from(2.0).unwrap(),
-            strength: NonNegative::try_from(strength).unwrap(),
-        }
-    }
-
-    fn reinhard02(white: Option<f64>, log_average: Option<f64>) -> Operator {
-        let mut given = Vec::new();
-        if let Some(w) = white {
-            given.push(("white", Value::Number(w)));
-        }
-        if let Some(l) = log_average {
-            given.push(("log_average", Value::Number(l)));
-        }
-        Operator::named("reinhard02", &given).unwrap()
-    }
-
-    #[test]
-    fn taa_stages_follow_the_sphere_only_when_asked() {
-        let params = |variant| TaaParams {
-            variant,
-            ..TaaParams::default()
-        };
-        let op = Operator::default();
-        let sphere = StagePlan::build(Input::Sphere { spp: 1 }, &op, None, None);
-        let clip = sphere.clone().with_taa(params(TaaVariant::Clip));
-        assert_eq!(
-            clip.names(),
-            ["sphere", "taa", "luminance_stats", "tonemap", "encode"]
-        );
-        let edge = sphere.clone().with_taa(params(TaaVariant::EdgeAware));
-        assert_eq!(&edge.names()[..3], ["sphere", "taa_sobel", "taa"]);
-        assert_eq!(edge.clone().with_taa(params(TaaVariant::Clip)), edge);
-        assert_eq!(sphere.clone().with_taa(params(TaaVariant::Off)), sphere);
-        let flat = StagePlan::build(Input::Flat, &op, None, None);
-        assert_eq!(flat.clone().with_taa(params(TaaVariant::Clip)), flat);
-    }
-
-    #[test]
-    fn fixed_parameters_need_no_statistics() {
-        let plan = StagePlan::build(Input::Flat, &reinhard02(Some(4.0), Some(0.5)), None, None);
-        assert_eq!(plan.names(), ["tonemap", "encode"]);
-    }
-
-    #[test]
-    fn flat_images_have_no_sphere_stage() {
-        let plan = StagePlan::build(Input::Flat, &Operator::default(), None, None);
-        assert!(!plan.contains("sphere"));
-        let plan = StagePlan::build(Input::Sphere { spp: 1 }, &Operator::default(), None, None);
-        assert_eq!(plan.stages[0], Stage::Sphere { spp: 1 });
-    }
-
-    #[test]
-    fn weighted_sums_and_min_only_when_the_auto_key_needs_them() {
-        let needs = stats_needs(&Operator::default(), None);
-        assert!(needs.log_average && needs.max && !needs.weighted_log_average && !needs.min);
-        let auto = Operator::named("reinhard-auto-key", &[]).unwrap();
-        let needs = stats_needs(&auto, None);
-        assert!(needs.weighted_log_average && needs.min && needs.max && !needs.log_average);
-        let fixed = Operator::named("reinhard-auto-key", &[("key", Value::Number(0.2))]).unwrap();
-        assert!(!stats_needs(&fixed, None).min);
-        // Lwhite unset needs the max; an absolute one does not.
-        assert!(stats_needs(&reinhard02(None, None), None).max);
-        assert!(!stats_needs(&reinhard02(Some(3.0), None), None).max);
-        // The `scaled` bright pass normalises by Lmax.
-        assert!(
-            stats_needs(
-                &reinhard02(Some(3.0), None),
-                Some(&bloom(BrightPass::Scaled, 0.2))
-            )
-            .max
-        );
-    }
-
-    #[test]
-    fn bloom_and_grade_appear_only_when_active() {
-        let op = Operator::default();
-        let off = StagePlan::build(
-            Input::Flat,
-            &op,
-            Some(&bloom(BrightPass::Scaled, 0.0)),
-            None,
-        );
-        assert!(!off.names().iter().any(|n| n.starts_with("bloom")));
-        let on = StagePlan::build(
-            Input::Flat,
-            &op,
-            Some(&bloom(BrightPass::Threshold, 0.3)),
-            None,
-        );
-        assert_eq!(
-            on.names(),
-            [
-                "luminance_stats",
-                "tonemap",
-                "bloom_bright",
-                "bloom_downsample",
-                "bloom_blur",
-                "bloom_composite",
-                "encode"
-            ]
-        );
-        let neutral = Grade {
-            brightness: NonNegative::try_from(1.0).unwrap(),
-            contrast: NonNegative::try_from(1.0).unwrap(),
-            saturation: NonNegative::try_from(1.0).unwrap(),
-        };
-        assert!(!StagePlan::build(Input::Flat, &op, None, Some(&neutral)).contains("grade"));
-        let saturate = Grade {
-            saturation: NonNegative::try_from(1.2).unwrap(),
-            ..neutral.clone()
-        };
-        let plan = StagePlan::build(Input::Flat, &op, None, Some(&saturate));
-        assert!(plan.contains("grade") && !plan.contains("grade_stats"));
-        let contrast = Grade {
-            contrast: NonNegative::try_from(1.2).unwrap(),
-            ..neutral
-        };
-        assert!(StagePlan::build(Input::Flat, &op, None, Some(&contrast)).contains("grade_stats"));
-    }
-}
+mod tests;

@@ -12,4 +12,7 @@ struct FrameUniforms {
     // The frame's sub-pixel jitter (a TAA frame; 0 otherwise), added to
     // every sample's offset as `conventions::taa_jitter` says.
     jitter: vec2<f32>,
+    // The scene's light at this frame (a `[[light]]` step's scale; 1 by
+    // default), which every sample is scaled by after the average.
+    light: f32,
 }

@@ -3,7 +3,7 @@
 //! the static and moving summaries of the TAA thesis (docs/bibliography.md).
 
 use super::figures::FRAME_METRICS;
-use super::result::{CheckResult, FrameResult, SceneResult, Summary, TestKind};
+use super::result::{AdaptationPoint, CheckResult, FrameResult, SceneResult, Summary, TestKind};
 use super::spec::{not_applied, Check, CheckSpec, GainOver, Judged, Subject};
 use crate::image::Frame;
 use crate::metrics::{compare_frames_by, frame_fraction_over};
@@ -50,7 +50,10 @@ pub fn evaluate(
     }
     let rule = spec.check.rule();
     match rule.subject {
-        Subject::Frame(_) | Subject::FractionOver(_) | Subject::FlipPercentile(_) => {
+        Subject::Frame(_)
+        | Subject::FractionOver(_)
+        | Subject::FlipPercentile(_)
+        | Subject::Adaptation => {
             let lower_is_worse = rule.side == super::spec::Side::Min;
             // (value, frame) of the worst judged frame; NaN counts as worst.
             let worst = frames
@@ -200,6 +203,8 @@ pub struct Judging<'a> {
     /// What compares 8-bit frames when not the CPU (the GPU, under
     /// `check --metrics gpu`).
     pub compare: Option<crate::metrics::CompareBy<'a>>,
+    /// The golden adaptation curve of a scene with eye adaptation.
+    pub adaptation_curve: Option<&'a [f64]>,
 }
 
 /// What a renderer produced for one scene.
@@ -217,6 +222,9 @@ pub struct Rendered {
     /// The accuracy-trading options the renderer had in effect (none on
     /// the CPU): the checks for them apply.
     pub options: Vec<super::spec::AccuracyOption>,
+    /// With eye adaptation in the plan, the luminance each frame was
+    /// adapted to (empty otherwise).
+    pub adapted: Vec<f64>,
 }
 
 /// A frame whose images are kept as artifacts (a failing frame, or the
@@ -246,7 +254,18 @@ pub fn judge(
         timings,
         fps,
         options,
+        adapted,
     } = rendered;
+    if on
+        .adaptation_curve
+        .is_some_and(|c| c.len() != goldens.len())
+    {
+        return Err(JudgeError::FrameCount {
+            scene: on.scene.into(),
+            rendered: images.len(),
+            goldens: on.adaptation_curve.map_or(0, <[f64]>::len),
+        });
+    }
     if images.len() != goldens.len() {
         return Err(JudgeError::FrameCount {
             scene: on.scene.into(),
@@ -296,11 +315,18 @@ pub fn judge(
             for &k in &lsbs {
                 fraction.insert(k, frame_fraction_over(frame, golden, k).map_err(err)?);
             }
+            let adaptation = on.adaptation_curve.map(|c| {
+                AdaptationPoint::new(
+                    adapted.get(n as usize).copied().unwrap_or(f64::NAN),
+                    c[n as usize],
+                )
+            });
             Ok(FrameResult {
                 frame: n,
                 metrics,
                 fraction_over: fraction,
                 flip_percentiles,
+                adaptation,
                 failed_checks: Vec::new(),
                 artifacts: Vec::new(),
             })

@@ -40,6 +40,10 @@ pub struct FrameResult {
     /// FLIP's weighted percentiles, for each p (as written) a check asks about.
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub flip_percentiles: BTreeMap<String, f64>,
+    /// Eye adaptation: the luminance the frame was adapted to, against the
+    /// golden adaptation curve's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub adaptation: Option<AdaptationPoint>,
     /// Indices (into the scene's `checks`) of the per-frame checks this frame fails.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub failed_checks: Vec<usize>,
@@ -47,6 +51,26 @@ pub struct FrameResult {
     /// scene's worst judged frame).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub artifacts: Vec<String>,
+}
+
+/// One frame of an adapting scene: the luminance it was adapted to, the
+/// golden curve's, and |Δ ln| between them.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct AdaptationPoint {
+    pub adapted: f64,
+    pub golden: f64,
+    pub error: f64,
+}
+
+impl AdaptationPoint {
+    pub fn new(adapted: f64, golden: f64) -> AdaptationPoint {
+        AdaptationPoint {
+            adapted,
+            golden,
+            // NaN (a non-positive or missing value) fails every bound.
+            error: (adapted.ln() - golden.ln()).abs(),
+        }
+    }
 }
 
 impl FrameResult {
@@ -64,6 +88,7 @@ impl FrameResult {
                     .copied()
                     .unwrap_or(f64::NAN),
             ),
+            Subject::Adaptation => self.adaptation.map(|a| a.error),
             Subject::StageMs(_) | Subject::Fps | Subject::GainOver(_) => None,
         }
     }

@@ -48,6 +48,10 @@ pub enum Check {
     /// same run (its no-AA render, say): "TAA helps here" as a gate
     /// condition.
     MinPsnrGainOver(GainOver),
+    /// Eye adaptation (docs/adaptation.md): the luminance each frame was
+    /// adapted to against the golden adaptation curve, |Δ ln L| (a
+    /// relative error), for a scene with `[adaptation]`.
+    MaxAdaptationError(f64),
 }
 
 /// `min_psnr_gain_over = { scene = "taa-ghost-noaa", db = 2.0, frame_db =
@@ -82,6 +86,9 @@ pub enum Subject<'a> {
     FlipPercentile(f64),
     /// The PSNR gain over another scene of the run, frame by frame.
     GainOver(&'a GainOver),
+    /// |Δ ln| of a judged frame's adapted luminance against the golden
+    /// adaptation curve's.
+    Adaptation,
 }
 
 impl Subject<'_> {
@@ -94,6 +101,7 @@ impl Subject<'_> {
             Subject::Fps => "FPS".into(),
             Subject::FlipPercentile(p) => format!("FLIP weighted percentile {p}"),
             Subject::GainOver(g) => format!("mean PSNR gain over {}", g.scene),
+            Subject::Adaptation => "adapted luminance |Δ ln|".into(),
         }
     }
 
@@ -106,6 +114,7 @@ impl Subject<'_> {
             Subject::Fps => format!("{v:.1} FPS with readback"),
             Subject::FlipPercentile(p) => format!("FLIP weighted percentile {p} {v:.5}"),
             Subject::GainOver(g) => format!("PSNR gain over {} {v:+.2} dB", g.scene),
+            Subject::Adaptation => format!("adapted luminance |Δ ln| {v:.3e}"),
         }
     }
 
@@ -114,7 +123,10 @@ impl Subject<'_> {
             Subject::Frame(m) => m.bound_unit,
             Subject::StageMs(_) => " ms",
             Subject::GainOver(_) => " dB",
-            Subject::FractionOver(_) | Subject::Fps | Subject::FlipPercentile(_) => "",
+            Subject::FractionOver(_)
+            | Subject::Fps
+            | Subject::FlipPercentile(_)
+            | Subject::Adaptation => "",
         }
     }
 
@@ -128,6 +140,7 @@ impl Subject<'_> {
             Subject::GainOver(g) => {
                 bound.is_finite() && g.frame_db.is_none_or(f64::is_finite) && !g.scene.is_empty()
             }
+            Subject::Adaptation => bound.is_finite() && bound >= 0.0,
         }
     }
 
@@ -136,7 +149,10 @@ impl Subject<'_> {
     pub fn per_frame(&self) -> bool {
         matches!(
             self,
-            Subject::Frame(_) | Subject::FractionOver(_) | Subject::FlipPercentile(_)
+            Subject::Frame(_)
+                | Subject::FractionOver(_)
+                | Subject::FlipPercentile(_)
+                | Subject::Adaptation
         )
     }
 }
@@ -243,6 +259,9 @@ impl Check {
                 Min,
                 g.db,
             ),
+            Check::MaxAdaptationError(v) => {
+                Rule::new("max_adaptation_error", Subject::Adaptation, Max, *v)
+            }
         }
     }
 

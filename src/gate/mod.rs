@@ -335,9 +335,18 @@ fn run_inner(
                     .collect::<Result<Vec<_>, _>>()
             },
         )?;
+        let curve = match scene.adaptation {
+            Some(_) => Some(crate::golden::read_adaptation_curve(
+                &root,
+                &scene.name,
+                scene.frames,
+            )?),
+            None => None,
+        };
         let judging = crate::check::Judging {
             earlier: &scenes,
             compare: compare_by,
+            adaptation_curve: curve.as_deref(),
             ..scene.judging()
         };
         let (mut result, kept) =

@@ -80,3 +80,47 @@ pub fn adaptation(
     );
     Dispatch::new(p, bg, (1, 1))
 }
+
+/// A renderer's adaptation: the state buffer, the step uniform, and what
+/// the plan's stage runs with.
+pub struct AdaptationResources {
+    pub stage: crate::plan::AdaptationStage,
+    pub adapted: wgpu::Buffer,
+    pub steps: wgpu::Buffer,
+}
+
+impl AdaptationResources {
+    pub fn new(ctx: &GpuContext, stage: crate::plan::AdaptationStage) -> AdaptationResources {
+        AdaptationResources {
+            stage,
+            adapted: adapted_buffer(ctx),
+            steps: steps_buffer(ctx),
+        }
+    }
+
+    /// Whether the operator gets the auto-exposure (it keys on no log
+    /// average).
+    pub fn exposes(&self) -> bool {
+        !keys_on_average(self.stage.operator_needs)
+    }
+
+    /// The stage's dispatch on `stats`.
+    pub fn dispatch(&self, ctx: &GpuContext, format: HdrFormat, stats: &wgpu::Buffer) -> Dispatch {
+        adaptation(
+            ctx,
+            format,
+            self.stage.operator_needs,
+            stats,
+            &self.adapted,
+            &self.steps,
+        )
+    }
+
+    /// Writes the next frame's step: `reset` on the first frame of a
+    /// sequence (or a cut).
+    pub fn set_frame(&self, ctx: &GpuContext, reset: bool) {
+        let steps = Steps::new(&self.stage.adaptation, self.stage.frame_seconds, reset);
+        ctx.queue
+            .write_buffer(&self.steps, 0, bytemuck::bytes_of(&steps));
+    }
+}

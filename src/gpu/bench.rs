@@ -234,6 +234,7 @@ pub fn full_plan_renderer<'a>(
             env: &env,
             camera,
             spp: 1,
+            light: 1.0,
         },
         &pipeline,
         config,

@@ -20,7 +20,7 @@ pub fn wire(w: &mut Wiring, stage: &Stage) -> Result<Option<Pass>, GpuError> {
     let (ctx, format) = (w.ctx, w.format);
     Ok(Some(match stage {
         Stage::Tonemap { .. } => {
-            w.tone = Some(ToneParams::new(ctx, w.pipeline.operator, w.fault_gain));
+            w.tone = Some(w.tone_params());
             // The curve's resolve step, until a fused kernel runs it first.
             w.pending_resolve = true;
             Pass::merged(name)

@@ -47,6 +47,11 @@ pub struct GpuRenderer<'a> {
     pub(super) taa: Option<super::taa::TaaResources>,
     /// Whether the next frame is odd (reads the second history texture).
     pub(super) odd: std::sync::atomic::AtomicBool,
+    /// The adapted luminance's state and step, in a plan with `adaptation`.
+    adaptation: Option<super::adaptation::AdaptationResources>,
+    /// The scene's light for the next frames (`[[light]]`), as f32 bits:
+    /// `sphere` scales its samples by it.
+    light: std::sync::atomic::AtomicU32,
     /// Stage outputs that can be read back: (stage name, texture).
     pub(super) outputs: Vec<(&'static str, wgpu::Texture)>,
     stats: wgpu::Buffer,
@@ -144,9 +149,13 @@ impl<'a> GpuRenderer<'a> {
             environment,
             outputs,
             taa,
+            adaptation,
             extent,
             ..
         } = wiring;
+        if let Some(a) = &adaptation {
+            a.set_frame(ctx, true);
+        }
         Ok(GpuRenderer {
             ctx,
             plan,
@@ -163,6 +172,8 @@ impl<'a> GpuRenderer<'a> {
             passes,
             taa,
             odd: std::sync::atomic::AtomicBool::new(false),
+            adaptation,
+            light: std::sync::atomic::AtomicU32::new(1f32.to_bits()),
             outputs,
             ring: Ring::new(
                 ctx,
@@ -266,9 +277,34 @@ impl<'a> GpuRenderer<'a> {
             tan_half: libm::tan(0.5 * cam.fov_y_deg.to_radians()) as f32,
             aspect: (cam.width as f64 / cam.height as f64) as f32,
             jitter: [jitter.0 as f32, jitter.1 as f32],
-            _pad: [0.0; 2],
+            light: f32::from_bits(self.light.load(std::sync::atomic::Ordering::Relaxed)),
+            _pad: 0.0,
         };
         self.ctx.queue.write_buffer(buf, 0, bytemuck::bytes_of(&u));
+    }
+
+    /// The scene's light (a `[[light]]` step's scale) for the frames after
+    /// the next [`GpuRenderer::set_frame`] or `set_rotation`.
+    pub fn set_light(&self, light: f64) {
+        self.light.store(
+            (light as f32).to_bits(),
+            std::sync::atomic::Ordering::Relaxed,
+        );
+    }
+
+    /// Whether the plan has `adaptation`, whose frames depend on the
+    /// frames before.
+    pub fn has_adaptation(&self) -> bool {
+        self.adaptation.is_some()
+    }
+
+    /// The next frame's adaptation step: `reset` takes the frame's own
+    /// measurement (the first frame of a sequence). Nothing without
+    /// `adaptation` in the plan.
+    pub fn set_adaptation(&self, reset: bool) {
+        if let Some(a) = &self.adaptation {
+            a.set_frame(self.ctx, reset);
+        }
     }
 
     /// Whether the plan has a TAA stage.

@@ -160,6 +160,8 @@ pub(super) struct FrameUniforms {
     pub(super) tan_half: f32,
     pub(super) aspect: f32,
     pub(super) jitter: [f32; 2],
+    /// The scene's light at this frame (`[[light]]`).
+    pub(super) light: f32,
     /// WGSL rounds the struct up to 16 bytes.
-    pub(super) _pad: [f32; 2],
+    pub(super) _pad: f32,
 }

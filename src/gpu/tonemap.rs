@@ -17,6 +17,10 @@ pub struct ToneParams {
     pub module: &'static str,
     /// The operator's override constants, then `FAULT_GAIN`.
     pub constants: Vec<(&'static str, f64)>,
+    /// The curve's input is scaled by eye adaptation's auto-exposure
+    /// (`ADAPTED` in shaders/shared/tone.wgsl), for an operator that keys
+    /// on no log average in a plan with `adaptation`.
+    pub exposed: bool,
 }
 
 impl ToneParams {
@@ -29,6 +33,7 @@ impl ToneParams {
             ),
             module: op.definition().wgsl(),
             constants: ToneParams::constants_of(op, fault_gain),
+            exposed: false,
         }
     }
 
@@ -58,6 +63,9 @@ impl ToneParams {
         extra: &[(&str, f64)],
     ) -> wgpu::ComputePipeline {
         let mut constants: Vec<(&str, f64)> = self.constants.clone();
+        if self.exposed {
+            constants.push(("ADAPTED", 1.0));
+        }
         constants.extend_from_slice(extra);
         pipeline_with(ctx, stage, entry, format, &constants, Some(self.module))
     }
@@ -81,7 +89,6 @@ pub fn resolve(
     Dispatch::new(p, bg, (1, 1))
 }
 
-#[allow(clippy::too_many_arguments)]
 pub fn tonemap(
     ctx: &GpuContext,
     format: HdrFormat,
@@ -90,11 +97,8 @@ pub fn tonemap(
     hdr: &ImageView,
     toned_out: &wgpu::Texture,
     extent: &wgpu::Buffer,
-    exposed: bool,
 ) -> Vec<Dispatch> {
-    // Auto-exposure from `adaptation` (its `exposure`), when `exposed`.
-    let adapted: &[(&str, f64)] = if exposed { &[("ADAPTED", 1.0)] } else { &[] };
-    let main = params.pipeline(ctx, "tonemap", "main", format, adapted);
+    let main = params.pipeline(ctx, "tonemap", "main", format, &[]);
     let bg = bind_group(
         ctx,
         &main,

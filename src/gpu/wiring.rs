@@ -22,6 +22,9 @@ pub enum GpuInput<'i> {
         env: &'i HdrImage,
         camera: Camera,
         spp: u32,
+        /// The brightest light the sequence scales the environment by
+        /// (`Scene::light`; 1 without `[[light]]` steps).
+        light: f32,
     },
     /// A flat HDR image.
     Flat(&'i HdrImage),
@@ -39,11 +42,10 @@ impl GpuInput<'_> {
     /// The largest component of the input (NaN ignored): no intermediate
     /// before `tonemap` exceeds it.
     pub(super) fn max_component(&self) -> f32 {
-        let img = match self {
-            GpuInput::Sphere { env, .. } => env,
-            GpuInput::Flat(img) => img,
-        };
-        img.max_component()
+        match self {
+            GpuInput::Sphere { env, light, .. } => env.max_component() * light.max(1.0),
+            GpuInput::Flat(img) => img.max_component(),
+        }
     }
 }
 
@@ -98,6 +100,8 @@ pub struct Wiring<'a, 'p> {
     pub amount: Option<wgpu::Texture>,
     /// `taa`'s history pair and uniforms.
     pub taa: Option<super::taa::TaaResources>,
+    /// `adaptation`'s state and per-frame step, with its parameters.
+    pub adaptation: Option<super::adaptation::AdaptationResources>,
     /// `luminance_stats`'s output and the resolved operator parameters.
     pub stats: wgpu::Buffer,
     /// `encode`'s packed 8-bit frame.
@@ -180,6 +184,7 @@ impl<'a, 'p> Wiring<'a, 'p> {
             current,
             amount: None,
             taa: None,
+            adaptation: None,
             weights,
             delta,
             hdr,
@@ -213,6 +218,14 @@ impl<'a, 'p> Wiring<'a, 'p> {
 }
 
 impl<'p> Wiring<'_, 'p> {
+    /// The operator's parameters for `tonemap` or the fused kernels, its
+    /// input scaled by adaptation's auto-exposure where the plan says so.
+    pub fn tone_params(&self) -> ToneParams {
+        let mut params = ToneParams::new(self.ctx, self.pipeline.operator, self.fault_gain);
+        params.exposed = self.adaptation.as_ref().is_some_and(|a| a.exposes());
+        params
+    }
+
     /// The bloom's parameters, which every bloom stage needs.
     pub fn bloom(&self, stage: &'static str) -> Result<&'p Bloom, PlanError> {
         self.pipeline.bloom.ok_or(PlanError::NoParameters {
@@ -293,9 +306,15 @@ impl<'p> Wiring<'_, 'p> {
                 &self.stats,
                 &self.extent,
             ),
+            Stage::Adaptation(stage) => {
+                let made = super::adaptation::AdaptationResources::new(ctx, *stage);
+                let d = made.dispatch(ctx, format, &self.stats);
+                self.adaptation = Some(made);
+                vec![d]
+            }
             Stage::Tonemap { .. } => {
                 let out = self.texture(name, self.width, self.height);
-                let params = ToneParams::new(ctx, self.pipeline.operator, self.fault_gain);
+                let params = self.tone_params();
                 let d = super::tonemap::tonemap(
                     ctx,
                     format,
@@ -304,7 +323,6 @@ impl<'p> Wiring<'_, 'p> {
                     &ImageView::whole(&self.hdr),
                     &out,
                     &self.extent,
-                    false,
                 );
                 self.outputs.push((name, out.clone()));
                 self.toned = Some(out.clone());

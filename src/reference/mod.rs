@@ -11,12 +11,14 @@ pub mod encode;
 pub mod grade;
 pub mod grade_stats;
 pub mod luminance_stats;
+mod scene_frame;
 pub mod sphere;
 pub mod taa;
 pub mod taa_sobel;
 pub mod tonemap;
 
-use crate::conventions::{rotation_matrix, Camera};
+pub use scene_frame::{render_carried_frame, render_frame, render_taa_frame, scene_camera};
+
 use crate::image::{Frame, HdrImage, LinearImage, Rgb8Image};
 use crate::operators::Operator;
 use crate::operators::Tone;
@@ -68,6 +70,9 @@ pub struct FrameOutputs {
     pub display: LinearImage,
     /// `encode`'s frame (8-bit, or 16-bit PQ).
     pub frame: Frame,
+    /// What the sequence is adapted to after this frame, when the plan has
+    /// `adaptation` (then `stats` holds the adapted values).
+    pub adapted: Option<adaptation::Adapted>,
 }
 
 /// Summary of a frame for reports.
@@ -87,6 +92,20 @@ pub fn run_plan(
     run_plan_until(plan, hdr, p, &|| false)?.ok_or(PlanError::Incomplete { missing: "encode" })
 }
 
+/// [`run_plan`] for a frame of a sequence with `adaptation`, which adapts
+/// from `before`, what the frames before it adapted to (None: the first
+/// frame, or a reset).
+pub fn run_plan_adapted(
+    plan: &StagePlan,
+    hdr: LinearImage,
+    p: &Pipeline,
+    before: Option<&adaptation::Adapted>,
+) -> Result<FrameOutputs, PlanError> {
+    let made = run_stages_until(plan, hdr, p, &|| false, true, before)?
+        .ok_or(PlanError::Incomplete { missing: "encode" })?;
+    outputs(made)
+}
+
 /// [`run_plan`], asking `stop` before every stage: `None` when it said stop
 /// (the work's requester is gone), with what was made so far dropped.
 pub fn run_plan_until(
@@ -95,10 +114,14 @@ pub fn run_plan_until(
     p: &Pipeline,
     stop: &dyn Fn() -> bool,
 ) -> Result<Option<FrameOutputs>, PlanError> {
-    let Some(made) = run_stages_until(plan, hdr, p, stop, true)? else {
+    let Some(made) = run_stages_until(plan, hdr, p, stop, true, None)? else {
         return Ok(None);
     };
-    Ok(Some(FrameOutputs {
+    outputs(made).map(Some)
+}
+
+fn outputs(made: Made) -> Result<FrameOutputs, PlanError> {
+    Ok(FrameOutputs {
         frame: made
             .frame
             .ok_or(PlanError::Incomplete { missing: "encode" })?,
@@ -111,7 +134,8 @@ pub fn run_plan_until(
         grade_mean: made.grade_mean,
         display: made.display.unwrap_or_else(|| made.toned.clone()),
         toned: made.toned,
-    }))
+        adapted: made.adapted,
+    })
 }
 
 /// What [`run_stages_until`] made: [`FrameOutputs`], with the 8-bit frame
@@ -127,6 +151,7 @@ struct Made {
     /// `None` when no stage after `tonemap` changed the image.
     display: Option<LinearImage>,
     frame: Option<Frame>,
+    adapted: Option<adaptation::Adapted>,
 }
 
 /// Runs `plan`'s stages on `hdr`. Without `keep_hdr`, `tonemap` works in
@@ -138,6 +163,7 @@ fn run_stages_until(
     p: &Pipeline,
     stop: &dyn Fn() -> bool,
     keep_hdr: bool,
+    before: Option<&adaptation::Adapted>,
 ) -> Result<Option<Made>, PlanError> {
     let hdr_read_after_tonemap = plan.stages().iter().any(|s| {
         matches!(
@@ -166,6 +192,9 @@ fn run_stages_until(
     let mut display: Option<LinearImage> = None;
     let mut grade_mean = None;
     let mut frame = None;
+    let mut adapted = None;
+    // Adaptation's auto-exposure of the operator's input, when it gives one.
+    let mut exposure = None;
     for stage in plan.stages() {
         if stop() {
             return Ok(None);
@@ -180,12 +209,27 @@ fn run_stages_until(
                 let hdr = hdr.as_ref().ok_or_else(hdr_gone)?;
                 stats = luminance_stats::luminance_stats(hdr, *needs, weights, delta);
             }
+            Stage::Adaptation(a) => {
+                if stats.log_average.is_none() {
+                    return Err(PlanError::order(name, "luminance_stats"));
+                }
+                let next = adaptation::adapt(&stats, before, a.adaptation.steps(a.frame_seconds));
+                stats = next.statistics(&stats);
+                exposure = (!adaptation::keys_on_average(a.operator_needs))
+                    .then(|| next.exposure(&a.adaptation, a.operator_needs));
+                adapted = Some(next);
+            }
             Stage::Tonemap { .. } => {
                 let resolved = p.operator.resolve(&stats)?;
-                toned = Some(if keep_hdr || hdr_read_after_tonemap {
-                    tonemap::tonemap(hdr.as_ref().ok_or_else(hdr_gone)?, &resolved)
-                } else {
-                    tonemap::tonemap_into(hdr.take().ok_or_else(hdr_gone)?, &resolved)
+                toned = Some(match exposure {
+                    Some(e) => {
+                        let hdr = hdr.as_ref().ok_or_else(hdr_gone)?;
+                        tonemap::tonemap_into(hdr.map(|c| c.map(|v| v * e)), &resolved)
+                    }
+                    None if keep_hdr || hdr_read_after_tonemap => {
+                        tonemap::tonemap(hdr.as_ref().ok_or_else(hdr_gone)?, &resolved)
+                    }
+                    None => tonemap::tonemap_into(hdr.take().ok_or_else(hdr_gone)?, &resolved),
                 });
                 tone = Some(resolved.params);
                 // The display image is `toned` until a stage replaces it.
@@ -279,67 +323,8 @@ fn run_stages_until(
         toned,
         bloom,
         grade_mean,
+        adapted,
     }))
-}
-
-/// The camera of a scene.
-pub fn scene_camera(scene: &Scene) -> Camera {
-    Camera {
-        width: scene.size.width,
-        height: scene.size.height,
-        fov_y_deg: scene.fov_y,
-    }
-}
-
-/// Renders frame `n` of `scene` over `env` at `spp` samples per pixel.
-pub fn render_frame(
-    scene: &Scene,
-    env: &HdrImage,
-    n: u32,
-    spp: u32,
-) -> Result<FrameOutputs, PlanError> {
-    let plan = StagePlan::for_scene(scene, spp);
-    if plan.taa().is_some() {
-        // A TAA frame depends on the frames before it: `render::SceneRenderer`
-        // carries the history (`render_taa_frame`).
-        return Err(PlanError::NoParameters {
-            stage: "taa",
-            what: "history (render TAA frames in order through render_taa_frame)",
-        });
-    }
-    let rotation = rotation_matrix(scene.rotation.axis, scene.angle(n));
-    let hdr = sphere::sphere(env, &scene_camera(scene), &rotation, spp);
-    run_plan(&plan, hdr, &Pipeline::of_scene(scene))
-}
-
-/// Frame `n` of a TAA scene at 1 spp: `sphere` at the frame's jitter,
-/// `taa_sobel` and `taa` against `history` (None: a reset), then the rest of
-/// the plan on the resolved frame. Returns the frame's outputs (`hdr` is the
-/// `taa` output) and the next frame's history. The plan must be a TAA plan
-/// (`StagePlan::for_scene(scene, 1)` of a scene with active TAA).
-pub fn render_taa_frame(
-    scene: &Scene,
-    env: &HdrImage,
-    n: u32,
-    history: Option<&taa::TaaHistory>,
-) -> Result<(FrameOutputs, taa::TaaHistory), PlanError> {
-    let plan = StagePlan::for_scene(scene, 1);
-    let params = plan.taa().ok_or(PlanError::Incomplete { missing: "taa" })?;
-    let camera = scene_camera(scene);
-    let rotation = rotation_matrix(scene.rotation.axis, scene.angle(n));
-    let current =
-        sphere::sphere_jittered(env, &camera, &rotation, crate::conventions::taa_jitter(n));
-    let amount = plan
-        .contains("taa_sobel")
-        .then(|| taa_sobel::taa_sobel(&current));
-    let previous = rotation_matrix(scene.rotation.axis, scene.angle(n.saturating_sub(1)));
-    let frame = taa::TaaFrame {
-        history,
-        reprojection: crate::conventions::reprojection(&previous, &rotation),
-    };
-    let resolved = taa::taa(&current, amount.as_ref(), &frame, &camera, &params);
-    let out = run_plan(&plan, resolved.output, &Pipeline::of_scene(scene))?;
-    Ok((out, resolved.history))
 }
 
 /// Tone-maps a flat HDR image (no sphere stage).
@@ -380,7 +365,7 @@ pub fn render_flat_display_until(
             display,
         }));
     }
-    let made = run_stages_until(&plan, img.to_linear(), p, stop, false)?;
+    let made = run_stages_until(&plan, img.to_linear(), p, stop, false, None)?;
     Ok(made.map(|m| FlatDisplay {
         plan,
         stats: m.stats,

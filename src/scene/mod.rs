@@ -21,7 +21,7 @@ pub use adaptation::{Adaptation, DEFAULT_ADAPTATION_KEY, DEFAULT_DOWN, DEFAULT_U
 pub use display::{
     Bloom, BrightPass, Encoding, Grade, FACTOR_MAX, GAMMA_RANGE, GRADE_MAX, SPAN_MAX,
 };
-pub use sequence::{Environment, Rotation, MAX_FRAMES};
+pub use sequence::{Environment, LightStep, Rotation, DEFAULT_FPS, LIGHT_SCALE_RANGE, MAX_FRAMES};
 pub use taa::{BlendSpace, FeedbackRule, HistoryFilter, Taa, TaaParams, TaaVariant};
 pub use units::{
     Factor, Feedback, NonNegative, Positive, Radius, Size, Unit, Weight, MAX_OUTPUT_PIXELS,
@@ -74,6 +74,17 @@ pub struct Scene {
     /// 1-spp frame: the no-AA side of the comparison).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub taa: Option<Taa>,
+    /// Eye adaptation (docs/adaptation.md): the luminance the operator keys
+    /// on follows the frames with a time constant up and down.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub adaptation: Option<Adaptation>,
+    /// The sequence's frame rate, for adaptation's time step; 60 when
+    /// absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fps: Option<Positive>,
+    /// Changes of the light over the sequence (`[[light]]`), in frame order.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub light: Vec<LightStep>,
     /// Samples per pixel of the reference (accumulation buffer), 1..=128.
     #[serde(default = "default_spp")]
     pub reference_spp: u32,
@@ -257,6 +268,34 @@ impl Scene {
                 ));
             }
         }
+        let mut after = None;
+        for step in &self.light {
+            if step.from_frame >= self.frames {
+                return Err(format!(
+                    "{}: from_frame {} is past the sequence's last frame {}",
+                    at("from_frame"),
+                    step.from_frame,
+                    self.frames - 1
+                ));
+            }
+            if after.is_some_and(|a| step.from_frame <= a) {
+                return Err(format!(
+                    "{}: the steps must be in increasing frame order, and frame {} comes after {}",
+                    at("from_frame"),
+                    step.from_frame,
+                    after.unwrap_or(0)
+                ));
+            }
+            after = Some(step.from_frame);
+            let (lo, hi) = LIGHT_SCALE_RANGE;
+            if !(lo..=hi).contains(&step.scale.get()) {
+                return Err(format!(
+                    "{}: must be in [{lo:e}, {hi:e}], got {}",
+                    at("scale"),
+                    step.scale.get()
+                ));
+            }
+        }
         if self.encoding == Encoding::Pq && self.operator.display_levels().is_none() {
             return Err(format!(
                 "{}: PQ frames are absolute cd/m², and operator {}'s output is relative to an SDR display's white; use an operator that maps onto a display of known peak (bt2390), or encoding \"srgb\"",
@@ -267,6 +306,14 @@ impl Scene {
         for c in &self.checks {
             c.validate()
                 .map_err(|message| format!("{}: {message}", at("checks")))?;
+            if matches!(c.check, crate::check::Check::MaxAdaptationError(_))
+                && self.adaptation.is_none()
+            {
+                return Err(format!(
+                    "{}: max_adaptation_error bounds eye adaptation's curve, and the scene has no [adaptation]",
+                    at("max_adaptation_error")
+                ));
+            }
         }
         for (i, e) in self.expectations.iter().enumerate() {
             e.validate().map_err(|message| {
@@ -286,6 +333,26 @@ impl Scene {
     /// The rotation angle of frame `n`, in radians.
     pub fn angle(&self, n: u32) -> f64 {
         (n as f64 * self.rotation.degrees_per_frame).to_radians()
+    }
+
+    /// The light of frame `n`: the scale of the last `[[light]]` step at or
+    /// before it, 1 before the first.
+    pub fn light(&self, n: u32) -> f64 {
+        self.light
+            .iter()
+            .rev()
+            .find(|s| s.from_frame <= n)
+            .map_or(1.0, |s| s.scale.get())
+    }
+
+    /// The largest light scale of the sequence (1 without `[[light]]`).
+    pub fn brightest_light(&self) -> f64 {
+        self.light.iter().map(|s| s.scale.get()).fold(1.0, f64::max)
+    }
+
+    /// Seconds between frames: 1 / `fps`.
+    pub fn frame_seconds(&self) -> f64 {
+        1.0 / self.fps.map_or(DEFAULT_FPS, Positive::get)
     }
 
     /// The TAA the scene's 1-spp frames run, if any (`variant = "off"` runs none).
@@ -329,6 +396,7 @@ impl Scene {
             keep_last: self.taa.is_some(),
             earlier: &[],
             compare: None,
+            adaptation_curve: None,
         }
     }
 

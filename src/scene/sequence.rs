@@ -38,3 +38,20 @@ fn default_axis() -> [f64; 3] {
 
 /// Largest frame count of one sequence.
 pub const MAX_FRAMES: u32 = 10_000;
+
+/// A change of the scene's light: from frame `from_frame` on, the
+/// environment's radiance times `scale` (until the next step). A door
+/// opening is `{ from_frame = 12, scale = 30.0 }`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LightStep {
+    pub from_frame: u32,
+    pub scale: super::units::Positive,
+}
+
+/// The range a light step's scale may take: twenty decades, which keeps
+/// the scaled radiance of any environment tonegate reads finite in f32.
+pub const LIGHT_SCALE_RANGE: (f64, f64) = (1e-10, 1e10);
+
+/// The frame rate a sequence is timed at when the scene gives none.
+pub const DEFAULT_FPS: f64 = 60.0;

@@ -272,3 +272,61 @@ fn bloom_and_grade_beyond_what_the_gpu_carries_are_refused_at_their_line() {
     let text = format!("{MINIMAL}[bloom]\nthreshold = 1.0\nsigma = 3.0\nstrength = 100.0\n");
     assert!(parse(&text).is_ok());
 }
+
+#[test]
+fn adaptation_light_steps_and_fps_parse_with_defaults_and_bad_ones_name_their_key() {
+    let text = MINIMAL.replace("frames = 2", "frames = 3\nfps = 24.0")
+        + "\n[adaptation]\nup = 0.3\n[[light]]\nfrom_frame = 1\nscale = 20.0\n";
+    let s = parse(&text).unwrap();
+    let a = s.adaptation.unwrap();
+    assert_eq!(
+        (a.up.get(), a.down.get(), a.key.get()),
+        (0.3, DEFAULT_DOWN, 0.18)
+    );
+    assert_eq!((s.light(0), s.light(1), s.light(2)), (1.0, 20.0, 20.0));
+    assert_eq!(s.brightest_light(), 20.0);
+    assert!((s.frame_seconds() - 1.0 / 24.0).abs() < 1e-15);
+    assert_eq!(parse(MINIMAL).unwrap().frame_seconds(), 1.0 / 60.0);
+    let refused = [
+        (text.replace("up = 0.3", "up = 0.0"), "up"),
+        (text.replace("up = 0.3", "rate = 0.3"), "rate"),
+        (
+            text.replace("from_frame = 1", "from_frame = 3"),
+            "past the sequence's last frame 2",
+        ),
+        (
+            text.replace("scale = 20.0", "scale = 1e12"),
+            "must be in [1e-10, 1e10]",
+        ),
+        (
+            format!("{text}[[light]]\nfrom_frame = 1\nscale = 2.0\n"),
+            "increasing frame order",
+        ),
+        (text.replace("fps = 24.0", "fps = -24.0"), "fps"),
+    ];
+    for (bad, says) in refused {
+        let e = parse(&bad).unwrap_err().to_string();
+        assert!(e.contains(says) && e.contains("line"), "{says}: {e}");
+    }
+    // The curve's check needs a curve.
+    let e = parse(&format!(
+        "{MINIMAL}\n[[checks]]\nmax_adaptation_error = 1e-4\n"
+    ))
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("has no [adaptation]"), "{e}");
+    let with = parse(&format!(
+        "{text}\n[[checks]]\nmax_adaptation_error = 1e-4\n"
+    ))
+    .unwrap();
+    assert!(matches!(with.checks[0].check, Check::MaxAdaptationError(v) if v == 1e-4));
+}
+
+#[test]
+fn a_scene_without_adaptation_or_light_hashes_as_before_they_existed() {
+    // The new keys are left out of the canonical form when absent, so no
+    // existing scene's golden goes stale.
+    let s = parse(MINIMAL).unwrap();
+    let json = serde_json::to_string(&s).unwrap();
+    assert!(!json.contains("adaptation") && !json.contains("light") && !json.contains("fps"));
+}

@@ -1,8 +1,11 @@
-//! Eye adaptation in `tonegate::ToneMapper`, on a device opened with wgpu
+//! Eye adaptation, in `tonegate::ToneMapper` on a device opened with wgpu
 //! alone (lavapipe): across a sudden light change and back, the adapted
 //! luminance the GPU carries from frame to frame against the f64
 //! reference's (`reference::adaptation`) fed the same frames, and the
-//! frames themselves against the f64 pipeline with the adapted statistics.
+//! frames themselves against the f64 pipeline with the adapted statistics;
+//! and in the gate's scenes: the GPU's curve against the golden one, which
+//! a wrong time constant misses, and the reference's frames asked out of
+//! order.
 
 use crate::tone_mapper::{hdr_input, night_and_ramp, own_device, read, texture, view, Texel};
 use tonegate::image::HdrImage;
@@ -235,5 +238,61 @@ fn a_reset_adapts_at_once_and_a_bad_frame_time_is_refused() {
         let e = mapper.set_frame_seconds(bad).unwrap_err();
         assert!(matches!(e, ToneMapperError::FrameSeconds { .. }), "{e:?}");
         assert!(e.to_string().starts_with("frame time"), "{e}");
+    }
+}
+
+fn golden_root() -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("golden")
+}
+
+/// The luminance each frame of `scene` was adapted to, on `renderer`.
+fn curve_of(renderer: &tonegate::render::SceneRenderer) -> Vec<f64> {
+    renderer.sequence(|_| {}).unwrap().adapted
+}
+
+#[test]
+fn the_gates_adapting_scenes_follow_their_golden_curves_and_a_wrong_time_constant_does_not() {
+    use tonegate::gpu::{AdapterChoice, GpuConfig, GpuContext};
+    use tonegate::render::{scene_environment, SceneRenderer};
+    let ctx = GpuContext::new(&AdapterChoice::default()).unwrap();
+    for name in ["interior-agx-adaptation", "night-reinhard-adaptation"] {
+        let scene =
+            tonegate::scene::Scene::load(&golden_root().join(format!("scenes/{name}.toml")))
+                .unwrap();
+        let golden =
+            tonegate::golden::read_adaptation_curve(&golden_root(), name, scene.frames).unwrap();
+        let env = scene_environment(&scene).unwrap();
+        let spp = scene.reference_spp;
+        let worst = |curve: &[f64]| {
+            curve
+                .iter()
+                .zip(&golden)
+                .map(|(a, g)| (a.ln() - g.ln()).abs())
+                .fold(0.0, f64::max)
+        };
+        // The scene's own bound (docs/adaptation.md's derivation).
+        let bound = 1.5e-4;
+        let gpu = SceneRenderer::gpu(&scene, &env, &ctx, GpuConfig::default(), spp).unwrap();
+        let on_gpu = worst(&curve_of(&gpu));
+        assert!(on_gpu <= bound, "{name}: {on_gpu:.3e}");
+        // Light adaptation twice as slow: off the curve by far more.
+        let mut slow = scene.clone();
+        let a = slow.adaptation.as_mut().unwrap();
+        a.up = tonegate::scene::Positive::try_from(a.up.get() * 2.0).unwrap();
+        let gpu = SceneRenderer::gpu(&slow, &env, &ctx, GpuConfig::default(), spp).unwrap();
+        let slowed = worst(&curve_of(&gpu));
+        assert!(slowed > 100.0 * bound, "{name}: {slowed:.3e}");
+        // The reference, asked for frames out of order, replays from frame
+        // 0: each frame's curve value is the golden's exactly.
+        let cpu = SceneRenderer::cpu(&scene, &env, spp);
+        for n in [10, 3, 4, 20, 0] {
+            let f = cpu.frame(n).unwrap();
+            assert_eq!(
+                f.log_average(),
+                Some(golden[n as usize]),
+                "{name} frame {n}"
+            );
+        }
+        println!("{name}: GPU curve worst |Δ ln| {on_gpu:.3e}; up x2: {slowed:.3e}");
     }
 }

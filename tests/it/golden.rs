@@ -68,6 +68,19 @@ fn suite_covers_what_the_gate_needs() {
     for s in &scenes {
         assert!(!s.checks.is_empty(), "{} has no checks", s.name);
     }
+    // Eye adaptation over a light change, of an operator that keys on the
+    // log average and of one that keys on nothing, each held to its curve.
+    let adapting = |keyed: bool| {
+        has(&|s| {
+            s.adaptation.is_some()
+                && s.light.len() >= 2
+                && s.operator.needs().log_average == keyed
+                && s.checks
+                    .iter()
+                    .any(|c| matches!(c.check, tonegate::check::Check::MaxAdaptationError(_)))
+        })
+    };
+    assert!(adapting(true) && adapting(false));
 }
 
 /// A scrap golden directory with one small scene, blessed into it.
@@ -232,4 +245,88 @@ fn reference_does_not_depend_on_the_thread_count() {
     assert_eq!(a.frame, b.frame);
     assert_eq!(a.display, b.display);
     assert_eq!(a.stats, b.stats);
+}
+
+/// A scene with eye adaptation has a golden adaptation curve beside its
+/// frames: blessed from the reference, in the manifest, re-rendered
+/// exactly by `verify`; an edited curve is caught, and a malformed one is
+/// refused with the line that is wrong.
+#[test]
+fn an_adapting_scene_has_a_golden_curve_that_is_verified() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = r#"
+name = "lit"
+size = [24, 16]
+frames = 4
+reference_spp = 2
+[environment]
+builtin = "interior"
+size = [64, 32]
+[rotation]
+degrees_per_frame = 0.0
+[adaptation]
+up = 0.1
+[[light]]
+from_frame = 2
+scale = 10.0
+[[checks]]
+max_adaptation_error = 1e-4
+"#;
+    let path = dir.path().join("lit.toml");
+    std::fs::write(&path, text).unwrap();
+    let scenes = vec![Scene::load(&path).unwrap()];
+    golden::bless(dir.path(), &scenes, &Silent).unwrap();
+    assert_eq!(
+        golden::verify(dir.path(), &scenes, &Silent).unwrap(),
+        vec![]
+    );
+    let curve = golden::read_adaptation_curve(dir.path(), "lit", 4).unwrap();
+    // Frame 0 takes its measurement, which a static view repeats; the
+    // light step pulls the curve up, not all the way at once.
+    assert_eq!(curve[0], curve[1]);
+    assert!(curve[2] > curve[1] && curve[3] > curve[2], "{curve:?}");
+    assert!(curve[3] < 10.0 * curve[1], "{curve:?}");
+    let file = dir.path().join("lit").join(golden::ADAPTATION_CURVE);
+    let blessed = std::fs::read_to_string(&file).unwrap();
+    // One digit changed: the manifest's hash and the re-render both see it.
+    let edited = blessed.replacen("\n1,", "\n1,9", 1);
+    std::fs::write(&file, &edited).unwrap();
+    let problems = golden::verify(dir.path(), &scenes, &Silent).unwrap();
+    assert!(
+        problems.contains(&Problem::FileChanged {
+            scene: "lit".into(),
+            file: golden::ADAPTATION_CURVE.into()
+        }) && problems.contains(&Problem::CurveDiffers {
+            scene: "lit".into(),
+            frames: 1
+        }),
+        "{problems:?}"
+    );
+    for (bad, says) in [
+        (
+            blessed.replace("frame,adapted_luminance", "n,l"),
+            "first line",
+        ),
+        (blessed.replacen("\n2,", "\n7,", 1), "line 4"),
+        (blessed.replacen("\n3,", "\n3,-", 1), "line 5"),
+        (
+            blessed.lines().take(3).collect::<Vec<_>>().join("\n"),
+            "2 frames for a sequence of 4",
+        ),
+    ] {
+        std::fs::write(&file, bad).unwrap();
+        let e = golden::read_adaptation_curve(dir.path(), "lit", 4)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains(says) && e.contains("adaptation.csv"),
+            "{says}: {e}"
+        );
+    }
+    std::fs::remove_file(&file).unwrap();
+    let problems = golden::check_manifest(dir.path(), &scenes).unwrap();
+    assert!(problems.contains(&Problem::MissingFile {
+        scene: "lit".into(),
+        file: golden::ADAPTATION_CURVE.into()
+    }));
 }

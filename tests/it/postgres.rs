@@ -41,6 +41,7 @@ fn frame(i: u32, psnr: f64, ssim: f64) -> FrameResult {
         },
         fraction_over: BTreeMap::new(),
         flip_percentiles: BTreeMap::new(),
+        adaptation: None,
         failed_checks: Vec::new(),
         artifacts: Vec::new(),
     }

@@ -23,6 +23,7 @@ fn frame(n: u32, psnr: f64) -> FrameResult {
         },
         fraction_over: BTreeMap::new(),
         flip_percentiles: BTreeMap::new(),
+        adaptation: None,
         failed_checks: Vec::new(),
         artifacts: Vec::new(),
     }
@@ -132,6 +133,18 @@ fn judged(checks: &[CheckSpec], frame: Rgb8Image) -> SceneResult {
 
 /// `judged`, with `earlier` the scenes rendered before it in the run.
 fn judged_after(checks: &[CheckSpec], frame: Rgb8Image, earlier: &[SceneResult]) -> SceneResult {
+    judged_adapting(checks, frame, earlier, None, Vec::new())
+}
+
+/// `judged_after` for a scene whose frame was `adapted` to a luminance,
+/// against the golden `curve`.
+fn judged_adapting(
+    checks: &[CheckSpec],
+    frame: Rgb8Image,
+    earlier: &[SceneResult],
+    curve: Option<&[f64]>,
+    adapted: Vec<f64>,
+) -> SceneResult {
     let on = Judging {
         scene: "s",
         checks,
@@ -140,6 +153,7 @@ fn judged_after(checks: &[CheckSpec], frame: Rgb8Image, earlier: &[SceneResult])
         keep_last: false,
         earlier,
         compare: None,
+        adaptation_curve: curve,
     };
     let rendered = Rendered {
         renderer: "test".into(),
@@ -150,8 +164,39 @@ fn judged_after(checks: &[CheckSpec], frame: Rgb8Image, earlier: &[SceneResult])
         timings: Vec::new(),
         fps: None,
         options: Vec::new(),
+        adapted,
     };
     judge(on, rendered, vec![gradient().into()]).unwrap().0
+}
+
+#[test]
+fn an_adapted_luminance_off_the_golden_curve_fails_and_one_on_it_passes() {
+    let checks = [spec(Check::MaxAdaptationError(1e-4), None)];
+    let curve = [0.25];
+    let judge_at = |adapted: Vec<f64>| {
+        let r = judged_adapting(&checks, gradient(), &[], Some(&curve), adapted);
+        (
+            r.checks[0].passed,
+            r.frames[0].adaptation,
+            r.checks[0].detail.clone(),
+        )
+    };
+    let (passed, point, _) = judge_at(vec![0.25 * (1.0 + 5e-5)]);
+    assert_eq!(passed, Some(true));
+    let point = point.unwrap();
+    assert!((point.error - 5e-5).abs() < 1e-9, "{point:?}");
+    assert_eq!(point.golden, 0.25);
+    // 0.02 % off: a step a frame too slow, say.
+    let (passed, _, detail) = judge_at(vec![0.25 * 1.0002]);
+    assert_eq!(passed, Some(false), "{detail}");
+    assert!(
+        detail.contains("adapted luminance |Δ ln| 2.000e-4"),
+        "{detail}"
+    );
+    // A renderer that reported no adapted luminance fails.
+    let (passed, point, _) = judge_at(Vec::new());
+    assert_eq!(passed, Some(false));
+    assert!(point.unwrap().error.is_nan());
 }
 
 #[test]

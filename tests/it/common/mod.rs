@@ -140,6 +140,7 @@ pub fn scene_renderer<'a>(
             env,
             camera: tonegate::reference::scene_camera(scene),
             spp: 1,
+            light: scene.brightest_light() as f32,
         },
         &tonegate::reference::Pipeline::of_scene(scene),
         config,

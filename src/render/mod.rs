@@ -3,13 +3,17 @@
 
 use crate::check::Rendered;
 use crate::conventions::{reprojection, rotation_matrix, taa_jitter, Mat3};
-use crate::gpu::{GpuConfig, GpuContext, GpuError, GpuFrame, GpuInput, GpuRenderer, GpuStats};
+use crate::gpu::{GpuConfig, GpuContext, GpuError, GpuFrame, GpuInput, GpuRenderer};
 use crate::image::{Frame, HdrImage, Rgb8Image};
 use crate::perf::{summarise, StageTiming};
 use crate::plan::{PlanError, StagePlan};
-use crate::reference::{render_frame, render_taa_frame, scene_camera, FrameSummary, Pipeline};
+use crate::reference::{render_carried_frame, render_frame, scene_camera, Pipeline};
 use crate::scene::{Scene, Size};
 use std::time::Instant;
+
+mod frame;
+
+pub use frame::{FrameDetail, RenderedFrame};
 
 /// The name a CPU-reference render goes by wherever an adapter's name would
 /// stand (reports, the history, JUnit).
@@ -67,68 +71,6 @@ pub fn scene_environment(scene: &Scene) -> Result<HdrImage, RenderError> {
     }
 }
 
-/// What a frame's renderer reports besides the image.
-#[derive(Clone, Debug)]
-pub enum FrameDetail {
-    /// The reference's statistics and resolved operator parameters.
-    Cpu(FrameSummary),
-    /// The GPU's statistics and each stage's time.
-    Gpu {
-        stats: GpuStats,
-        timings: Vec<StageTiming>,
-    },
-}
-
-/// One rendered frame.
-#[derive(Clone, Debug)]
-pub struct RenderedFrame {
-    pub index: u32,
-    /// The encoded frame (8-bit, or 16-bit PQ).
-    pub image: Frame,
-    /// Host time for the frame, GPU readback included.
-    pub wall_ms: f64,
-    pub detail: FrameDetail,
-}
-
-impl RenderedFrame {
-    /// The GPU's frame `index`, which must have been read back.
-    fn gpu(index: u32, out: GpuFrame) -> Result<RenderedFrame, GpuError> {
-        let image = out
-            .frame
-            .ok_or_else(|| GpuError::Readback("no frame".into()))?;
-        Ok(RenderedFrame {
-            index,
-            image,
-            wall_ms: out.wall_ms,
-            detail: FrameDetail::Gpu {
-                stats: out.stats,
-                timings: out.timings,
-            },
-        })
-    }
-
-    /// The reference's frame `index`, rendered since `start`.
-    fn cpu(index: u32, out: crate::reference::FrameOutputs, start: Instant) -> RenderedFrame {
-        RenderedFrame {
-            index,
-            image: out.frame,
-            wall_ms: start.elapsed().as_secs_f64() * 1e3,
-            detail: FrameDetail::Cpu(FrameSummary {
-                stats: out.stats,
-                tone: out.tone,
-            }),
-        }
-    }
-
-    /// The operator's resolved values for this frame (`op` reads the GPU's).
-    pub fn tone(&self, op: &crate::operators::Operator) -> crate::operators::ToneParams {
-        match &self.detail {
-            FrameDetail::Cpu(s) => s.tone.clone(),
-            FrameDetail::Gpu { stats, .. } => op.gpu_resolved(stats.tone),
-        }
-    }
-}
-
 enum Engine<'a> {
     Cpu,
     Gpu(Box<GpuRenderer<'a>>),
@@ -142,16 +84,21 @@ pub struct SceneRenderer<'a> {
     engine: Engine<'a>,
     /// Whether the plan has TAA, whose frames depend on the frames before.
     taa: bool,
-    history: std::sync::Mutex<TaaHistory>,
+    /// Whether the plan has eye adaptation, whose frames do too.
+    adapting: bool,
+    history: std::sync::Mutex<Carried>,
 }
 
-/// Where a TAA sequence's history stands.
+/// Where a sequence's state carried from frame to frame stands: the TAA
+/// history and the adapted luminance.
 #[derive(Default)]
-struct TaaHistory {
-    /// The frame the history is ready for (None: no usable history).
+struct Carried {
+    /// The frame the state is ready for (None: no usable state).
     next: Option<u32>,
-    /// The CPU reference's history (the GPU keeps its own on the device).
+    /// The CPU reference's TAA history (the GPU keeps its own on the device).
     cpu: Option<crate::reference::taa::TaaHistory>,
+    /// The CPU reference's adapted luminance (the GPU's is on the device).
+    cpu_adapted: Option<crate::reference::adaptation::Adapted>,
 }
 
 impl<'a> SceneRenderer<'a> {
@@ -163,6 +110,7 @@ impl<'a> SceneRenderer<'a> {
             spp,
             engine: Engine::Cpu,
             taa: StagePlan::for_scene(scene, spp).taa().is_some(),
+            adapting: scene.adaptation.is_some(),
             history: Default::default(),
         }
     }
@@ -182,6 +130,7 @@ impl<'a> SceneRenderer<'a> {
                 env,
                 camera: scene_camera(scene),
                 spp,
+                light: scene.brightest_light() as f32,
             },
             &Pipeline::of_scene(scene),
             config,
@@ -195,6 +144,7 @@ impl<'a> SceneRenderer<'a> {
             env,
             spp,
             taa: renderer.has_taa(),
+            adapting: renderer.has_adaptation(),
             engine: Engine::Gpu(Box::new(renderer)),
             history: Default::default(),
         })
@@ -232,8 +182,8 @@ impl<'a> SceneRenderer<'a> {
     /// when `n` does not follow the last frame rendered, the frames from the
     /// last history reset up to `n` are rendered first (not read back).
     pub fn frame(&self, n: u32) -> Result<RenderedFrame, RenderError> {
-        if self.taa {
-            return self.taa_frame(n);
+        if self.sequential() {
+            return self.carried_frame(n);
         }
         let start = Instant::now();
         match &self.engine {
@@ -261,16 +211,35 @@ impl<'a> SceneRenderer<'a> {
     pub fn stage_times(&self, n: u32) -> Result<Vec<StageTiming>, RenderError> {
         match &self.engine {
             Engine::Cpu => Ok(Vec::new()),
-            Engine::Gpu(r) if self.taa => {
+            Engine::Gpu(r) if self.sequential() => {
                 self.lock_history().next = None;
-                self.set_gpu_taa_frame(r, n, true);
+                self.set_gpu_frame(r, n, true, false);
                 Ok(r.render(false).map_err(|e| self.gpu_error(e))?.timings)
             }
             Engine::Gpu(r) => Ok(self.gpu_frame(r, n, false)?.timings),
         }
     }
 
-    fn lock_history(&self) -> std::sync::MutexGuard<'_, TaaHistory> {
+    /// Whether a frame depends on the frames before it (TAA, adaptation).
+    fn sequential(&self) -> bool {
+        self.taa || self.adapting
+    }
+
+    /// Whether frame `k`'s TAA history is kept (not reset there).
+    fn keeps_history(&self, k: u32) -> bool {
+        self.scene.taa.as_ref().is_some_and(|t| !t.resets_at(k))
+    }
+
+    /// The frame a replay up to `n` starts from: where every state the
+    /// sequence carries starts over (adaptation only at frame 0).
+    fn replay_from(&self, n: u32) -> u32 {
+        if self.adapting {
+            return 0;
+        }
+        (0..=n).rev().find(|&k| !self.keeps_history(k)).unwrap_or(0)
+    }
+
+    fn lock_history(&self) -> std::sync::MutexGuard<'_, Carried> {
         self.history
             .lock()
             .unwrap_or_else(|poisoned| poisoned.into_inner())
@@ -280,10 +249,17 @@ impl<'a> SceneRenderer<'a> {
         rotation_matrix(self.scene.rotation.axis, self.scene.angle(n))
     }
 
-    /// Sets frame `n`'s rotation, jitter and history on the GPU; `history`
-    /// false resets it.
-    fn set_gpu_taa_frame(&self, r: &GpuRenderer, n: u32, history: bool) {
+    /// Sets frame `n`'s light, adaptation step, rotation and, in a TAA
+    /// plan, jitter and history on the GPU; `history` false resets the TAA
+    /// history, `reset` the adapted luminance.
+    fn set_gpu_frame(&self, r: &GpuRenderer, n: u32, history: bool, reset: bool) {
+        r.set_light(self.scene.light(n));
+        r.set_adaptation(reset);
         let rotation = self.rotation(n);
+        if !self.taa {
+            r.set_rotation(&rotation);
+            return;
+        }
         r.set_frame(&rotation, taa_jitter(n));
         let m = match r.config.taa_fault {
             // The broken TAA of `check --taa-fault wrong-rotation`: the
@@ -294,15 +270,14 @@ impl<'a> SceneRenderer<'a> {
         r.set_taa_history(history.then_some(&m));
     }
 
-    /// Frame `n` of a TAA plan, with the frames it depends on.
-    fn taa_frame(&self, n: u32) -> Result<RenderedFrame, RenderError> {
-        let taa = self.scene.taa.as_ref();
-        let resets = |k: u32| taa.is_none_or(|t| t.resets_at(k));
+    /// Frame `n` of a plan whose frames depend on the frames before (TAA,
+    /// adaptation), with the frames it depends on.
+    fn carried_frame(&self, n: u32) -> Result<RenderedFrame, RenderError> {
         let mut track = self.lock_history();
         let first = if track.next == Some(n) {
             n
         } else {
-            (0..=n).rev().find(|&k| resets(k)).unwrap_or(0)
+            self.replay_from(n)
         };
         let plan_error = |source| RenderError::Plan {
             scene: self.scene.name.clone(),
@@ -311,17 +286,30 @@ impl<'a> SceneRenderer<'a> {
         let mut last = None;
         for k in first..=n {
             let start = Instant::now();
-            let keep = !resets(k);
+            let keep = self.keeps_history(k);
             last = Some(match &self.engine {
                 Engine::Cpu => {
                     let history = if keep { track.cpu.take() } else { None };
-                    let (out, next) = render_taa_frame(self.scene, self.env, k, history.as_ref())
-                        .map_err(plan_error)?;
-                    track.cpu = Some(next);
+                    let adapted = if k == 0 {
+                        None
+                    } else {
+                        track.cpu_adapted.take()
+                    };
+                    let (out, next, adapted) = render_carried_frame(
+                        self.scene,
+                        self.env,
+                        k,
+                        self.spp,
+                        history.as_ref(),
+                        adapted.as_ref(),
+                    )
+                    .map_err(plan_error)?;
+                    track.cpu = next;
+                    track.cpu_adapted = adapted;
                     RenderedFrame::cpu(k, out, start)
                 }
                 Engine::Gpu(r) => {
-                    self.set_gpu_taa_frame(r, k, keep);
+                    self.set_gpu_frame(r, k, keep, k == 0);
                     let out = r.render(k == n).map_err(|e| self.gpu_error(e))?;
                     RenderedFrame {
                         index: k,
@@ -342,6 +330,7 @@ impl<'a> SceneRenderer<'a> {
     }
 
     fn gpu_frame(&self, r: &GpuRenderer, n: u32, read_back: bool) -> Result<GpuFrame, RenderError> {
+        r.set_light(self.scene.light(n));
         r.set_rotation(&rotation_matrix(
             self.scene.rotation.axis,
             self.scene.angle(n),
@@ -384,16 +373,11 @@ impl<'a> SceneRenderer<'a> {
                 Failed::Gpu(e)
             }
         }
-        let taa = self.scene.taa.as_ref();
-        let resets = |k: u32| taa.is_none_or(|t| t.resets_at(k));
         let mut track = self.lock_history();
         track.next = None;
         r.frames(
             0..self.scene.frames,
-            |n| match self.taa {
-                true => self.set_gpu_taa_frame(r, n, !resets(n)),
-                false => r.set_rotation(&self.rotation(n)),
-            },
+            |n| self.set_gpu_frame(r, n, self.keeps_history(n), n == 0),
             |_| true,
             |n, out| sink(RenderedFrame::gpu(n, out)?).map_err(Failed::Sink),
         )
@@ -403,7 +387,7 @@ impl<'a> SceneRenderer<'a> {
         })?;
         // The history now follows the last frame; after a failed sequence
         // `next` is None, so the next frame replays.
-        if self.taa {
+        if self.sequential() {
             track.next = Some(self.scene.frames);
         }
         Ok(())
@@ -417,8 +401,12 @@ impl<'a> SceneRenderer<'a> {
     pub fn sequence(&self, mut progress: impl FnMut(u32)) -> Result<Rendered, RenderError> {
         let mut frames = Vec::with_capacity(self.scene.frames as usize);
         let mut times = Vec::with_capacity(self.scene.frames as usize);
+        let mut adapted = Vec::new();
         let start = Instant::now();
         self.each_frame(|f| -> Result<(), RenderError> {
+            if self.adapting {
+                adapted.extend(f.log_average());
+            }
             if let FrameDetail::Gpu { timings, .. } = f.detail {
                 times.push(timings);
             }
@@ -446,6 +434,7 @@ impl<'a> SceneRenderer<'a> {
                 Engine::Cpu => Vec::new(),
                 Engine::Gpu(r) => r.config.accuracy_options(),
             },
+            adapted,
         })
     }
 }
