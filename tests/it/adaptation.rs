@@ -296,3 +296,48 @@ fn the_gates_adapting_scenes_follow_their_golden_curves_and_a_wrong_time_constan
         println!("{name}: GPU curve worst |Δ ln| {on_gpu:.3e}; up x2: {slowed:.3e}");
     }
 }
+
+/// `sphere` under a `[[light]]` step: the GPU's frame at light 25 is its
+/// frame at light 1 times 25, one f32 product a sample (the reference
+/// scales its f64 frame the same way), and the adaptation stage sits after
+/// the statistics in the GPU's plan, as in the reference's.
+#[test]
+fn the_light_step_scales_the_gpus_sphere_frame_by_one_product() {
+    use tonegate::conventions::rotation_matrix;
+    use tonegate::gpu::{AdapterChoice, GpuConfig, GpuContext};
+    let ctx = GpuContext::new(&AdapterChoice::default()).unwrap();
+    let scene =
+        tonegate::scene::Scene::load(&golden_root().join("scenes/interior-agx-adaptation.toml"))
+            .unwrap();
+    let env = tonegate::render::scene_environment(&scene).unwrap();
+    let r = crate::common::scene_renderer(&ctx, &scene, &env, GpuConfig::default());
+    assert_eq!(
+        r.plan.names(),
+        [
+            "sphere",
+            "luminance_stats",
+            "adaptation",
+            "tonemap",
+            "encode"
+        ]
+    );
+    let n = 7;
+    assert_eq!(scene.light(n), 25.0);
+    let frame_at = |light: f64| {
+        r.set_light(light);
+        r.set_adaptation(true);
+        r.set_rotation(&rotation_matrix(scene.rotation.axis, scene.angle(n)));
+        r.render(false).unwrap();
+        r.read_output("sphere").unwrap().unwrap()
+    };
+    let unlit = frame_at(1.0);
+    let lit = frame_at(scene.light(n));
+    let mut checked = 0;
+    for (a, b) in unlit.pixels.iter().zip(&lit.pixels) {
+        for k in 0..3 {
+            assert_eq!(b[k] as f32, a[k] as f32 * 25.0);
+            checked += usize::from(a[k] > 0.0);
+        }
+    }
+    assert!(checked > unlit.pixels.len(), "the frame is not black");
+}
