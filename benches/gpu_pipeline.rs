@@ -12,6 +12,13 @@
 //! new vector and a reused one, and through whole pixels; the renderer's
 //! own function last).
 //!
+//! `tone_mapper_1080p`: the same flat 1080p image tone-mapped (statistics,
+//! `reinhard-global`, sRGB encode) by tonegate's own renderer and by
+//! `ToneMapper` on the same device, into an `Rgba8Unorm` storage target and
+//! into a `Bgra8UnormSrgb` render target, each frame submitted and waited
+//! for: the embedding runs the renderer's stages, so its cost should be the
+//! renderer's (less the packed frame buffer it does not write).
+//!
 //! `kept_renderers`: the server's GPU tone map of six images of different
 //! sizes in turn, all in the 1024×512 size class, with renderers kept for
 //! exact sizes (four kept, so every image makes a new one) and for size
@@ -203,5 +210,109 @@ fn readback(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, full_plan, readback, kept_renderers);
+fn tone_mapper(c: &mut Criterion) {
+    use tonegate::gpu::{GpuInput, GpuRenderer, OutputPath, ToneMapper, ToneMapperSettings};
+    use tonegate::operators::Operator;
+    use tonegate::plan::{Input, StagePlan};
+    use tonegate::reference::Pipeline;
+    let ctx = GpuContext::new(&AdapterChoice::default()).unwrap_or_else(|e| panic!("{e}"));
+    let (w, h) = (1920, 1080);
+    let img = tonegate::env::BuiltinEnv::Sky.generate(w, h);
+    let op = Operator::default();
+    let pipeline = Pipeline {
+        operator: &op,
+        bloom: None,
+        grade: None,
+        encoding: tonegate::scene::Encoding::Srgb,
+    };
+    let plan = StagePlan::build(Input::Flat, &op, None, None);
+    let renderer = GpuRenderer::new(
+        &ctx,
+        plan,
+        GpuInput::Flat(&img),
+        &pipeline,
+        GpuConfig::default(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let texture = |format, usage| {
+        ctx.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("bench"),
+            size: wgpu::Extent3d {
+                width: w,
+                height: h,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage,
+            view_formats: &[],
+        })
+    };
+    let input = texture(
+        wgpu::TextureFormat::Rgba32Float,
+        wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+    );
+    let texels: Vec<f32> = img
+        .pixels
+        .iter()
+        .flat_map(|p| [p[0], p[1], p[2], 1.0])
+        .collect();
+    ctx.queue.write_texture(
+        input.as_image_copy(),
+        bytemuck::cast_slice(&texels),
+        wgpu::TexelCopyBufferLayout {
+            offset: 0,
+            bytes_per_row: Some(w * 16),
+            rows_per_image: None,
+        },
+        input.size(),
+    );
+    let input = input.create_view(&Default::default());
+    let mut group = c.benchmark_group("tone_mapper_1080p");
+    group.sample_size(10);
+    group.bench_function("renderer", |b| {
+        b.iter(|| renderer.render(false).unwrap_or_else(|e| panic!("{e}")))
+    });
+    for (tag, format, path, usage) in [
+        (
+            "embedding_compute",
+            wgpu::TextureFormat::Rgba8Unorm,
+            OutputPath::Compute,
+            wgpu::TextureUsages::STORAGE_BINDING,
+        ),
+        (
+            "embedding_render_pass",
+            wgpu::TextureFormat::Bgra8UnormSrgb,
+            OutputPath::RenderPass,
+            wgpu::TextureUsages::RENDER_ATTACHMENT,
+        ),
+    ] {
+        let mut mapper = ToneMapper::new(
+            &ctx.device,
+            &ctx.queue,
+            ToneMapperSettings {
+                target: format,
+                path,
+                ..Default::default()
+            },
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        let output = texture(format, usage).create_view(&Default::default());
+        group.bench_function(tag, |b| {
+            b.iter(|| {
+                let mut encoder = ctx.device.create_command_encoder(&Default::default());
+                mapper
+                    .record(&mut encoder, &input, &output)
+                    .unwrap_or_else(|e| panic!("{e}"));
+                ctx.queue.submit([encoder.finish()]);
+                ctx.wait().unwrap_or_else(|e| panic!("{e}"));
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, full_plan, readback, kept_renderers, tone_mapper);
 criterion_main!(benches);

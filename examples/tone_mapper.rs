@@ -153,7 +153,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut mapper = ToneMapper::new(&device, &queue, settings(0)?)?;
     mapper.set_frame_seconds(1.0 / 60.0)?;
     // Every pipeline now, so that no frame compiles one.
-    mapper.prepare();
+    mapper.prepare()?;
     let prepared = mapper.compiled_pipelines();
     println!("pipelines compiled by prepare: {prepared}");
 

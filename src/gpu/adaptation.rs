@@ -83,6 +83,7 @@ pub fn adaptation(
 
 /// A renderer's adaptation: the state buffer, the step uniform, and what
 /// the plan's stage runs with.
+#[derive(Clone)]
 pub struct AdaptationResources {
     pub stage: crate::plan::AdaptationStage,
     pub adapted: wgpu::Buffer,

@@ -1,6 +1,6 @@
 //! `bloom_bright` pass.
 
-use super::stages::{bind_group, dispatch_2d, pipeline, Bind, Dispatch};
+use super::stages::{bind_group, dispatch_2d, pipeline, Bind, Dispatch, ImageView};
 use super::{GpuContext, HdrFormat};
 use crate::scene::{Bloom, BrightPass};
 
@@ -25,7 +25,7 @@ pub fn bloom_bright(
     bloom: &Bloom,
     weights: [f64; 3],
     stats: &wgpu::Buffer,
-    src: &wgpu::Texture,
+    src: &ImageView,
     bright_out: &wgpu::Texture,
     extent: &wgpu::Buffer,
 ) -> Dispatch {
@@ -38,9 +38,9 @@ pub fn bloom_bright(
     );
     let binds = [
         (0, Bind::Buffer(stats)),
-        (1, Bind::Texture(src)),
+        (1, Bind::View(&src.view)),
         (2, Bind::Texture(bright_out)),
     ];
     let bg = bind_group(ctx, &p, "tonegate.bloom_bright", &binds);
-    dispatch_2d(p, bg, src.width(), src.height()).sized(ctx, extent)
+    dispatch_2d(p, bg, src.width, src.height).sized(ctx, extent)
 }

@@ -5,7 +5,7 @@
 use super::bloom_bright::bright_constants;
 use super::encode::encode_constants;
 use super::stages::{bind_group, dispatch_2d, hdr_texture, Bind, Dispatch};
-use super::tonemap::ToneParams;
+use super::tonemap::OperatorShader;
 use super::wiring::{Pass, Wiring};
 use super::{GpuContext, GpuError, HdrFormat};
 use crate::plan::{BloomSource, PlanError, Stage};
@@ -20,7 +20,7 @@ pub fn wire(w: &mut Wiring, stage: &Stage) -> Result<Option<Pass>, GpuError> {
     let (ctx, format) = (w.ctx, w.format);
     Ok(Some(match stage {
         Stage::Tonemap { .. } => {
-            w.tone = Some(w.tone_params());
+            w.tone = Some(w.operator_shader());
             // The curve's resolve step, until a fused kernel runs it first.
             w.pending_resolve = true;
             Pass::merged(name)
@@ -61,6 +61,7 @@ pub fn wire(w: &mut Wiring, stage: &Stage) -> Result<Option<Pass>, GpuError> {
             Pass::merged(name)
         }
         Stage::Encode => {
+            let frame = w.frame_buffer();
             let Some(t) = &w.tone else {
                 return Err(PlanError::order(name, "tonemap").into());
             };
@@ -84,7 +85,7 @@ pub fn wire(w: &mut Wiring, stage: &Stage) -> Result<Option<Pass>, GpuError> {
                 w.pipeline.operator.display_levels(),
                 &w.stats,
                 &w.hdr,
-                &w.frame,
+                &frame,
                 &w.extent,
             ));
             Pass::every_frame(name, dispatches)
@@ -98,7 +99,7 @@ pub fn wire(w: &mut Wiring, stage: &Stage) -> Result<Option<Pass>, GpuError> {
 pub fn bright_low(
     ctx: &GpuContext,
     format: HdrFormat,
-    tone: &ToneParams,
+    tone: &OperatorShader,
     bloom: &Bloom,
     from_toned: bool,
     lum: [f64; 3],
@@ -133,7 +134,7 @@ pub fn bright_low(
 pub fn tail(
     ctx: &GpuContext,
     format: HdrFormat,
-    tone: &ToneParams,
+    tone: &OperatorShader,
     bloom: Option<(&wgpu::Texture, f64)>,
     encoding: crate::scene::Encoding,
     levels: Option<crate::operators::DisplayLevels>,

@@ -5,7 +5,7 @@
 use super::config::{Execution, GpuConfig};
 use super::readback::{GpuFrame, Ring, Sources, Ticket, FRAMES_IN_FLIGHT};
 use super::sphere::FrameUniforms;
-use super::stages::{extent_buffer, upload, Extent};
+use super::stages::{extent_buffer, storage_buffer, upload, Extent};
 use super::timing::Queries;
 use super::wiring::{GpuInput, Wiring};
 use super::{GpuContext, GpuError};
@@ -102,7 +102,7 @@ impl<'a> GpuRenderer<'a> {
         ctx.check_frame(width, height)?;
         let capacity = match input {
             GpuInput::Flat(_) => (width.max(capacity.0), height.max(capacity.1)),
-            GpuInput::Sphere { .. } => (width, height),
+            GpuInput::Sphere { .. } | GpuInput::View(_) => (width, height),
         };
         ctx.check_frame(capacity.0, capacity.1)?;
         let bloom_factor = plan.stages().iter().find_map(|s| match s {
@@ -114,11 +114,11 @@ impl<'a> GpuRenderer<'a> {
         let mut wiring = Wiring::new(ctx, &input, pipeline, config, capacity, taa, extent)?;
         let input_texture = match input {
             GpuInput::Flat(_) => Some(wiring.hdr.clone()),
-            GpuInput::Sphere { .. } => None,
+            GpuInput::Sphere { .. } | GpuInput::View(_) => None,
         };
         let camera = match input {
             GpuInput::Sphere { camera, .. } => Some(camera),
-            GpuInput::Flat(_) => None,
+            GpuInput::Flat(_) | GpuInput::View(_) => None,
         };
         let mut passes = Vec::new();
         for stage in plan.stages() {
@@ -143,6 +143,9 @@ impl<'a> GpuRenderer<'a> {
         }
         let queries = Queries::new(ctx, passes.len());
         ctx.take_error()?;
+        let frame_bytes = capacity.0 as u64
+            * capacity.1 as u64
+            * super::encode::frame_bytes_per_pixel(pipeline.encoding);
         let Wiring {
             stats,
             frame,
@@ -182,7 +185,8 @@ impl<'a> GpuRenderer<'a> {
                 queries.as_ref().map(|q| q.slot_bytes()),
             ),
             stats,
-            frame_buf: frame,
+            // A plan without `encode` reads no frame back: a buffer stands in.
+            frame_buf: frame.unwrap_or_else(|| storage_buffer(ctx, "tonegate.encode", frame_bytes)),
             queries,
         })
     }

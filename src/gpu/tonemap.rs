@@ -10,7 +10,8 @@ use crate::operators::Operator;
 
 /// The operator's module, override constants and `OperatorConfig` uniform,
 /// shared by the `tonemap` stage and the fused kernels.
-pub struct ToneParams {
+#[derive(Clone)]
+pub struct OperatorShader {
     /// The operator's `OperatorConfig`.
     pub config: wgpu::Buffer,
     /// The operator's WGSL module.
@@ -23,16 +24,16 @@ pub struct ToneParams {
     pub exposed: bool,
 }
 
-impl ToneParams {
-    pub fn new(ctx: &GpuContext, op: &Operator, fault_gain: Option<f32>) -> ToneParams {
-        ToneParams {
+impl OperatorShader {
+    pub fn new(ctx: &GpuContext, op: &Operator, fault_gain: Option<f32>) -> OperatorShader {
+        OperatorShader {
             config: uniform_buffer(
                 ctx,
                 "tonegate.tonemap.config",
-                bytemuck::cast_slice(&ToneParams::config_of(op)),
+                bytemuck::cast_slice(&OperatorShader::config_of(op)),
             ),
             module: op.definition().wgsl(),
-            constants: ToneParams::constants_of(op, fault_gain),
+            constants: OperatorShader::constants_of(op, fault_gain),
             exposed: false,
         }
     }
@@ -76,7 +77,7 @@ impl ToneParams {
 pub fn resolve(
     ctx: &GpuContext,
     format: HdrFormat,
-    params: &ToneParams,
+    params: &OperatorShader,
     stats: &wgpu::Buffer,
 ) -> Dispatch {
     let p = params.pipeline(ctx, "tonemap", "resolve", format, &[]);
@@ -92,7 +93,7 @@ pub fn resolve(
 pub fn tonemap(
     ctx: &GpuContext,
     format: HdrFormat,
-    params: &ToneParams,
+    params: &OperatorShader,
     stats: &wgpu::Buffer,
     hdr: &ImageView,
     toned_out: &wgpu::Texture,

@@ -6,7 +6,7 @@
 use super::luminance_stats::GpuStats;
 use super::sphere::{Environment, FrameUniforms};
 use super::stages::{hdr_texture, shared_buffer, storage_buffer, upload, Dispatch, ImageView};
-use super::tonemap::ToneParams;
+use super::tonemap::OperatorShader;
 use super::{GpuConfig, GpuContext, GpuError, HdrFormat};
 use crate::conventions::Camera;
 use crate::image::HdrImage;
@@ -28,6 +28,9 @@ pub enum GpuInput<'i> {
     },
     /// A flat HDR image.
     Flat(&'i HdrImage),
+    /// A caller's texture, read where it is (`ToneMapper`): nothing is
+    /// uploaded, and its range is unknown.
+    View(&'i ImageView),
 }
 
 impl GpuInput<'_> {
@@ -36,6 +39,7 @@ impl GpuInput<'_> {
         match self {
             GpuInput::Sphere { camera, .. } => (camera.width, camera.height),
             GpuInput::Flat(img) => (img.width, img.height),
+            GpuInput::View(v) => (v.width, v.height),
         }
     }
 
@@ -45,6 +49,8 @@ impl GpuInput<'_> {
         match self {
             GpuInput::Sphere { env, light, .. } => env.max_component() * light.max(1.0),
             GpuInput::Flat(img) => img.max_component(),
+            // Unknown: f16 intermediates would be promoted to f32.
+            GpuInput::View(_) => f32::MAX,
         }
     }
 }
@@ -92,20 +98,28 @@ pub struct Wiring<'a, 'p> {
     pub weights: [f64; 3],
     pub delta: f64,
     /// The HDR frame the operator reads: `sphere`'s output (`taa`'s in a TAA
-    /// plan), or the uploaded flat image.
+    /// plan), or the uploaded flat image, or a caller's texture (whose
+    /// view `hdr_view` is).
     pub hdr: wgpu::Texture,
+    /// The view of `hdr` the stages read.
+    pub hdr_view: ImageView,
     /// In a TAA plan, `sphere`'s jittered frame, which `taa` resolves into `hdr`.
     pub current: Option<wgpu::Texture>,
     /// `taa_sobel`'s aliasing amount.
     pub amount: Option<wgpu::Texture>,
     /// `taa`'s history pair and uniforms.
     pub taa: Option<super::taa::TaaResources>,
-    /// `adaptation`'s state and per-frame step, with its parameters.
+    /// `adaptation`'s state and per-frame step, with its parameters; set
+    /// before wiring, it is the caller's (a `ToneMapper` keeps its state
+    /// across pairs of views), and the stage reuses it.
     pub adaptation: Option<super::adaptation::AdaptationResources>,
+    /// The operator's shader, when the caller keeps it (a `ToneMapper`
+    /// writes its uniform per frame); else `tonemap` makes its own.
+    pub shader: Option<OperatorShader>,
     /// `luminance_stats`'s output and the resolved operator parameters.
     pub stats: wgpu::Buffer,
-    /// `encode`'s packed 8-bit frame.
-    pub frame: wgpu::Buffer,
+    /// `encode`'s packed 8-bit frame, made when `encode` is wired.
+    pub frame: Option<wgpu::Buffer>,
     /// The part of the textures the frame covers (`stages::Extent`): the
     /// textures are `width`×`height`, which a size class may make larger.
     pub extent: wgpu::Buffer,
@@ -122,7 +136,7 @@ pub struct Wiring<'a, 'p> {
     pub grade_mean: Option<wgpu::Buffer>,
     /// Fused execution: the operator's parameters for the merged kernels,
     /// whether their resolve step still has to run, and the bright pass's source.
-    pub tone: Option<ToneParams>,
+    pub tone: Option<OperatorShader>,
     pub pending_resolve: bool,
     pub bright_source: Option<BloomSource>,
     /// The bloom (blurred texture, strength) the fused tail adds.
@@ -161,6 +175,7 @@ impl<'a, 'p> Wiring<'a, 'p> {
                 upload(ctx, &hdr, img, format);
                 (hdr, None)
             }
+            GpuInput::View(v) => (v.view.texture().clone(), None),
         };
         // A TAA plan's sphere writes the jittered frame, and `taa` the frame the
         // operator reads.
@@ -170,6 +185,10 @@ impl<'a, 'p> Wiring<'a, 'p> {
                 Some(hdr),
             ),
             false => (hdr, None),
+        };
+        let hdr_view = match input {
+            GpuInput::View(v) => (*v).clone(),
+            _ => ImageView::whole(&hdr),
         };
         Ok(Wiring {
             ctx,
@@ -188,18 +207,14 @@ impl<'a, 'p> Wiring<'a, 'p> {
             weights,
             delta,
             hdr,
+            hdr_view,
+            shader: None,
             stats: shared_buffer(
                 ctx,
                 "tonegate.luminance_stats",
                 std::mem::size_of::<GpuStats>() as u64,
             ),
-            frame: storage_buffer(
-                ctx,
-                "tonegate.encode",
-                width as u64
-                    * height as u64
-                    * super::encode::frame_bytes_per_pixel(pipeline.encoding),
-            ),
+            frame: None,
             extent,
             environment,
             outputs: Vec::new(),
@@ -218,12 +233,27 @@ impl<'a, 'p> Wiring<'a, 'p> {
 }
 
 impl<'p> Wiring<'_, 'p> {
-    /// The operator's parameters for `tonemap` or the fused kernels, its
-    /// input scaled by adaptation's auto-exposure where the plan says so.
-    pub fn tone_params(&self) -> ToneParams {
-        let mut params = ToneParams::new(self.ctx, self.pipeline.operator, self.fault_gain);
-        params.exposed = self.adaptation.as_ref().is_some_and(|a| a.exposes());
-        params
+    /// The operator's shader for `tonemap` or the fused kernels (the
+    /// caller's, when it keeps one), its input scaled by adaptation's
+    /// auto-exposure where the plan says so.
+    pub fn operator_shader(&self) -> OperatorShader {
+        let mut shader = match &self.shader {
+            Some(p) => p.clone(),
+            None => OperatorShader::new(self.ctx, self.pipeline.operator, self.fault_gain),
+        };
+        shader.exposed = self.adaptation.as_ref().is_some_and(|a| a.exposes());
+        shader
+    }
+
+    /// `encode`'s packed frame buffer, made on first use.
+    pub fn frame_buffer(&mut self) -> wgpu::Buffer {
+        let bytes = self.width as u64
+            * self.height as u64
+            * super::encode::frame_bytes_per_pixel(self.pipeline.encoding);
+        let ctx = self.ctx;
+        self.frame
+            .get_or_insert_with(|| storage_buffer(ctx, "tonegate.encode", bytes))
+            .clone()
     }
 
     /// The bloom's parameters, which every bloom stage needs.
@@ -302,25 +332,28 @@ impl<'p> Wiring<'_, 'p> {
                 *needs,
                 self.weights,
                 self.delta,
-                &ImageView::whole(&self.hdr),
+                &self.hdr_view,
                 &self.stats,
                 &self.extent,
             ),
             Stage::Adaptation(stage) => {
-                let made = super::adaptation::AdaptationResources::new(ctx, *stage);
+                let made = self
+                    .adaptation
+                    .take()
+                    .unwrap_or_else(|| super::adaptation::AdaptationResources::new(ctx, *stage));
                 let d = made.dispatch(ctx, format, &self.stats);
                 self.adaptation = Some(made);
                 vec![d]
             }
             Stage::Tonemap { .. } => {
                 let out = self.texture(name, self.width, self.height);
-                let params = self.tone_params();
+                let shader = self.operator_shader();
                 let d = super::tonemap::tonemap(
                     ctx,
                     format,
-                    &params,
+                    &shader,
                     &self.stats,
-                    &ImageView::whole(&self.hdr),
+                    &self.hdr_view,
                     &out,
                     &self.extent,
                 );
@@ -332,8 +365,10 @@ impl<'p> Wiring<'_, 'p> {
             Stage::BloomBright { source } => {
                 let b = self.bloom(name)?;
                 let src = match source {
-                    BloomSource::Hdr => self.hdr.clone(),
-                    BloomSource::Toned => self.toned.clone().ok_or(order("tonemap"))?,
+                    BloomSource::Hdr => self.hdr_view.clone(),
+                    BloomSource::Toned => {
+                        ImageView::whole(self.toned.as_ref().ok_or(order("tonemap"))?)
+                    }
                 };
                 let out = self.texture(name, self.width, self.height);
                 let d = super::bloom_bright::bloom_bright(
@@ -436,13 +471,14 @@ impl<'p> Wiring<'_, 'p> {
             Stage::Encode => {
                 let base = self.display.clone().ok_or(order("tonemap"))?;
                 self.outputs.push(("display", base.clone()));
+                let frame = self.frame_buffer();
                 vec![super::encode::encode(
                     ctx,
                     format,
                     self.pipeline.encoding,
                     self.pipeline.operator.display_levels(),
                     &base,
-                    &self.frame,
+                    &frame,
                     &self.extent,
                 )]
             }

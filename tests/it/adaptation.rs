@@ -64,7 +64,7 @@ fn follow(op: Operator) -> Vec<(u32, f32, f64, f64)> {
     )
     .unwrap();
     mapper.set_frame_seconds(DT).unwrap();
-    mapper.prepare();
+    mapper.prepare().unwrap();
     let compiled = mapper.compiled_pipelines();
     assert_eq!(
         mapper.read_adapted_luminance().unwrap(),

@@ -12,7 +12,7 @@ use tonegate::image::{Frame, HdrImage};
 use tonegate::operators::{Operator, Value};
 use tonegate::plan::{Input, StagePlan};
 use tonegate::reference::Pipeline;
-use tonegate::scene::Encoding;
+use tonegate::scene::{Bloom, Encoding, Grade};
 use tonegate::{ToneMapper, ToneMapperError, ToneMapperSettings};
 use wgpu::TextureFormat as F;
 use wgpu::TextureUsages as U;
@@ -226,13 +226,25 @@ pub(crate) fn read(
 /// flat image's plan (statistics where the operator needs them, tonemap,
 /// encode), its frame at the encoding's depth.
 fn tonegate_frame(ctx: &GpuContext, img: &HdrImage, op: &Operator, encoding: Encoding) -> Frame {
+    tonegate_frame_with(ctx, img, op, encoding, None, None)
+}
+
+/// [`tonegate_frame`] with a bloom and a grade in the plan.
+fn tonegate_frame_with(
+    ctx: &GpuContext,
+    img: &HdrImage,
+    op: &Operator,
+    encoding: Encoding,
+    bloom: Option<&Bloom>,
+    grade: Option<&Grade>,
+) -> Frame {
     let pipeline = Pipeline {
         operator: op,
-        bloom: None,
-        grade: None,
+        bloom,
+        grade,
         encoding,
     };
-    let plan = StagePlan::build(Input::Flat, op, None, None);
+    let plan = StagePlan::build(Input::Flat, op, bloom, grade);
     let r = GpuRenderer::new(
         ctx,
         plan,
@@ -398,6 +410,8 @@ fn every_target_on(adapter: &str) {
                     target,
                     path,
                     adaptation: None,
+                    bloom: None,
+                    grade: None,
                 };
                 let m = match mapper.as_mut() {
                     Some(m) => {
@@ -743,6 +757,8 @@ fn views_and_settings_the_tone_mapper_cannot_use_are_refused_with_the_reason() {
         target,
         path,
         adaptation: None,
+        bloom: None,
+        grade: None,
     };
     let refused: Vec<(ToneMapperSettings, Is, &str)> = vec![
         (
@@ -806,6 +822,19 @@ fn views_and_settings_the_tone_mapper_cannot_use_are_refused_with_the_reason() {
             },
             "a compute pass cannot write Rgba8UnormSrgb on this device",
         ),
+        (
+            ToneMapperSettings {
+                bloom: Some(
+                    toml::from_str(
+                        "bright_pass = \"scaled\"\nthreshold = 1.0\ndownsample = 2\nradius = 4\nsigma = 2.0\nstrength = 1000.0",
+                    )
+                    .unwrap(),
+                ),
+                ..Default::default()
+            },
+            |e| matches!(e, ToneMapperError::Display { table: "bloom", key: "strength", .. }),
+            "bloom.strength: must be at most 100",
+        ),
     ];
     for (s, is, says) in refused {
         let e = ToneMapper::new(&device, &queue, s.clone()).err().unwrap();
@@ -849,7 +878,7 @@ fn exposure_changes_per_frame_compile_nothing_after_prepare() {
     let exposure = |n: u32| 0.25 * 1.05f64.powi(n as i32);
     let mut mapper = ToneMapper::new(&device, &queue, agx(exposure(0))).unwrap();
     assert_eq!(mapper.compiled_pipelines(), 0, "nothing before prepare");
-    mapper.prepare();
+    mapper.prepare().unwrap();
     let prepared = mapper.compiled_pipelines();
     assert!(
         prepared >= 2,
@@ -900,11 +929,76 @@ fn exposure_changes_per_frame_compile_nothing_after_prepare() {
         ..Default::default()
     };
     mapper.set_settings(hable.clone()).unwrap();
-    mapper.prepare();
+    mapper.prepare().unwrap();
     let with_hable = mapper.compiled_pipelines();
     assert!(with_hable > prepared);
     mapper.set_settings(agx(1.0)).unwrap();
     mapper.set_settings(hable).unwrap();
-    mapper.prepare();
+    mapper.prepare().unwrap();
     assert_eq!(mapper.compiled_pipelines(), with_hable);
+}
+
+/// Bloom and grade in the embedding: the plan `StagePlan::build` makes for
+/// them, wired by tonegate's own renderer's code, so the gate's frame, bit
+/// for bit, into an 8-bit storage target and a swap chain's render target,
+/// on every adapter here.
+#[test]
+fn bloom_and_grade_in_the_embedding_give_the_gates_frame() {
+    let scaled: Bloom = toml::from_str(
+        "bright_pass = \"scaled\"\nthreshold = 0.6\ndownsample = 2\nradius = 5\nsigma = 2.5\nstrength = 0.7",
+    )
+    .unwrap();
+    let threshold: Bloom = toml::from_str(
+        "bright_pass = \"threshold\"\nthreshold = 0.8\ndownsample = 3\nradius = 4\nsigma = 2.0\nstrength = 0.5",
+    )
+    .unwrap();
+    let grade: Grade =
+        toml::from_str("brightness = 1.05\ncontrast = 1.2\nsaturation = 0.8").unwrap();
+    let cases = [
+        ("reinhard-auto-key", Some(scaled), Some(grade.clone())),
+        ("agx", Some(threshold), None),
+        ("hable", None, Some(grade)),
+    ];
+    let img = night_and_ramp();
+    for adapter in ["llvmpipe", "swiftshader", "gl:llvmpipe"] {
+        let ours = GpuContext::new(&adapter.parse::<AdapterChoice>().unwrap()).unwrap();
+        let (device, queue) = own_device(adapter);
+        let input = view(&hdr_input(&device, &queue, &img));
+        for (name, bloom, grade) in &cases {
+            let op = Operator::named(name, &[]).unwrap();
+            let want = tonegate_frame_with(
+                &ours,
+                &img,
+                &op,
+                Encoding::Srgb,
+                bloom.as_ref(),
+                grade.as_ref(),
+            );
+            for (target, path) in [
+                (F::Rgba8Unorm, OutputPath::Compute),
+                (F::Bgra8UnormSrgb, OutputPath::RenderPass),
+            ] {
+                let mut mapper = ToneMapper::new(
+                    &device,
+                    &queue,
+                    ToneMapperSettings {
+                        operator: op.clone(),
+                        target,
+                        path,
+                        bloom: bloom.clone(),
+                        grade: grade.clone(),
+                        ..Default::default()
+                    },
+                )
+                .unwrap();
+                let output = texture(&device, (img.width, img.height), 1, target, usage_for(path));
+                let mut encoder = device.create_command_encoder(&Default::default());
+                mapper.record(&mut encoder, &input, &view(&output)).unwrap();
+                queue.submit([encoder.finish()]);
+                let got = read(&device, &queue, &output, 0);
+                let w = worst(&got, target, &want, Encoding::Srgb, &op);
+                assert!(w == 0.0, "{adapter} {name} into {target:?}: {w}");
+            }
+        }
+    }
 }

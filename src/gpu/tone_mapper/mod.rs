@@ -3,14 +3,15 @@
 //! caller's command encoder, from a view of the caller's HDR texture to a
 //! view of the caller's target (docs/embedding.md).
 //!
-//! It runs the stages tonegate's own renderer runs for a flat image with no
-//! bloom or grade: the luminance statistics (when the operator needs them),
-//! the operator (its resolve step, then its curve), and the display
-//! encoding, written into the target by a compute pass or a fullscreen
-//! triangle (`target`). The same shaders and pipelines, so the same bits:
-//! an input texture in `Rgba32Float` gives the bytes `tonegate tonemap
-//! --gpu` writes on the same adapter, in every 8-bit target and by either
-//! path.
+//! It runs the plan tonegate's own renderer runs for a flat image
+//! (`StagePlan::build`, with `with_adaptation`): the luminance statistics
+//! (when the operator needs them), eye adaptation, the operator (its
+//! resolve step, then its curve), bloom and grade, each stage wired by the
+//! renderer's own `Wiring::staged`; then the display encoding, written into
+//! the target by a compute pass or a fullscreen triangle (`wire`). The same
+//! code, shaders and pipelines, so the same bits: an input texture in
+//! `Rgba32Float` gives the bytes `tonegate tonemap --gpu` writes on the
+//! same adapter, in every 8-bit target and by either path.
 
 mod target;
 mod wire;
@@ -23,10 +24,10 @@ use super::adaptation::{adapted_buffer, steps_buffer, Steps};
 use super::config::ReductionMethod;
 use super::encode::Texel;
 use super::stages::{shared_buffer, Dispatch, ImageView};
-use super::tonemap::ToneParams;
+use super::tonemap::OperatorShader;
 use super::{GpuContext, GpuStats};
 use crate::operators::Operator;
-use crate::scene::{Adaptation, Encoding};
+use crate::scene::{Adaptation, Bloom, Encoding, Grade};
 use std::collections::HashMap;
 use target::storable;
 
@@ -50,6 +51,11 @@ pub struct ToneMapperSettings {
     /// with a time constant up and down, instead of jumping with each
     /// frame (docs/adaptation.md). `None`: each frame on its own.
     pub adaptation: Option<Adaptation>,
+    /// Bloom on the tone-mapped image (docs/display.md#bloom), as a
+    /// scene's `[bloom]`.
+    pub bloom: Option<Bloom>,
+    /// The grade after it (docs/display.md#grade), as a scene's `[grade]`.
+    pub grade: Option<Grade>,
 }
 
 impl Default for ToneMapperSettings {
@@ -62,6 +68,8 @@ impl Default for ToneMapperSettings {
             target: wgpu::TextureFormat::Rgba8Unorm,
             path: OutputPath::Auto,
             adaptation: None,
+            bloom: None,
+            grade: None,
         }
     }
 }
@@ -82,8 +90,12 @@ struct Draw {
     bind_group: wgpu::BindGroup,
 }
 
-/// The resources of one pair of views: kept while the caller passes the
-/// same two.
+/// The pairs of views a mapper keeps the resources of: a swap chain's
+/// three targets and one more.
+const KEPT_PAIRS: usize = 4;
+
+/// The resources of one pair of views: kept for the [`KEPT_PAIRS`] pairs
+/// used last.
 struct Bound {
     key: BoundKey,
     dispatches: Vec<Dispatch>,
@@ -105,7 +117,7 @@ type RenderKey = (wgpu::TextureFormat, Vec<(String, u64)>);
 ///     ..ToneMapperSettings::default()
 /// })?;
 /// // Every pipeline now, not in the first frame.
-/// mapper.prepare();
+/// mapper.prepare()?;
 /// let mut encoder = device.create_command_encoder(&Default::default());
 /// mapper.record(&mut encoder, hdr, swap)?;
 /// queue.submit([encoder.finish()]);
@@ -115,9 +127,10 @@ pub struct ToneMapper {
     ctx: GpuContext,
     settings: ToneMapperSettings,
     reduction: ReductionMethod,
-    params: ToneParams,
+    shader: OperatorShader,
     stats: wgpu::Buffer,
-    bound: Option<Bound>,
+    /// The pairs wired, the one used last at the end.
+    bound: Vec<Bound>,
     render: HashMap<RenderKey, wgpu::RenderPipeline>,
     /// What the frames are adapted to, carried between records.
     adapted: wgpu::Buffer,
@@ -146,7 +159,7 @@ impl ToneMapper {
         let ctx = GpuContext::from_device(device, queue);
         // The reduction tonegate's own renderer picks on this adapter.
         let reduction = ReductionMethod::Auto.resolve(ctx.traits());
-        let params = ToneParams::new(&ctx, &settings.operator, None);
+        let shader = OperatorShader::new(&ctx, &settings.operator, None);
         let stats = shared_buffer(
             &ctx,
             "tonegate.luminance_stats",
@@ -155,9 +168,9 @@ impl ToneMapper {
         Ok(ToneMapper {
             settings,
             reduction,
-            params,
+            shader,
             stats,
-            bound: None,
+            bound: Vec::new(),
             render: HashMap::new(),
             adapted: adapted_buffer(&ctx),
             steps: steps_buffer(&ctx),
@@ -178,7 +191,7 @@ impl ToneMapper {
     /// allows both. The pipelines do not depend on the frame's size: a
     /// one-pixel pair is wired and dropped, and the pipelines stay in the
     /// mapper's cache.
-    pub fn prepare(&mut self) {
+    pub fn prepare(&mut self) -> Result<(), ToneMapperError> {
         let texture = |format, usage| {
             self.ctx.device.create_texture(&wgpu::TextureDescriptor {
                 label: Some("tonegate.tone_mapper.prepare"),
@@ -210,10 +223,11 @@ impl ToneMapper {
             },
         );
         let view = output.create_view(&Default::default());
-        drop(self.wire(&input, &view, (0, 0), compute));
+        drop(self.wire(&input, &view, (0, 0), compute)?);
         if render {
             self.render_pipeline();
         }
+        Ok(())
     }
 
     /// The paths the settings allow: (compute, render pass).
@@ -244,9 +258,9 @@ impl ToneMapper {
     pub fn set_settings(&mut self, settings: ToneMapperSettings) -> Result<(), ToneMapperError> {
         check_settings(&settings, self.ctx.device.features())?;
         let (op, was) = (&settings.operator, &self.settings.operator);
-        let config = ToneParams::config_of(op);
-        let same_shader = op.definition().wgsl() == self.params.module
-            && ToneParams::constants_of(op, None) == self.params.constants
+        let config = OperatorShader::config_of(op);
+        let same_shader = op.definition().wgsl() == self.shader.module
+            && OperatorShader::constants_of(op, None) == self.shader.constants
             && op.needs() == was.needs()
             && op.luminance() == was.luminance()
             && settings.encoding == self.settings.encoding
@@ -254,14 +268,16 @@ impl ToneMapper {
             && settings.target == self.settings.target
             && settings.path == self.settings.path
             && settings.adaptation.is_some() == self.settings.adaptation.is_some()
-            && (config.len() * 4) as u64 == self.params.config.size();
+            && settings.bloom == self.settings.bloom
+            && settings.grade == self.settings.grade
+            && (config.len() * 4) as u64 == self.shader.config.size();
         if same_shader {
             self.ctx
                 .queue
-                .write_buffer(&self.params.config, 0, bytemuck::cast_slice(&config));
+                .write_buffer(&self.shader.config, 0, bytemuck::cast_slice(&config));
         } else {
-            self.params = ToneParams::new(&self.ctx, op, None);
-            self.bound = None;
+            self.shader = OperatorShader::new(&self.ctx, op, None);
+            self.bound.clear();
         }
         self.settings = settings;
         Ok(())
@@ -330,18 +346,28 @@ impl ToneMapper {
     ) -> Result<(), ToneMapperError> {
         let (input, output) = (input.into(), output.into());
         let key = self.key(&input, &output)?;
-        if self.bound.as_ref().is_none_or(|b| b.key != key) {
-            let source = ImageView {
-                view: key.input.clone(),
-                width: key.size.0,
-                height: key.size.1,
-            };
-            let (dispatches, draw) = self.wire(&source, &key.output, key.origin, key.compute);
-            self.bound = Some(Bound {
-                key,
-                dispatches,
-                draw,
-            });
+        match self.bound.iter().position(|b| b.key == key) {
+            Some(i) => {
+                let b = self.bound.remove(i);
+                self.bound.push(b);
+            }
+            None => {
+                let source = ImageView {
+                    view: key.input.clone(),
+                    width: key.size.0,
+                    height: key.size.1,
+                };
+                let (dispatches, draw) =
+                    self.wire(&source, &key.output, key.origin, key.compute)?;
+                if self.bound.len() == KEPT_PAIRS {
+                    self.bound.remove(0);
+                }
+                self.bound.push(Bound {
+                    key,
+                    dispatches,
+                    draw,
+                });
+            }
         }
         if let Some(adaptation) = &self.settings.adaptation {
             let steps = Steps::new(adaptation, self.frame_seconds, self.reset);
@@ -350,7 +376,7 @@ impl ToneMapper {
                 .write_buffer(&self.steps, 0, bytemuck::bytes_of(&steps));
             self.reset = false;
         }
-        let bound = self.bound.as_ref().expect("bound above");
+        let bound = self.bound.last().expect("bound above");
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("tonegate.tone_mapper"),
@@ -411,6 +437,22 @@ fn check_settings(
     }
     if settings.path == OutputPath::Compute && !storable(format, features) {
         return Err(ToneMapperError::ComputeTarget { format });
+    }
+    if let Some(b) = &settings.bloom {
+        b.check()
+            .map_err(|(key, reason)| ToneMapperError::Display {
+                table: "bloom",
+                key,
+                reason,
+            })?;
+    }
+    if let Some(g) = &settings.grade {
+        g.check()
+            .map_err(|(key, reason)| ToneMapperError::Display {
+                table: "grade",
+                key,
+                reason,
+            })?;
     }
     Ok(())
 }

@@ -232,6 +232,21 @@ pub enum ToneMapperError {
         /// The seconds given.
         seconds: f64,
     },
+    /// A bloom or grade parameter out of its range (the ranges of a scene's
+    /// `[bloom]` and `[grade]`, docs/display.md#limits).
+    #[error("{table}.{key}: {reason}")]
+    Display {
+        /// `bloom` or `grade`.
+        table: &'static str,
+        /// The parameter.
+        key: &'static str,
+        /// Its range and the value given.
+        reason: String,
+    },
+    /// Wiring the passes failed: a tonegate bug, reported rather than a
+    /// panic.
+    #[error("wiring the tone mapper's passes: {0} (a tonegate bug)")]
+    Internal(GpuError),
     /// The device failed a readback ([`super::ToneMapper::read_adapted_luminance`]).
     #[error("reading back from the device: {0}")]
     Readback(GpuError),

@@ -4,12 +4,16 @@
 
 use super::target::{check_texture, level_size, TextureRole, ToneMapperError, INPUT_FORMATS};
 use super::{BoundKey, Draw, SourceView, TargetView, ToneMapper};
+use crate::gpu::adaptation::AdaptationResources;
 use crate::gpu::encode::{
     encode_render_bind_group, encode_render_pipeline, encode_to_storage, Texel,
 };
-use crate::gpu::stages::{extent_buffer, hdr_texture, uniform_buffer, Dispatch, Extent, ImageView};
-use crate::gpu::HdrFormat;
-use crate::reference::adaptation::{keys_on_average, measured_needs};
+use crate::gpu::renderer::extent_of;
+use crate::gpu::stages::{extent_buffer, uniform_buffer, Dispatch, ImageView};
+use crate::gpu::wiring::{GpuInput, Wiring};
+use crate::gpu::{GpuConfig, GpuError};
+use crate::plan::{AdaptationStage, Input, PlanError, Stage, StagePlan};
+use crate::reference::Pipeline;
 
 impl ToneMapper {
     /// The pair's key, or why the mapper cannot use it.
@@ -106,101 +110,110 @@ impl ToneMapper {
             .clone()
     }
 
-    /// The work from `input` to `output`: statistics, tone map, and the
-    /// target written by a last dispatch (`compute`) or a draw, with an
-    /// intermediate texture for the tone-mapped frame.
+    /// The plan the settings make: `StagePlan::build`'s for a flat image
+    /// with the settings' bloom and grade, and adaptation when it is on.
+    pub(super) fn plan(&self) -> StagePlan {
+        let s = &self.settings;
+        let plan = StagePlan::build(Input::Flat, &s.operator, s.bloom.as_ref(), s.grade.as_ref());
+        match s.adaptation {
+            Some(adaptation) => plan.with_adaptation(AdaptationStage {
+                adaptation,
+                frame_seconds: self.frame_seconds,
+                operator_needs: s.operator.needs(),
+            }),
+            None => plan,
+        }
+    }
+
+    /// The work from `input` to `output`: the plan's stages up to `encode`,
+    /// wired by tonegate's own renderer's code (`Wiring::staged`), reading
+    /// the caller's view and the mapper's own statistics, operator uniform
+    /// and adapted state; then the target written from the display image
+    /// by a last dispatch (`compute`) or a draw.
     pub(super) fn wire(
         &mut self,
         input: &ImageView,
         output: &wgpu::TextureView,
         origin: (u32, u32),
         compute: bool,
-    ) -> (Vec<Dispatch>, Option<Draw>) {
-        // Intermediates in f32, as tonegate's renderer keeps them by default.
-        let format = HdrFormat::Rgba32Float;
-        let (width, height) = (input.width, input.height);
-        self.params.exposed =
-            self.settings.adaptation.is_some() && !keys_on_average(self.settings.operator.needs());
-        let ctx = &self.ctx;
-        let extent = extent_buffer(
-            ctx,
-            Extent {
-                frame: [width, height],
-                low: [width.div_ceil(2).max(1), height.div_ceil(2).max(1)],
-            },
-        );
-        let op = &self.settings.operator;
-        let mut dispatches = Vec::new();
-        let adapting = self.settings.adaptation.is_some();
-        let needs = op.needs();
-        let measured = if adapting {
-            measured_needs(needs)
-        } else {
-            needs
+    ) -> Result<(Vec<Dispatch>, Option<Draw>), ToneMapperError> {
+        let plan = self.plan();
+        let s = &self.settings;
+        let pipeline = Pipeline {
+            operator: &s.operator,
+            bloom: s.bloom.as_ref(),
+            grade: s.grade.as_ref(),
+            encoding: s.encoding,
         };
-        if measured.any() {
-            let lum = op.luminance();
-            dispatches.extend(crate::gpu::luminance_stats::luminance_stats(
-                ctx,
-                format,
-                self.reduction,
-                measured,
-                lum.weights,
-                lum.delta,
-                input,
-                &self.stats,
-                &extent,
-            ));
+        // The reduction tonegate's own renderer picks on this adapter, and
+        // its f32 intermediates.
+        let config = GpuConfig {
+            reduction: self.reduction,
+            ..GpuConfig::default()
+        };
+        let (width, height) = (input.width, input.height);
+        let bloom_factor = s.bloom.as_ref().map(|b| b.downsample.get());
+        let extent = extent_buffer(&self.ctx, extent_of((width, height), bloom_factor));
+        let internal = ToneMapperError::Internal;
+        let source = GpuInput::View(input);
+        let mut wiring = Wiring::new(
+            &self.ctx,
+            &source,
+            &pipeline,
+            config,
+            (width, height),
+            false,
+            extent.clone(),
+        )
+        .map_err(internal)?;
+        wiring.stats = self.stats.clone();
+        wiring.shader = Some(self.shader.clone());
+        wiring.adaptation = plan.adaptation().map(|stage| AdaptationResources {
+            stage,
+            adapted: self.adapted.clone(),
+            steps: self.steps.clone(),
+        });
+        let mut dispatches = Vec::new();
+        for stage in plan.stages() {
+            if matches!(stage, Stage::Encode) {
+                break;
+            }
+            dispatches.extend(wiring.staged(stage).map_err(internal)?.dispatches);
         }
-        if adapting {
-            dispatches.push(crate::gpu::adaptation::adaptation(
-                ctx,
-                format,
-                needs,
-                &self.stats,
-                &self.adapted,
-                &self.steps,
-            ));
-        }
-        let toned = hdr_texture(ctx, "tonegate.tonemap", width, height, format);
-        dispatches.extend(crate::gpu::tonemap::tonemap(
-            ctx,
-            format,
-            &self.params,
-            &self.stats,
-            input,
-            &toned,
-            &extent,
-        ));
+        let display = wiring
+            .display
+            .clone()
+            .ok_or(ToneMapperError::Internal(GpuError::Plan(PlanError::order(
+                "encode", "tonemap",
+            ))))?;
         let origin_words = [origin.0, origin.1, 0, 0];
         let origin = uniform_buffer(
-            ctx,
+            &self.ctx,
             "tonegate.encode.target_origin",
             bytemuck::cast_slice(&origin_words),
         );
-        let s = &self.settings;
         if compute {
             dispatches.push(encode_to_storage(
-                ctx,
-                format,
+                &self.ctx,
+                config.hdr_format,
                 s.encoding,
                 s.operator.display_levels(),
-                &toned,
+                &display,
                 output,
                 s.target,
                 &origin,
                 &extent,
             ));
-            return (dispatches, None);
+            return Ok((dispatches, None));
         }
         let pipeline = self.render_pipeline();
-        let bind_group = encode_render_bind_group(&self.ctx, &pipeline, &toned, &origin);
-        (
+        let bind_group = encode_render_bind_group(&self.ctx, &pipeline, &display, &origin);
+        Ok((
             dispatches,
             Some(Draw {
                 pipeline,
                 bind_group,
             }),
-        )
+        ))
     }
 }
