@@ -275,27 +275,12 @@ pub fn check_manifest(root: &Path, scenes: &[Scene]) -> Result<Vec<Problem>, Gol
                 now: REFERENCE_VERSION,
             });
         }
-        for n in 0..scene.frames {
-            let file = frame_file(n);
-            let path = frame_path(root, &name, n);
+        // Every frame, and the adaptation curve of a scene that adapts:
+        // present, and as blessed.
+        let curve = scene.adaptation.map(|_| ADAPTATION_CURVE.to_owned());
+        for file in (0..scene.frames).map(frame_file).chain(curve) {
+            let path = root.join(&name).join(&file);
             match (entry.files.get(&file), sha256_file(&path)) {
-                (_, None) | (None, _) => problems.push(Problem::MissingFile {
-                    scene: name.clone(),
-                    file,
-                }),
-                (Some(want), Some(got)) if *want != got => problems.push(Problem::FileChanged {
-                    scene: name.clone(),
-                    file,
-                }),
-                _ => {}
-            }
-        }
-        if scene.adaptation.is_some() {
-            let file = ADAPTATION_CURVE.to_owned();
-            match (
-                entry.files.get(&file),
-                sha256_file(&root.join(&name).join(&file)),
-            ) {
                 (_, None) | (None, _) => problems.push(Problem::MissingFile {
                     scene: name.clone(),
                     file,

@@ -31,7 +31,7 @@ pub use pool::{size_class, RendererPool};
 pub use readback::{GpuFrame, Ticket, FRAMES_IN_FLIGHT};
 pub use renderer::GpuRenderer;
 pub use tone_mapper::{
-    OutputPath, SourceView, TargetView, TextureRole, ToneMapper, ToneMapperError,
+    MapperTimings, OutputPath, SourceView, TargetView, TextureRole, ToneMapper, ToneMapperError,
     ToneMapperSettings,
 };
 pub use wiring::GpuInput;

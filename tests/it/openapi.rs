@@ -67,3 +67,25 @@ fn the_operator_table_in_the_docs_is_the_registry() {
     registry.sort();
     assert_eq!(documented, registry);
 }
+
+/// docs/commands.md's synopsis of `tonemap --operator` lists the built-in
+/// operators, each once, in the registry's order.
+#[test]
+fn the_operator_choices_in_the_commands_synopsis_are_the_registry() {
+    let text = std::fs::read_to_string(common::repo().join("docs/commands.md")).unwrap();
+    let start = text
+        .find("[--operator ")
+        .expect("docs/commands.md has tonemap's --operator")
+        + "[--operator ".len();
+    let end = start + text[start..].find(']').unwrap();
+    // The list wraps onto the next line of the synopsis.
+    let listed: Vec<String> = text[start..end]
+        .split('|')
+        .map(|n| n.trim().to_owned())
+        .collect();
+    let registry: Vec<String> = tonegate::operators::builtin()
+        .iter()
+        .map(|op| op.name().to_owned())
+        .collect();
+    assert_eq!(listed, registry);
+}

@@ -14,11 +14,13 @@
 //! same adapter, in every 8-bit target and by either path.
 
 mod target;
+mod timing;
 mod wire;
 
 pub use target::{
     OutputPath, SourceView, TargetView, TextureRole, ToneMapperError, INPUT_FORMATS, TARGET_FORMATS,
 };
+pub use timing::MapperTimings;
 
 use super::adaptation::{adapted_buffer, steps_buffer, Steps};
 use super::config::ReductionMethod;
@@ -140,6 +142,8 @@ pub struct ToneMapper {
     frame_seconds: f64,
     /// The next frame takes its measurement as it is.
     reset: bool,
+    /// Timestamp queries around the passes, once enabled.
+    stamps: Option<timing::Stamps>,
 }
 
 /// The frame time a [`ToneMapper`] adapts with until told otherwise.
@@ -176,6 +180,7 @@ impl ToneMapper {
             steps: steps_buffer(&ctx),
             frame_seconds: DEFAULT_FRAME_SECONDS,
             reset: true,
+            stamps: None,
             ctx,
         })
     }
@@ -326,6 +331,32 @@ impl ToneMapper {
         Ok(Some(f64::from(ln).exp()))
     }
 
+    /// Times the mapper's passes from the next frame on, with timestamp
+    /// queries (a device opened with `Features::TIMESTAMP_QUERY`; refused
+    /// otherwise); [`ToneMapper::read_timings`] reads the last frame's.
+    pub fn enable_timestamps(&mut self) -> Result<(), ToneMapperError> {
+        let feature = wgpu::Features::TIMESTAMP_QUERY;
+        if !self.ctx.device.features().contains(feature) {
+            return Err(ToneMapperError::MissingFeature { feature });
+        }
+        self.stamps = Some(timing::Stamps::new(&self.ctx.device, &self.ctx.queue));
+        Ok(())
+    }
+
+    /// The GPU time of the last frame recorded (and submitted), or `None`
+    /// before [`ToneMapper::enable_timestamps`]. It waits for the device:
+    /// read it now and then, not every frame.
+    pub fn read_timings(&self) -> Result<Option<MapperTimings>, ToneMapperError> {
+        let Some(stamps) = &self.stamps else {
+            return Ok(None);
+        };
+        let ticks = self
+            .ctx
+            .read_buffer(stamps.read_buffer())
+            .map_err(ToneMapperError::Readback)?;
+        Ok(Some(stamps.timings(&ticks)))
+    }
+
     /// Records the tone mapping of `input` into `output`: the statistics
     /// and the curve as one compute pass of `encoder`, and the target
     /// written in that pass or in a render pass after it; nothing is
@@ -380,7 +411,7 @@ impl ToneMapper {
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("tonegate.tone_mapper"),
-                timestamp_writes: None,
+                timestamp_writes: self.stamps.as_ref().map(timing::Stamps::compute),
             });
             for d in &bound.dispatches {
                 d.record(&mut pass);
@@ -401,7 +432,7 @@ impl ToneMapper {
                     },
                 })],
                 depth_stencil_attachment: None,
-                timestamp_writes: None,
+                timestamp_writes: self.stamps.as_ref().map(timing::Stamps::render),
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
@@ -410,6 +441,10 @@ impl ToneMapper {
             pass.set_pipeline(&draw.pipeline);
             pass.set_bind_group(0, &draw.bind_group, &[]);
             pass.draw(0..3, 0..1);
+        }
+        let rendered = bound.draw.is_some();
+        if let Some(stamps) = &mut self.stamps {
+            stamps.resolve(encoder, rendered);
         }
         Ok(())
     }

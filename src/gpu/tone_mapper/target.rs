@@ -247,6 +247,12 @@ pub enum ToneMapperError {
     /// panic.
     #[error("wiring the tone mapper's passes: {0} (a tonegate bug)")]
     Internal(GpuError),
+    /// The device lacks a feature asked for ([`super::ToneMapper::enable_timestamps`]).
+    #[error("the device was opened without {feature:?}, which this needs")]
+    MissingFeature {
+        /// The feature.
+        feature: wgpu::Features,
+    },
     /// The device failed a readback ([`super::ToneMapper::read_adapted_luminance`]).
     #[error("reading back from the device: {0}")]
     Readback(GpuError),
