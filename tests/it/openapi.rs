@@ -89,3 +89,20 @@ fn the_operator_choices_in_the_commands_synopsis_are_the_registry() {
         .collect();
     assert_eq!(listed, registry);
 }
+
+/// The dashboard's list of stage series (`STAGES` in its app.js) is the
+/// plan's stages, in plan order, so a new stage's trend is drawn.
+#[test]
+fn the_dashboards_stage_list_is_the_plans() {
+    let js = std::fs::read_to_string(common::repo().join("src/server/dashboard/app.js")).unwrap();
+    let line = js
+        .lines()
+        .find(|l| l.starts_with("const STAGES = ["))
+        .expect("app.js declares STAGES");
+    let listed: Vec<&str> = line["const STAGES = [".len()..]
+        .trim_end_matches("];")
+        .split(',')
+        .map(|s| s.trim().trim_matches('"'))
+        .collect();
+    assert_eq!(listed, tonegate::plan::Stage::NAMES);
+}
