@@ -262,7 +262,7 @@ impl StagePlan {
         {
             Some(i) => {
                 if let Stage::LuminanceStats(needs) = &mut self.stages[i] {
-                    needs.log_average = true;
+                    *needs = needs.with_log_average();
                 }
                 i + 1
             }
@@ -274,10 +274,7 @@ impl StagePlan {
                     .unwrap_or(0);
                 self.stages.insert(
                     tonemap,
-                    Stage::LuminanceStats(StatsNeeds {
-                        log_average: true,
-                        ..StatsNeeds::default()
-                    }),
+                    Stage::LuminanceStats(StatsNeeds::default().with_log_average()),
                 );
                 tonemap + 1
             }

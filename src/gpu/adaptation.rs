@@ -5,7 +5,6 @@
 use super::stages::{bind_group, pipeline, storage_buffer, Bind, Dispatch};
 use super::{GpuContext, HdrFormat};
 use crate::operators::StatsNeeds;
-use crate::reference::adaptation::keys_on_average;
 use crate::scene::Adaptation;
 
 /// Mirrors `Steps` in shaders/adaptation.wgsl: one frame's step.
@@ -53,7 +52,7 @@ pub fn steps_buffer(ctx: &GpuContext) -> wgpu::Buffer {
 fn constants(needs: StatsNeeds) -> [(&'static str, f64); 2] {
     [
         ("WEIGHTED", f64::from(u8::from(needs.weighted_log_average))),
-        ("EXPOSE", f64::from(u8::from(!keys_on_average(needs)))),
+        ("EXPOSE", f64::from(u8::from(!needs.keys_on_average()))),
     ]
 }
 
@@ -102,7 +101,7 @@ impl AdaptationResources {
     /// Whether the operator gets the auto-exposure (it keys on no log
     /// average).
     pub fn exposes(&self) -> bool {
-        !keys_on_average(self.stage.operator_needs)
+        !self.stage.operator_needs.keys_on_average()
     }
 
     /// The stage's dispatch on `stats`.

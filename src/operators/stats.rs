@@ -20,6 +20,22 @@ pub struct StatsNeeds {
 }
 
 impl StatsNeeds {
+    /// Whether the operator reads a log average, which eye adaptation
+    /// replaces with the adapted one; one that reads none gets
+    /// auto-exposure instead (docs/adaptation.md).
+    pub fn keys_on_average(&self) -> bool {
+        self.log_average || self.weighted_log_average
+    }
+
+    /// These needs and the log average: what a plan with eye adaptation
+    /// measures.
+    pub fn with_log_average(self) -> StatsNeeds {
+        StatsNeeds {
+            log_average: true,
+            ..self
+        }
+    }
+
     /// Whether anything is measured at all.
     pub fn any(&self) -> bool {
         self.log_average || self.weighted_log_average || self.min || self.max

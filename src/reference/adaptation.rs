@@ -46,26 +46,11 @@ impl Adapted {
     /// The scale of an operator's input that keys on no log average
     /// (`needs`): `key` over the adapted luminance; 1 for the others.
     pub fn exposure(&self, adaptation: &Adaptation, needs: StatsNeeds) -> f64 {
-        if keys_on_average(needs) {
+        if needs.keys_on_average() {
             1.0
         } else {
             adaptation.key.get() / self.log_average.exp()
         }
-    }
-}
-
-/// Whether an operator with `needs` reads a log average, which adaptation
-/// replaces; one that does not gets auto-exposure instead.
-pub fn keys_on_average(needs: StatsNeeds) -> bool {
-    needs.log_average || needs.weighted_log_average
-}
-
-/// What a plan with adaptation measures: the operator's needs and the log
-/// average.
-pub fn measured_needs(needs: StatsNeeds) -> StatsNeeds {
-    StatsNeeds {
-        log_average: true,
-        ..needs
     }
 }
 

@@ -215,7 +215,7 @@ fn run_stages_until(
                 }
                 let next = adaptation::adapt(&stats, before, a.adaptation.steps(a.frame_seconds));
                 stats = next.statistics(&stats);
-                exposure = (!adaptation::keys_on_average(a.operator_needs))
+                exposure = (!a.operator_needs.keys_on_average())
                     .then(|| next.exposure(&a.adaptation, a.operator_needs));
                 adapted = Some(next);
             }

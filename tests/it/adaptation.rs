@@ -10,7 +10,7 @@
 use crate::tone_mapper::{hdr_input, night_and_ramp, own_device, read, texture, view, Texel};
 use tonegate::image::HdrImage;
 use tonegate::operators::Operator;
-use tonegate::reference::adaptation::{adapt, measured_needs, Adapted};
+use tonegate::reference::adaptation::{adapt, Adapted};
 use tonegate::reference::{encode, luminance_stats, tonemap};
 use tonegate::scene::{Adaptation, Encoding};
 use tonegate::{ToneMapper, ToneMapperError, ToneMapperSettings};
@@ -76,7 +76,7 @@ fn follow(op: Operator) -> Vec<(u32, f32, f64, f64)> {
     let measure = |i: &HdrImage| {
         luminance_stats::luminance_stats(
             &i.to_linear(),
-            measured_needs(needs),
+            needs.with_log_average(),
             lum.weights,
             lum.delta,
         )
