@@ -36,6 +36,10 @@ struct TaaUniforms {
     m2: vec4<f32>,
     // 0 on a reset: the frame has no history.
     has_history: u32,
+    _pad: u32,
+    // The `_motion` entries: what turns a motion vector into the offset, in
+    // pixels, to where the pixel's centre was in the previous frame.
+    motion_scale: vec2<f32>,
 }
 
 @group(0) @binding(0) var<uniform> frame: FrameUniforms;
@@ -51,6 +55,9 @@ struct TaaUniforms {
 // The `_hardware` entries' history filter: the texture unit's linear
 // filter, clamping to the edge (`--env-filter hardware`).
 @group(0) @binding(8) var history_sampler: sampler;
+// The `_motion` entries' history point: an application's motion vectors
+// (xy of each texel), in place of the camera's reprojection.
+@group(0) @binding(9) var motion: texture_2d<f32>;
 
 const BT709 = vec3<f32>(0.2126, 0.7152, 0.0722);
 
@@ -175,6 +182,22 @@ fn history_point(id: vec2<u32>) -> vec2<f32> {
         return vec2<f32>(-1.0);
     }
     return reproject(id.x, id.y, taa.m0.xyz, taa.m1.xyz, taa.m2.xyz, frame);
+}
+
+// reference::taa::Reprojection::Motion: pixel id's centre moved by its
+// scaled motion vector, (−1, −1) for none (a reset, a point off the film,
+// or a vector that is not a number).
+fn motion_point(id: vec2<u32>) -> vec2<f32> {
+    if (taa.has_history == 0u) {
+        return vec2<f32>(-1.0);
+    }
+    let v = textureLoad(motion, vec2<i32>(id), 0).xy;
+    let q = vec2<f32>(id) + vec2<f32>(0.5) + taa.motion_scale * v;
+    let size = vec2<f32>(frame.size);
+    if (!(q.x >= 0.0 && q.x <= size.x && q.y >= 0.0 && q.y <= size.y)) {
+        return vec2<f32>(-1.0);
+    }
+    return q;
 }
 
 // The cross (+) and 3×3 neighbourhoods' min and max.
@@ -432,6 +455,35 @@ fn resolve_edge_aware_hardware(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let q = history_point(id.xy);
     finish(id.xy, clip_edge_aware(id.xy), q, history_hardware(q));
+}
+
+// The `_motion` entries: the history where the application's motion
+// vectors say (the tone mapper embedded in an application), read with loads.
+@compute @workgroup_size(64, 1)
+fn resolve_clip_motion(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (outside(id)) {
+        return;
+    }
+    let q = motion_point(id.xy);
+    finish(id.xy, clip_averaged(id.xy), q, history_at(q));
+}
+
+@compute @workgroup_size(64, 1)
+fn resolve_variance_motion(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (outside(id)) {
+        return;
+    }
+    let q = motion_point(id.xy);
+    finish(id.xy, clip_moments(id.xy), q, history_at(q));
+}
+
+@compute @workgroup_size(64, 1)
+fn resolve_edge_aware_motion(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (outside(id)) {
+        return;
+    }
+    let q = motion_point(id.xy);
+    finish(id.xy, clip_edge_aware(id.xy), q, history_at(q));
 }
 
 // The sharpen: b + s·(4b − N − S − E − W), limited to the cross

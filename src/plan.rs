@@ -292,20 +292,25 @@ impl StagePlan {
     }
 
     /// The plan with the TAA stages (`taa_sobel` for the edge-aware variant,
-    /// then `taa`) right after `sphere`; unchanged without a `sphere` stage,
-    /// for `TaaVariant::Off`, or when the plan has TAA already.
+    /// then `taa`) first: right after `sphere`, which jitters its samples
+    /// and reprojects by the camera, or at the start of a flat plan, whose
+    /// frames come jittered from an application with their motion vectors
+    /// (a `ToneMapper`'s input). Unchanged for `TaaVariant::Off` or when the
+    /// plan has TAA already.
     pub fn with_taa(mut self, params: TaaParams) -> StagePlan {
-        let has_sphere = matches!(self.stages.first(), Some(Stage::Sphere { .. }));
-        if !has_sphere || params.variant == TaaVariant::Off || self.taa().is_some() {
+        if params.variant == TaaVariant::Off || self.taa().is_some() {
             return self;
         }
-        let mut stages = vec![self.stages.remove(0)];
+        let at = match self.stages.first() {
+            Some(Stage::Sphere { .. }) => 1,
+            _ => 0,
+        };
+        let mut taa = Vec::new();
         if params.variant == TaaVariant::EdgeAware {
-            stages.push(Stage::TaaSobel);
+            taa.push(Stage::TaaSobel);
         }
-        stages.push(Stage::Taa(params));
-        stages.append(&mut self.stages);
-        self.stages = stages;
+        taa.push(Stage::Taa(params));
+        self.stages.splice(at..at, taa);
         self
     }
 

@@ -9,6 +9,7 @@ pub mod compare;
 pub mod config;
 pub mod context;
 pub mod flip;
+mod input;
 pub mod listing;
 pub mod pool;
 pub mod readback;
@@ -26,15 +27,15 @@ pub use config::{
     AdapterTraits, EnvFilter, Execution, GpuConfig, HdrFormat, ReductionMethod, TaaFault, F16_MAX,
 };
 pub use context::GpuContext;
+pub use input::GpuInput;
 pub use luminance_stats::GpuStats;
 pub use pool::{size_class, RendererPool};
 pub use readback::{GpuFrame, Ticket, FRAMES_IN_FLIGHT};
 pub use renderer::GpuRenderer;
 pub use tone_mapper::{
-    MapperTimings, OutputPath, SourceView, TargetView, TextureRole, ToneMapper, ToneMapperError,
-    ToneMapperSettings,
+    MapperTimings, MotionUnits, MotionVectors, OutputPath, SourceView, TargetView, TextureRole,
+    ToneMapper, ToneMapperError, ToneMapperSettings, MOTION_FORMATS,
 };
-pub use wiring::GpuInput;
 // The stages' override constants, for the range-safety proof
 // (`stress::range_safety`), which evaluates the shaders with them.
 #[cfg(test)]

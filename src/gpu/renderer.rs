@@ -7,7 +7,8 @@ use super::readback::{GpuFrame, Ring, Sources, Ticket, FRAMES_IN_FLIGHT};
 use super::sphere::FrameUniforms;
 use super::stages::{extent_buffer, storage_buffer, upload, Extent};
 use super::timing::Queries;
-use super::wiring::{GpuInput, Wiring};
+use super::wiring::Wiring;
+use super::GpuInput;
 use super::{GpuContext, GpuError};
 use crate::conventions::{Camera, Mat3};
 use crate::image::HdrImage;
@@ -323,15 +324,7 @@ impl<'a> GpuRenderer<'a> {
         let Some(taa) = &self.taa else {
             return;
         };
-        let row = |m: &Mat3, i: usize| [m[i][0] as f32, m[i][1] as f32, m[i][2] as f32, 0.0];
-        let u = super::taa::TaaUniforms {
-            rows: match reprojection {
-                Some(m) => [row(m, 0), row(m, 1), row(m, 2)],
-                None => [[0.0; 4]; 3],
-            },
-            has_history: reprojection.is_some() as u32,
-            _pad: [0; 3],
-        };
+        let u = super::taa::TaaUniforms::rotation(reprojection);
         self.ctx
             .queue
             .write_buffer(&taa.uniforms, 0, bytemuck::bytes_of(&u));

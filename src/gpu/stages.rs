@@ -327,6 +327,7 @@ pub fn groups(n: u32, size: u32) -> u32 {
 /// A dispatch: pipeline, bind group and workgroup counts, and for an entry
 /// point that reads the frame's extent (shaders/shared/extent.wgsl), the
 /// bind group of group 1 holding it.
+#[derive(Clone)]
 pub struct Dispatch {
     pub pipeline: wgpu::ComputePipeline,
     pub bind_group: wgpu::BindGroup,

@@ -7,53 +7,11 @@ use super::luminance_stats::GpuStats;
 use super::sphere::{Environment, FrameUniforms};
 use super::stages::{hdr_texture, shared_buffer, storage_buffer, upload, Dispatch, ImageView};
 use super::tonemap::OperatorShader;
-use super::{GpuConfig, GpuContext, GpuError, HdrFormat};
-use crate::conventions::Camera;
-use crate::image::HdrImage;
+use super::{GpuConfig, GpuContext, GpuError, GpuInput, HdrFormat};
 use crate::plan::{BloomSource, PlanError, Stage};
 use crate::reference::bloom_downsample::downsampled_size;
 use crate::reference::Pipeline;
 use crate::scene::Bloom;
-
-/// Where the frame comes from.
-pub enum GpuInput<'i> {
-    /// A sphere view of this environment with this camera at `spp`.
-    Sphere {
-        env: &'i HdrImage,
-        camera: Camera,
-        spp: u32,
-        /// The brightest light the sequence scales the environment by
-        /// (`Scene::light`; 1 without `[[light]]` steps).
-        light: f32,
-    },
-    /// A flat HDR image.
-    Flat(&'i HdrImage),
-    /// A caller's texture, read where it is (`ToneMapper`): nothing is
-    /// uploaded, and its range is unknown.
-    View(&'i ImageView),
-}
-
-impl GpuInput<'_> {
-    /// The output frame's size.
-    pub(super) fn size(&self) -> (u32, u32) {
-        match self {
-            GpuInput::Sphere { camera, .. } => (camera.width, camera.height),
-            GpuInput::Flat(img) => (img.width, img.height),
-            GpuInput::View(v) => (v.width, v.height),
-        }
-    }
-
-    /// The largest component of the input (NaN ignored): no intermediate
-    /// before `tonemap` exceeds it.
-    pub(super) fn max_component(&self) -> f32 {
-        match self {
-            GpuInput::Sphere { env, light, .. } => env.max_component() * light.max(1.0),
-            GpuInput::Flat(img) => img.max_component(),
-            // Unknown: f16 intermediates would be promoted to f32.
-            GpuInput::View(_) => f32::MAX,
-        }
-    }
-}
 
 /// One compute pass: a stage (or merged stages) and its dispatches.
 pub struct Pass {
@@ -107,8 +65,13 @@ pub struct Wiring<'a, 'p> {
     pub current: Option<wgpu::Texture>,
     /// `taa_sobel`'s aliasing amount.
     pub amount: Option<wgpu::Texture>,
-    /// `taa`'s history pair and uniforms.
+    /// `taa`'s history pair and uniforms; set before wiring, the caller's
+    /// (a `ToneMapper` keeps its history across pairs of views), reused by
+    /// the stage when of the frame's size.
     pub taa: Option<super::taa::TaaResources>,
+    /// The caller's motion vectors, which `taa` finds the history by where
+    /// there is no camera (a `ToneMapper`'s input).
+    pub motion: Option<wgpu::TextureView>,
     /// `adaptation`'s state and per-frame step, with its parameters; set
     /// before wiring, it is the caller's (a `ToneMapper` keeps its state
     /// across pairs of views), and the stage reuses it.
@@ -187,7 +150,7 @@ impl<'a, 'p> Wiring<'a, 'p> {
             false => (hdr, None),
         };
         let hdr_view = match input {
-            GpuInput::View(v) => (*v).clone(),
+            GpuInput::View(v) if current.is_none() => (*v).clone(),
             _ => ImageView::whole(&hdr),
         };
         Ok(Wiring {
@@ -203,6 +166,7 @@ impl<'a, 'p> Wiring<'a, 'p> {
             current,
             amount: None,
             taa: None,
+            motion: None,
             adaptation: None,
             weights,
             delta,
@@ -301,21 +265,34 @@ impl<'p> Wiring<'_, 'p> {
                 vec![d]
             }
             Stage::Taa(params) => {
-                let (_, uniforms) = self.environment.as_ref().ok_or(PlanError::NoParameters {
-                    stage: name,
-                    what: "camera",
-                })?;
                 let current = self.current.clone().ok_or(order("sphere"))?;
+                // The camera's uniforms, or for motion vectors the film's
+                // size alone.
+                let frame = match (&self.motion, &self.environment) {
+                    (Some(_), _) => sized_frame_uniforms(ctx, self.width, self.height),
+                    (None, Some((_, uniforms))) => uniforms.clone(),
+                    (None, None) => {
+                        return Err(PlanError::NoParameters {
+                            stage: name,
+                            what: "camera or motion vectors",
+                        }
+                        .into())
+                    }
+                };
+                let io = super::taa::TaaTextures {
+                    frame: &frame,
+                    current: &current,
+                    amount: self.amount.as_ref(),
+                    motion: self.motion.as_ref(),
+                    out: &self.hdr,
+                };
                 let made = super::taa::taa(
                     ctx,
                     format,
                     params,
-                    self.taa_fault,
-                    self.filter,
-                    uniforms,
-                    &current,
-                    self.amount.as_ref(),
-                    &self.hdr,
+                    (self.taa_fault, self.filter),
+                    &io,
+                    self.taa.take(),
                 )?;
                 self.outputs.push((name, self.hdr.clone()));
                 self.taa = Some(made.resources);
@@ -485,4 +462,14 @@ impl<'p> Wiring<'_, 'p> {
         };
         Ok(Pass::every_frame(name, dispatches))
     }
+}
+
+/// Frame uniforms that hold only the film's size: what the `taa` stage
+/// reads of them when motion vectors take the camera's place.
+fn sized_frame_uniforms(ctx: &GpuContext, width: u32, height: u32) -> wgpu::Buffer {
+    let u = FrameUniforms {
+        size: [width, height],
+        ..bytemuck::Zeroable::zeroed()
+    };
+    super::stages::uniform_buffer(ctx, "tonegate.taa.frame", bytemuck::bytes_of(&u))
 }

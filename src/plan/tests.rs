@@ -25,7 +25,7 @@ fn reinhard02(white: Option<f64>, log_average: Option<f64>) -> Operator {
 }
 
 #[test]
-fn taa_stages_follow_the_sphere_only_when_asked() {
+fn taa_stages_come_first_and_only_when_asked() {
     let params = |variant| TaaParams {
         variant,
         ..TaaParams::default()
@@ -41,8 +41,14 @@ fn taa_stages_follow_the_sphere_only_when_asked() {
     assert_eq!(&edge.names()[..3], ["sphere", "taa_sobel", "taa"]);
     assert_eq!(edge.clone().with_taa(params(TaaVariant::Clip)), edge);
     assert_eq!(sphere.clone().with_taa(params(TaaVariant::Off)), sphere);
+    // A flat plan (an application's jittered frames, with motion vectors)
+    // starts with them.
     let flat = StagePlan::build(Input::Flat, &op, None, None);
-    assert_eq!(flat.clone().with_taa(params(TaaVariant::Clip)), flat);
+    assert_eq!(
+        flat.clone().with_taa(params(TaaVariant::EdgeAware)).names(),
+        ["taa_sobel", "taa", "luminance_stats", "tonemap", "encode"]
+    );
+    assert_eq!(flat.clone().with_taa(params(TaaVariant::Off)), flat);
 }
 
 #[test]

@@ -118,9 +118,12 @@ pub fn render_carried_frame(
     let previous = rotation_matrix(scene.rotation.axis, scene.angle(n.saturating_sub(1)));
     let frame = taa::TaaFrame {
         history,
-        reprojection: crate::conventions::reprojection(&previous, &rotation),
+        reprojection: taa::Reprojection::Rotation {
+            camera,
+            matrix: crate::conventions::reprojection(&previous, &rotation),
+        },
     };
-    let resolved = taa::taa(&current, amount.as_ref(), &frame, &camera, &params);
+    let resolved = taa::taa(&current, amount.as_ref(), &frame, &params);
     let out = run_plan_adapted(&plan, resolved.output, &Pipeline::of_scene(scene), adapted)?;
     let next = out.adapted;
     Ok((out, Some(resolved.history), next))

@@ -4,11 +4,13 @@
 //! Each frame renders one jittered sample per pixel (`sphere`), and this
 //! stage blends it with the history, the previous frame's resolved image:
 //!
-//! 1. **Reprojection**, exact: the camera is fixed at the sphere's centre and
-//!    the sphere turns by a known rotation, so the point pixel p sees now was
-//!    seen last frame at `conventions::reproject` (no velocity buffer). The
-//!    history is read there bilinearly (texel centres at k + ½, clamped at
-//!    the border); a point that was off the film has no history.
+//! 1. **Reprojection**, exact in the gate's scenes: the camera is fixed at
+//!    the sphere's centre and the sphere turns by a known rotation, so the
+//!    point pixel p sees now was seen last frame at `conventions::reproject`
+//!    (no velocity buffer). An application embedding the tone mapper gives
+//!    motion vectors instead ([`Reprojection::Motion`]). The history is read
+//!    there (texel centres at k + ½, clamped at the border); a point that was
+//!    off the film has no history.
 //! 2. **The clipping box** from the current frame's 3×3 and cross (+)
 //!    neighbourhoods: `clip` averages their min and max (§3.6.3);
 //!    `edge_aware` blends them by the pixel's aliasing amount a (Sobel, eq.
@@ -57,8 +59,42 @@ pub const CONFIDENCE_CAP: f64 = 1024.0;
 pub struct TaaFrame<'a> {
     /// The previous frame's history; None on a reset.
     pub history: Option<&'a TaaHistory>,
-    /// `conventions::reprojection` from the previous frame's rotation to this one's.
-    pub reprojection: Mat3,
+    /// Where each pixel's history is.
+    pub reprojection: Reprojection<'a>,
+}
+
+/// Where a pixel's centre was in the previous frame.
+#[derive(Clone, Copy, Debug)]
+pub enum Reprojection<'a> {
+    /// The gate's sphere: `conventions::reprojection` from the previous
+    /// frame's rotation to this one's, through the camera.
+    Rotation { camera: Camera, matrix: Mat3 },
+    /// An application's motion vectors (`gpu::ToneMapper` with TAA): pixel
+    /// (i, j)'s centre was at (i + ½ + sx·vx, j + ½ + sy·vy), where (vx, vy)
+    /// is its vector and (sx, sy) the `scale` that turns the vectors' units
+    /// and sign into pixels toward the previous frame. A point outside the
+    /// film, or not a number, has no history.
+    Motion {
+        vectors: &'a Image<[f64; 2]>,
+        scale: [f64; 2],
+    },
+}
+
+impl Reprojection<'_> {
+    /// Where pixel (i, j)'s centre was, in pixels from the top-left
+    /// corner, or None when it has no history.
+    pub fn previous_point(&self, i: u32, j: u32) -> Option<(f64, f64)> {
+        match self {
+            Reprojection::Rotation { camera, matrix } => reproject(camera, matrix, i, j),
+            Reprojection::Motion { vectors, scale } => {
+                let v = vectors.get(i, j);
+                let px = i as f64 + 0.5 + scale[0] * v[0];
+                let py = j as f64 + 0.5 + scale[1] * v[1];
+                let within = |p: f64, n: u32| (0.0..=n as f64).contains(&p);
+                (within(px, vectors.width) && within(py, vectors.height)).then_some((px, py))
+            }
+        }
+    }
 }
 
 /// The stage's two images.
@@ -323,7 +359,6 @@ pub fn taa(
     current: &LinearImage,
     amount: Option<&Image<f64>>,
     frame: &TaaFrame,
-    camera: &Camera,
     p: &TaaParams,
 ) -> TaaOutput {
     let (w, h) = (current.width as usize, current.height as usize);
@@ -333,7 +368,8 @@ pub fn taa(
         for (i, out) in row.iter_mut().enumerate() {
             let c = current.pixels[j * w + i];
             let previous = frame.history.and_then(|hist| {
-                reproject(camera, &frame.reprojection, i as u32, j as u32).map(|(px, py)| {
+                let point = frame.reprojection.previous_point(i as u32, j as u32);
+                point.map(|(px, py)| {
                     let colour = history_at(&hist.colour, px, py, p.history_filter);
                     let frames =
                         (confidence_at(&hist.confidence, px, py) + 1.0).min(CONFIDENCE_CAP);

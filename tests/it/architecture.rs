@@ -320,7 +320,7 @@ fn the_import_reader_finds_cycles_and_grouped_imports() {
     );
     let gpu = exports(&repo().join("src/gpu/mod.rs"));
     assert_eq!(gpu.get("GpuRenderer").map(String::as_str), Some("renderer"));
-    assert_eq!(gpu.get("GpuInput").map(String::as_str), Some("wiring"));
+    assert_eq!(gpu.get("GpuInput").map(String::as_str), Some("input"));
 }
 
 /// No module outside `src/operators/` names a built-in operator in a

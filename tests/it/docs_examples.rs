@@ -255,3 +255,52 @@ fn check_output(args: &[String], dir: &Path, stdout: &[u8]) -> Option<String> {
         _ => None,
     }
 }
+
+/// Every file of the repository the docs name in backquotes
+/// (`tests/it/taa.rs`, `shaders/shared/colour.wgsl#…`) is there: a file
+/// moved or split leaves no doc pointing at nothing.
+#[test]
+fn every_path_the_docs_name_exists() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut docs: Vec<PathBuf> = std::fs::read_dir(root.join("docs"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "md"))
+        .collect();
+    docs.extend(["README.md", "ARCHITECTURE.md"].map(|f| root.join(f)));
+    let tops = [
+        "src/",
+        "tests/",
+        "shaders/",
+        "examples/",
+        "benches/",
+        "ci/",
+        "golden/",
+        "docs/",
+        "fuzz/",
+    ];
+    let mut named = 0;
+    let mut missing = Vec::new();
+    for doc in &docs {
+        let text = std::fs::read_to_string(doc).unwrap();
+        for quoted in text.split('`').skip(1).step_by(2) {
+            let path = quoted.split('#').next().unwrap();
+            let plain = path
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || "_./-".contains(c));
+            if !plain || !tops.iter().any(|t| path.starts_with(t)) {
+                continue;
+            }
+            named += 1;
+            if !root.join(path).exists() {
+                missing.push(format!("{}: {path}", doc.display()));
+            }
+        }
+    }
+    assert!(named > 50, "only {named} paths found: the scan is broken");
+    assert!(
+        missing.is_empty(),
+        "docs name files that are not there:\n{}",
+        missing.join("\n")
+    );
+}

@@ -9,7 +9,7 @@ use tonegate::conventions::{reprojection, rotation_matrix, taa_jitter};
 use tonegate::gpu::{AdapterChoice, GpuConfig, GpuContext};
 use tonegate::image::LinearImage;
 use tonegate::plan::StagePlan;
-use tonegate::reference::taa::{taa, TaaFrame, TaaHistory};
+use tonegate::reference::taa::{taa, Reprojection, TaaFrame, TaaHistory};
 use tonegate::reference::taa_sobel::taa_sobel;
 use tonegate::reference::{scene_camera, sphere};
 use tonegate::render::{scene_environment, SceneRenderer};
@@ -208,9 +208,9 @@ fn stage_by_stage(
         }
         let frame = TaaFrame {
             history: if reset { None } else { history.as_ref() },
-            reprojection: m,
+            reprojection: Reprojection::Rotation { camera, matrix: m },
         };
-        let cpu = taa(&current, amount.as_ref(), &frame, &camera, &params);
+        let cpu = taa(&current, amount.as_ref(), &frame, &params);
         let gpu_out = r.read_output("taa").unwrap().unwrap();
         let gpu_hist = r.read_output("taa_history").unwrap().unwrap();
         let gpu_frames = r.read_output("taa_confidence").unwrap().unwrap();

@@ -6,17 +6,22 @@
 //! It runs the plan tonegate's own renderer runs for a flat image
 //! (`StagePlan::build`, with `with_adaptation`): the luminance statistics
 //! (when the operator needs them), eye adaptation, the operator (its
-//! resolve step, then its curve), bloom and grade, each stage wired by the
+//! resolve step, then its curve), bloom and grade, after TAA when the
+//! application gives motion vectors (`with_taa`), each stage wired by the
 //! renderer's own `Wiring::staged`; then the display encoding, written into
 //! the target by a compute pass or a fullscreen triangle (`wire`). The same
 //! code, shaders and pipelines, so the same bits: an input texture in
 //! `Rgba32Float` gives the bytes `tonegate tonemap --gpu` writes on the
 //! same adapter, in every 8-bit target and by either path.
 
+mod settings;
+mod taa;
 mod target;
 mod timing;
 mod wire;
 
+pub use settings::ToneMapperSettings;
+pub use taa::{MotionUnits, MotionVectors, MOTION_FORMATS};
 pub use target::{
     OutputPath, SourceView, TargetView, TextureRole, ToneMapperError, INPUT_FORMATS, TARGET_FORMATS,
 };
@@ -24,57 +29,13 @@ pub use timing::MapperTimings;
 
 use super::adaptation::{adapted_buffer, steps_buffer, Steps};
 use super::config::ReductionMethod;
-use super::encode::Texel;
 use super::stages::{shared_buffer, Dispatch, ImageView};
 use super::tonemap::OperatorShader;
 use super::{GpuContext, GpuStats};
-use crate::operators::Operator;
-use crate::scene::{Adaptation, Bloom, Encoding, Grade};
+use crate::scene::Encoding;
+use settings::check_settings;
 use std::collections::HashMap;
 use target::storable;
-
-/// How a [`ToneMapper`] maps: the operator with its parameters, the display
-/// encoding, the target's format and the path into it.
-#[derive(Clone, Debug)]
-pub struct ToneMapperSettings {
-    /// The operator (`Operator::named("agx", &[])`, or a caller's own after
-    /// `operators::register`).
-    pub operator: Operator,
-    /// The display encoding: the sRGB transfer, a gamma, or PQ (into a
-    /// 10-bit or scRGB target, for an operator with display levels).
-    pub encoding: Encoding,
-    /// The format of the views [`ToneMapper::record`] writes: one of
-    /// [`TARGET_FORMATS`]. A swap chain's, typically.
-    pub target: wgpu::TextureFormat,
-    /// A compute pass, a render pass, or whichever the target allows.
-    pub path: OutputPath,
-    /// Eye adaptation: the log average the operator keys on (or, for one
-    /// that keys on none, its exposure) follows the frames' measurements
-    /// with a time constant up and down, instead of jumping with each
-    /// frame (docs/adaptation.md). `None`: each frame on its own.
-    pub adaptation: Option<Adaptation>,
-    /// Bloom on the tone-mapped image (docs/display.md#bloom), as a
-    /// scene's `[bloom]`.
-    pub bloom: Option<Bloom>,
-    /// The grade after it (docs/display.md#grade), as a scene's `[grade]`.
-    pub grade: Option<Grade>,
-}
-
-impl Default for ToneMapperSettings {
-    /// `reinhard-global` at its defaults, sRGB-encoded into `Rgba8Unorm`:
-    /// what `tonegate tonemap` does with no flags.
-    fn default() -> ToneMapperSettings {
-        ToneMapperSettings {
-            operator: Operator::default(),
-            encoding: Encoding::Srgb,
-            target: wgpu::TextureFormat::Rgba8Unorm,
-            path: OutputPath::Auto,
-            adaptation: None,
-            bloom: None,
-            grade: None,
-        }
-    }
-}
 
 /// What one pair of views was wired for.
 #[derive(Clone, PartialEq)]
@@ -84,6 +45,8 @@ struct BoundKey {
     output: wgpu::TextureView,
     origin: (u32, u32),
     compute: bool,
+    /// The motion vectors' view, with TAA.
+    motion: Option<wgpu::TextureView>,
 }
 
 /// The fullscreen triangle into a render attachment.
@@ -100,8 +63,17 @@ const KEPT_PAIRS: usize = 4;
 /// used last.
 struct Bound {
     key: BoundKey,
-    dispatches: Vec<Dispatch>,
+    wired: Wired,
+}
+
+/// A pair's passes: the dispatches (with TAA, one list for each texture
+/// of the history pair the frame reads) and the draw into a render target.
+struct Wired {
+    even: Vec<Dispatch>,
+    odd: Option<Vec<Dispatch>>,
     draw: Option<Draw>,
+    /// The TAA history the dispatches read and write.
+    history: Option<super::taa::TaaResources>,
 }
 
 /// The render pipelines a mapper compiled: by target format and the
@@ -144,6 +116,8 @@ pub struct ToneMapper {
     reset: bool,
     /// Timestamp queries around the passes, once enabled.
     stamps: Option<timing::Stamps>,
+    /// The TAA history, carried between records.
+    history: taa::History,
 }
 
 /// The frame time a [`ToneMapper`] adapts with until told otherwise.
@@ -181,6 +155,7 @@ impl ToneMapper {
             frame_seconds: DEFAULT_FRAME_SECONDS,
             reset: true,
             stamps: None,
+            history: taa::History::default(),
             ctx,
         })
     }
@@ -228,7 +203,11 @@ impl ToneMapper {
             },
         );
         let view = output.create_view(&Default::default());
-        drop(self.wire(&input, &view, (0, 0), compute)?);
+        let motion = self.has_taa().then(|| {
+            texture(MOTION_FORMATS[0], wgpu::TextureUsages::TEXTURE_BINDING)
+                .create_view(&Default::default())
+        });
+        drop(self.wire(&input, (&view, (0, 0)), compute, motion.as_ref())?);
         if render {
             self.render_pipeline();
         }
@@ -275,6 +254,7 @@ impl ToneMapper {
             && settings.adaptation.is_some() == self.settings.adaptation.is_some()
             && settings.bloom == self.settings.bloom
             && settings.grade == self.settings.grade
+            && settings.taa == self.settings.taa
             && (config.len() * 4) as u64 == self.shader.config.size();
         if same_shader {
             self.ctx
@@ -283,6 +263,9 @@ impl ToneMapper {
         } else {
             self.shader = OperatorShader::new(&self.ctx, op, None);
             self.bound.clear();
+            if settings.taa != self.settings.taa {
+                self.history = taa::History::default();
+            }
         }
         self.settings = settings;
         Ok(())
@@ -375,8 +358,19 @@ impl ToneMapper {
         input: impl Into<SourceView<'a>>,
         output: impl Into<TargetView<'a>>,
     ) -> Result<(), ToneMapperError> {
-        let (input, output) = (input.into(), output.into());
-        let key = self.key(&input, &output)?;
+        self.record_frame(encoder, input.into(), None, output.into())
+    }
+
+    /// [`ToneMapper::record`] and [`ToneMapper::record_with_motion`].
+    fn record_frame(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        input: SourceView,
+        motion: Option<MotionVectors>,
+        output: TargetView,
+    ) -> Result<(), ToneMapperError> {
+        let key = self.key(&input, motion.as_ref(), &output)?;
+        let size = key.size;
         match self.bound.iter().position(|b| b.key == key) {
             Some(i) => {
                 let b = self.bound.remove(i);
@@ -388,16 +382,26 @@ impl ToneMapper {
                     width: key.size.0,
                     height: key.size.1,
                 };
-                let (dispatches, draw) =
-                    self.wire(&source, &key.output, key.origin, key.compute)?;
+                let wired = self.wire(
+                    &source,
+                    (&key.output, key.origin),
+                    key.compute,
+                    key.motion.as_ref(),
+                )?;
+                // A history of a new size: the pairs wired to the old one
+                // go with it, and the frame starts a new history.
+                let old = self.history.resources.as_ref().map(|r| &r.uniforms);
+                if wired.history.as_ref().map(|r| &r.uniforms) != old {
+                    self.bound.clear();
+                    self.history = taa::History {
+                        resources: wired.history.clone(),
+                        ..taa::History::default()
+                    };
+                }
                 if self.bound.len() == KEPT_PAIRS {
                     self.bound.remove(0);
                 }
-                self.bound.push(Bound {
-                    key,
-                    dispatches,
-                    draw,
-                });
+                self.bound.push(Bound { key, wired });
             }
         }
         if let Some(adaptation) = &self.settings.adaptation {
@@ -407,17 +411,22 @@ impl ToneMapper {
                 .write_buffer(&self.steps, 0, bytemuck::bytes_of(&steps));
             self.reset = false;
         }
+        let odd = self.step_history(motion.as_ref(), size);
         let bound = self.bound.last().expect("bound above");
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("tonegate.tone_mapper"),
                 timestamp_writes: self.stamps.as_ref().map(timing::Stamps::compute),
             });
-            for d in &bound.dispatches {
+            let dispatches = match &bound.wired.odd {
+                Some(d) if odd => d,
+                _ => &bound.wired.even,
+            };
+            for d in dispatches {
                 d.record(&mut pass);
             }
         }
-        if let Some(draw) = &bound.draw {
+        if let Some(draw) = &bound.wired.draw {
             let (x, y) = bound.key.origin;
             let (w, h) = bound.key.size;
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -442,52 +451,10 @@ impl ToneMapper {
             pass.set_bind_group(0, &draw.bind_group, &[]);
             pass.draw(0..3, 0..1);
         }
-        let rendered = bound.draw.is_some();
+        let rendered = bound.wired.draw.is_some();
         if let Some(stamps) = &mut self.stamps {
             stamps.resolve(encoder, rendered);
         }
         Ok(())
     }
-}
-
-/// Refuses settings a [`ToneMapper`] cannot map with on a device with
-/// `features`.
-fn check_settings(
-    settings: &ToneMapperSettings,
-    features: wgpu::Features,
-) -> Result<(), ToneMapperError> {
-    let format = settings.target;
-    let Some(texel) = Texel::of(format) else {
-        return Err(ToneMapperError::TargetFormat { format });
-    };
-    if settings.encoding == Encoding::Pq {
-        if texel.bits() == 8 {
-            return Err(ToneMapperError::PqIntoEightBits { format });
-        }
-        if settings.operator.display_levels().is_none() {
-            return Err(ToneMapperError::PqWithoutLevels {
-                operator: settings.operator.name().to_owned(),
-            });
-        }
-    }
-    if settings.path == OutputPath::Compute && !storable(format, features) {
-        return Err(ToneMapperError::ComputeTarget { format });
-    }
-    if let Some(b) = &settings.bloom {
-        b.check()
-            .map_err(|(key, reason)| ToneMapperError::Display {
-                table: "bloom",
-                key,
-                reason,
-            })?;
-    }
-    if let Some(g) = &settings.grade {
-        g.check()
-            .map_err(|(key, reason)| ToneMapperError::Display {
-                table: "grade",
-                key,
-                reason,
-            })?;
-    }
-    Ok(())
 }

@@ -128,6 +128,8 @@ pub enum TextureRole {
     Input,
     /// The texture written.
     Output,
+    /// The motion vectors TAA reads.
+    Motion,
 }
 
 impl std::fmt::Display for TextureRole {
@@ -135,6 +137,7 @@ impl std::fmt::Display for TextureRole {
         f.write_str(match self {
             TextureRole::Input => "input",
             TextureRole::Output => "output",
+            TextureRole::Motion => "motion vectors",
         })
     }
 }
@@ -232,16 +235,43 @@ pub enum ToneMapperError {
         /// The seconds given.
         seconds: f64,
     },
-    /// A bloom or grade parameter out of its range (the ranges of a scene's
-    /// `[bloom]` and `[grade]`, docs/display.md#limits).
+    /// A bloom, grade or TAA parameter out of its range (the ranges of a
+    /// scene's `[bloom]`, `[grade]` and `[taa]`, docs/display.md#limits).
     #[error("{table}.{key}: {reason}")]
     Display {
-        /// `bloom` or `grade`.
+        /// `bloom`, `grade` or `taa`.
         table: &'static str,
         /// The parameter.
         key: &'static str,
         /// Its range and the value given.
         reason: String,
+    },
+    /// The settings have TAA and the frame came without motion vectors.
+    #[error("the settings have TAA, which finds each pixel's history by the frame's motion vectors: record with record_with_motion")]
+    NoMotionVectors,
+    /// TAA reads the whole first level of the input texture.
+    #[error("TAA reads the whole first level of the input texture ({}x{}); the input is {}x{} at mip level {level}", .texture.0, .texture.1, .size.0, .size.1)]
+    TaaInput {
+        /// The view's mip level.
+        level: u32,
+        /// The image's width and height.
+        size: (u32, u32),
+        /// The texture's width and height.
+        texture: (u32, u32),
+    },
+    /// The motion vectors' texture is not one of [`super::MOTION_FORMATS`].
+    #[error("the motion vectors' texture is {format:?}; TAA reads them from Rg16Float, Rg32Float, Rgba16Float or Rgba32Float")]
+    MotionFormat {
+        /// The texture's format.
+        format: wgpu::TextureFormat,
+    },
+    /// The motion vectors are not of the input image's size.
+    #[error("the motion vectors are {}x{} and the input image {}x{}; they must be the same size", .motion.0, .motion.1, .input.0, .input.1)]
+    MotionSize {
+        /// The motion texture's width and height.
+        motion: (u32, u32),
+        /// The input image's width and height.
+        input: (u32, u32),
     },
     /// Wiring the passes failed: a tonegate bug, reported rather than a
     /// panic.

@@ -3,14 +3,15 @@
 //! written by a compute pass or a fullscreen triangle.
 
 use super::target::{check_texture, level_size, TextureRole, ToneMapperError, INPUT_FORMATS};
-use super::{BoundKey, Draw, SourceView, TargetView, ToneMapper};
+use super::{BoundKey, Draw, MotionVectors, SourceView, TargetView, ToneMapper, Wired};
 use crate::gpu::adaptation::AdaptationResources;
 use crate::gpu::encode::{
     encode_render_bind_group, encode_render_pipeline, encode_to_storage, Texel,
 };
 use crate::gpu::renderer::extent_of;
-use crate::gpu::stages::{extent_buffer, uniform_buffer, Dispatch, ImageView};
-use crate::gpu::wiring::{GpuInput, Wiring};
+use crate::gpu::stages::{extent_buffer, uniform_buffer, ImageView};
+use crate::gpu::wiring::Wiring;
+use crate::gpu::GpuInput;
 use crate::gpu::{GpuConfig, GpuError};
 use crate::plan::{AdaptationStage, Input, PlanError, Stage, StagePlan};
 use crate::reference::Pipeline;
@@ -20,6 +21,7 @@ impl ToneMapper {
     pub(super) fn key(
         &self,
         input: &SourceView,
+        motion: Option<&MotionVectors>,
         output: &TargetView,
     ) -> Result<BoundKey, ToneMapperError> {
         use wgpu::TextureUsages as U;
@@ -57,6 +59,7 @@ impl ToneMapper {
                 level,
             });
         }
+        let motion = self.motion_key(itex, input.mip_level, size, motion)?;
         let out_level = level_size(otex, TextureRole::Output, output.mip_level)?;
         let origin = match output.origin {
             None if out_level != size => {
@@ -87,6 +90,7 @@ impl ToneMapper {
             output: output.view.clone(),
             origin,
             compute,
+            motion,
         })
     }
 
@@ -111,10 +115,14 @@ impl ToneMapper {
     }
 
     /// The plan the settings make: `StagePlan::build`'s for a flat image
-    /// with the settings' bloom and grade, and adaptation when it is on.
+    /// with the settings' bloom and grade, and TAA and adaptation when on.
     pub(super) fn plan(&self) -> StagePlan {
         let s = &self.settings;
-        let plan = StagePlan::build(Input::Flat, &s.operator, s.bloom.as_ref(), s.grade.as_ref());
+        let mut plan =
+            StagePlan::build(Input::Flat, &s.operator, s.bloom.as_ref(), s.grade.as_ref());
+        if let Some(taa) = &s.taa {
+            plan = plan.with_taa(taa.params());
+        }
         match s.adaptation {
             Some(adaptation) => plan.with_adaptation(AdaptationStage {
                 adaptation,
@@ -125,18 +133,19 @@ impl ToneMapper {
         }
     }
 
-    /// The work from `input` to `output`: the plan's stages up to `encode`,
-    /// wired by tonegate's own renderer's code (`Wiring::staged`), reading
-    /// the caller's view and the mapper's own statistics, operator uniform
-    /// and adapted state; then the target written from the display image
-    /// by a last dispatch (`compute`) or a draw.
+    /// The work from `input` to `output` at `origin`: the plan's stages up
+    /// to `encode`, wired by tonegate's own renderer's code
+    /// (`Wiring::staged`), reading the caller's views and the mapper's own
+    /// statistics, operator uniform, adapted state and TAA history; then
+    /// the target written from the display image by a last dispatch
+    /// (`compute`) or a draw.
     pub(super) fn wire(
         &mut self,
         input: &ImageView,
-        output: &wgpu::TextureView,
-        origin: (u32, u32),
+        (output, origin): (&wgpu::TextureView, (u32, u32)),
         compute: bool,
-    ) -> Result<(Vec<Dispatch>, Option<Draw>), ToneMapperError> {
+        motion: Option<&wgpu::TextureView>,
+    ) -> Result<Wired, ToneMapperError> {
         let plan = self.plan();
         let s = &self.settings;
         let pipeline = Pipeline {
@@ -162,7 +171,7 @@ impl ToneMapper {
             &pipeline,
             config,
             (width, height),
-            false,
+            motion.is_some(),
             extent.clone(),
         )
         .map_err(internal)?;
@@ -173,12 +182,24 @@ impl ToneMapper {
             adapted: self.adapted.clone(),
             steps: self.steps.clone(),
         });
-        let mut dispatches = Vec::new();
+        wiring.motion = motion.cloned();
+        wiring.taa = self.history.resources.clone();
+        // One list of dispatches for each texture of the TAA history pair
+        // a frame may read.
+        let (mut even, mut odd, mut parity) = (Vec::new(), Vec::new(), false);
         for stage in plan.stages() {
             if matches!(stage, Stage::Encode) {
                 break;
             }
-            dispatches.extend(wiring.staged(stage).map_err(internal)?.dispatches);
+            let pass = wiring.staged(stage).map_err(internal)?;
+            match pass.odd {
+                Some(o) => {
+                    odd.extend(o);
+                    parity = true;
+                }
+                None => odd.extend(pass.dispatches.iter().cloned()),
+            }
+            even.extend(pass.dispatches);
         }
         let display = wiring
             .display
@@ -192,8 +213,10 @@ impl ToneMapper {
             "tonegate.encode.target_origin",
             bytemuck::cast_slice(&origin_words),
         );
+        let history = wiring.taa.clone();
+        let odd = parity.then_some(odd);
         if compute {
-            dispatches.push(encode_to_storage(
+            let last = encode_to_storage(
                 &self.ctx,
                 config.hdr_format,
                 s.encoding,
@@ -203,17 +226,29 @@ impl ToneMapper {
                 s.target,
                 &origin,
                 &extent,
-            ));
-            return Ok((dispatches, None));
+            );
+            let odd = odd.map(|mut o| {
+                o.push(last.clone());
+                o
+            });
+            even.push(last);
+            return Ok(Wired {
+                even,
+                odd,
+                draw: None,
+                history,
+            });
         }
         let pipeline = self.render_pipeline();
         let bind_group = encode_render_bind_group(&self.ctx, &pipeline, &display, &origin);
-        Ok((
-            dispatches,
-            Some(Draw {
+        Ok(Wired {
+            even,
+            odd,
+            draw: Some(Draw {
                 pipeline,
                 bind_group,
             }),
-        ))
+            history,
+        })
     }
 }

@@ -75,9 +75,11 @@ fn a_reset_passes_the_current_frame_through() {
         None,
         &TaaFrame {
             history: None,
-            reprojection: still(),
+            reprojection: Reprojection::Rotation {
+                camera: camera(),
+                matrix: still(),
+            },
         },
-        &camera(),
         &params(TaaVariant::Clip),
     );
     assert_eq!(out.history.colour.pixels, cur.pixels);
@@ -92,9 +94,12 @@ fn a_history_inside_the_box_converges_and_one_outside_is_clipped() {
     let hist = history(LinearImage::filled(16, 12, [5.0; 3]), 4.0);
     let frame = TaaFrame {
         history: Some(&hist),
-        reprojection: still(),
+        reprojection: Reprojection::Rotation {
+            camera: camera(),
+            matrix: still(),
+        },
     };
-    let out = taa(&cur, None, &frame, &camera(), &params(TaaVariant::Clip));
+    let out = taa(&cur, None, &frame, &params(TaaVariant::Clip));
     assert!(out
         .history
         .colour
@@ -107,9 +112,12 @@ fn a_history_inside_the_box_converges_and_one_outside_is_clipped() {
     let hist = history(LinearImage::filled(16, 12, [0.5; 3]), 4.0);
     let frame = TaaFrame {
         history: Some(&hist),
-        reprojection: still(),
+        reprojection: Reprojection::Rotation {
+            camera: camera(),
+            matrix: still(),
+        },
     };
-    let out = taa(&cur, None, &frame, &camera(), &params(TaaVariant::Clip));
+    let out = taa(&cur, None, &frame, &params(TaaVariant::Clip));
     let p = out.history.colour.get(5, 5);
     let c = cur.get(5, 5)[0];
     let k = feedback([c; 3], [0.5; 3], &params(TaaVariant::Clip));
@@ -127,17 +135,14 @@ fn edge_aware_rejects_history_where_there_is_no_edge() {
     );
     let frame = TaaFrame {
         history: Some(&hist),
-        reprojection: still(),
+        reprojection: Reprojection::Rotation {
+            camera: camera(),
+            matrix: still(),
+        },
     };
     let s = super::super::taa_sobel::taa_sobel(&cur);
-    let edge = taa(
-        &cur,
-        Some(&s),
-        &frame,
-        &camera(),
-        &params(TaaVariant::EdgeAware),
-    );
-    let clip = taa(&cur, None, &frame, &camera(), &params(TaaVariant::Clip));
+    let edge = taa(&cur, Some(&s), &frame, &params(TaaVariant::EdgeAware));
+    let clip = taa(&cur, None, &frame, &params(TaaVariant::Clip));
     let (e, c, now) = (
         edge.history.colour.get(8, 6)[0],
         clip.history.colour.get(8, 6)[0],
@@ -171,9 +176,11 @@ fn history_off_the_film_is_rejected() {
         None,
         &TaaFrame {
             history: Some(&hist),
-            reprojection: m,
+            reprojection: Reprojection::Rotation {
+                camera: cam,
+                matrix: m,
+            },
         },
-        &cam,
         &p,
     );
     let rejected: Vec<bool> = (0..12u32)
@@ -189,6 +196,82 @@ fn history_off_the_film_is_rejected() {
         assert_eq!(frames, if *r { 1.0 } else { 5.0 }, "row {j}");
     }
     let _ = cur;
+}
+
+/// Motion vectors that say where the rotation moved each pixel resolve as
+/// the rotation does; in the bevy convention (UV units, current minus
+/// previous) as in pixels toward the previous frame; and a vector that
+/// leaves the film, or is NaN, drops the history.
+#[test]
+fn motion_vectors_resolve_as_the_reprojection_they_describe() {
+    let cam = camera();
+    let m = reprojection(
+        &rotation_matrix([0.0, 1.0, 0.0], 0.0),
+        &rotation_matrix([0.0, 1.0, 0.0], 0.08),
+    );
+    let cur = LinearImage::from_fn(16, 12, |x, y| [((x * 7 + y * 3) % 5) as f64 + 0.25; 3]);
+    let hist = history(
+        LinearImage::from_fn(16, 12, |x, y| [(x + 2 * y) as f64 * 0.3; 3]),
+        3.0,
+    );
+    let p = params(TaaVariant::Clip);
+    let rotation = Reprojection::Rotation {
+        camera: cam,
+        matrix: m,
+    };
+    let offset = |i: u32, j: u32| {
+        let (px, py) = reproject(&cam, &m, i, j).unwrap_or((f64::NAN, f64::NAN));
+        [px - (i as f64 + 0.5), py - (j as f64 + 0.5)]
+    };
+    let pixels = Image::from_fn(16, 12, offset);
+    let uv = Image::from_fn(16, 12, |i, j| {
+        let [dx, dy] = offset(i, j);
+        [-dx / 16.0, -dy / 12.0]
+    });
+    let run = |reprojection| {
+        let frame = TaaFrame {
+            history: Some(&hist),
+            reprojection,
+        };
+        taa(&cur, None, &frame, &p)
+    };
+    let want = run(rotation);
+    for (name, vectors, scale) in [("pixels", &pixels, [1.0, 1.0]), ("uv", &uv, [-16.0, -12.0])] {
+        let got = run(Reprojection::Motion { vectors, scale });
+        assert_eq!(got.history.confidence, want.history.confidence, "{name}");
+        for (g, w) in got
+            .history
+            .colour
+            .pixels
+            .iter()
+            .zip(&want.history.colour.pixels)
+        {
+            for c in 0..3 {
+                // The point rebuilt from its offset is within an ulp or two
+                // of the rotation's.
+                assert!(
+                    (g[c] - w[c]).abs() <= 1e-12 * (1.0 + w[c].abs()),
+                    "{name}: {g:?} vs {w:?}"
+                );
+            }
+        }
+    }
+    // Off the film and NaN: no history, the current frame passes through.
+    let away = Image::from_fn(16, 12, |i, _| match i {
+        0 => [-1.0, 0.0],
+        1 => [f64::NAN, 0.0],
+        _ => [0.0, 0.0],
+    });
+    let out = run(Reprojection::Motion {
+        vectors: &away,
+        scale: [1.0, 1.0],
+    });
+    for j in 0..12 {
+        for i in 0..3 {
+            let kept = out.history.confidence.get(i, j) > 1.0;
+            assert_eq!(kept, i == 2, "pixel ({i}, {j})");
+        }
+    }
 }
 
 #[test]
@@ -283,9 +366,11 @@ fn a_static_history_is_the_plain_mean_of_its_frames_and_counts_them() {
             None,
             &TaaFrame {
                 history: hist.as_ref(),
-                reprojection: still(),
+                reprojection: Reprojection::Rotation {
+                    camera: camera(),
+                    matrix: still(),
+                },
             },
-            &camera(),
             &p,
         );
         hist = Some(out.history);
@@ -307,9 +392,11 @@ fn a_static_history_is_the_plain_mean_of_its_frames_and_counts_them() {
         None,
         &TaaFrame {
             history: Some(&full),
-            reprojection: still(),
+            reprojection: Reprojection::Rotation {
+                camera: camera(),
+                matrix: still(),
+            },
         },
-        &camera(),
         &p,
     );
     assert!(out

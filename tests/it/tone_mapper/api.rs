@@ -200,6 +200,7 @@ fn views_and_settings_the_tone_mapper_cannot_use_are_refused_with_the_reason() {
         adaptation: None,
         bloom: None,
         grade: None,
+        taa: None,
     };
     let refused: Vec<(ToneMapperSettings, Is, &str)> = vec![
         (

@@ -6,6 +6,7 @@
 //! scRGB ones, and the same bits by the compute and the render-pass path.
 
 mod api;
+mod taa;
 mod targets;
 
 use tonegate::gpu::{GpuConfig, GpuContext, GpuInput, GpuRenderer, OutputPath};

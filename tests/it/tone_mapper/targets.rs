@@ -126,6 +126,7 @@ fn every_target_on(adapter: &str) {
                     adaptation: None,
                     bloom: None,
                     grade: None,
+                    taa: None,
                 };
                 let m = match mapper.as_mut() {
                     Some(m) => {
