@@ -17,7 +17,10 @@
 //! `ToneMapper` on the same device, into an `Rgba8Unorm` storage target and
 //! into a `Bgra8UnormSrgb` render target, each frame submitted and waited
 //! for: the embedding runs the renderer's stages, so its cost should be the
-//! renderer's (less the packed frame buffer it does not write).
+//! renderer's (less the packed frame buffer it does not write). Then, where
+//! the adapter has timestamps, each stage through either, as a multiple of
+//! the floor pass in the same submission (`gpu::bench::embedding_stages`),
+//! printed as a table.
 //!
 //! `kept_renderers`: the server's GPU tone map of six images of different
 //! sizes in turn, all in the 1024×512 size class, with renderers kept for
@@ -312,6 +315,26 @@ fn tone_mapper(c: &mut Criterion) {
         });
     }
     group.finish();
+    match tonegate::gpu::bench::embedding_stages(&ctx, &img, &op, 30) {
+        Ok(Some(stages)) => {
+            println!("tone_mapper_1080p per stage, median of 30 frames, × the floor pass:");
+            println!(
+                "{:<16} {:>9} {:>9} {:>7}",
+                "stage", "renderer", "embedded", "ratio"
+            );
+            for s in stages {
+                println!(
+                    "{:<16} {:>9.3} {:>9.3} {:>7.3}",
+                    s.stage,
+                    s.renderer,
+                    s.embedding,
+                    s.embedding / s.renderer
+                );
+            }
+        }
+        Ok(None) => println!("tone_mapper_1080p per stage: no timestamp queries on this adapter"),
+        Err(e) => panic!("{e}"),
+    }
 }
 
 criterion_group!(benches, full_plan, readback, kept_renderers, tone_mapper);

@@ -71,6 +71,9 @@ struct Bound {
 struct Wired {
     even: Vec<Dispatch>,
     odd: Option<Vec<Dispatch>>,
+    /// Each stage's name and how many of the dispatches are its own, in
+    /// order (`target` for the write into a storage target).
+    stages: Vec<(&'static str, usize)>,
     draw: Option<Draw>,
     /// The TAA history the dispatches read and write.
     history: Option<super::taa::TaaResources>,
@@ -413,17 +416,34 @@ impl ToneMapper {
         }
         let odd = self.step_history(motion.as_ref(), size);
         let bound = self.bound.last().expect("bound above");
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("tonegate.tone_mapper"),
-                timestamp_writes: self.stamps.as_ref().map(timing::Stamps::compute),
-            });
-            let dispatches = match &bound.wired.odd {
-                Some(d) if odd => d,
-                _ => &bound.wired.even,
-            };
-            for d in dispatches {
-                d.record(&mut pass);
+        let dispatches = match &bound.wired.odd {
+            Some(d) if odd => d,
+            _ => &bound.wired.even,
+        };
+        match &self.stamps {
+            // Timed: each stage in a pass of its own.
+            Some(stamps) => {
+                let mut at = 0;
+                for (i, (name, n)) in bound.wired.stages.iter().enumerate() {
+                    let label = format!("tonegate.{name}");
+                    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: Some(&label),
+                        timestamp_writes: Some(stamps.compute(i)),
+                    });
+                    for d in &dispatches[at..at + n] {
+                        d.record(&mut pass);
+                    }
+                    at += n;
+                }
+            }
+            None => {
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("tonegate.tone_mapper"),
+                    timestamp_writes: None,
+                });
+                for d in dispatches {
+                    d.record(&mut pass);
+                }
             }
         }
         if let Some(draw) = &bound.wired.draw {
@@ -452,8 +472,9 @@ impl ToneMapper {
             pass.draw(0..3, 0..1);
         }
         let rendered = bound.wired.draw.is_some();
+        let names = bound.wired.stages.iter().map(|(name, _)| *name).collect();
         if let Some(stamps) = &mut self.stamps {
-            stamps.resolve(encoder, rendered);
+            stamps.resolve(encoder, names, rendered);
         }
         Ok(())
     }

@@ -187,11 +187,13 @@ impl ToneMapper {
         // One list of dispatches for each texture of the TAA history pair
         // a frame may read.
         let (mut even, mut odd, mut parity) = (Vec::new(), Vec::new(), false);
+        let mut stages = Vec::new();
         for stage in plan.stages() {
             if matches!(stage, Stage::Encode) {
                 break;
             }
             let pass = wiring.staged(stage).map_err(internal)?;
+            stages.push((stage.name(), pass.dispatches.len()));
             match pass.odd {
                 Some(o) => {
                     odd.extend(o);
@@ -232,9 +234,11 @@ impl ToneMapper {
                 o
             });
             even.push(last);
+            stages.push(("target", 1));
             return Ok(Wired {
                 even,
                 odd,
+                stages,
                 draw: None,
                 history,
             });
@@ -244,6 +248,7 @@ impl ToneMapper {
         Ok(Wired {
             even,
             odd,
+            stages,
             draw: Some(Draw {
                 pipeline,
                 bind_group,

@@ -420,9 +420,20 @@ fn the_mapper_times_its_passes_on_a_device_with_timestamps() {
         queue.submit([encoder.finish()]);
         let t = mapper.read_timings().unwrap().unwrap();
         assert!(t.compute_ms > 0.0 && t.compute_ms < 10_000.0, "{t:?}");
+        // Each stage of the plan timed on its own, in order.
+        let names: Vec<&str> = t.stages.iter().map(|s| s.stage.as_str()).collect();
+        let sum: f64 = t.stages.iter().map(|s| s.ms).sum();
+        assert!(t.stages.iter().all(|s| s.ms >= 0.0), "{t:?}");
+        assert!((sum - t.compute_ms).abs() < 1e-9, "{t:?}");
         match path {
-            OutputPath::RenderPass => assert!(t.target_ms.is_some_and(|ms| ms > 0.0), "{t:?}"),
-            _ => assert_eq!(t.target_ms, None),
+            OutputPath::RenderPass => {
+                assert!(t.target_ms.is_some_and(|ms| ms > 0.0), "{t:?}");
+                assert_eq!(names, ["luminance_stats", "tonemap"]);
+            }
+            _ => {
+                assert_eq!(t.target_ms, None);
+                assert_eq!(names, ["luminance_stats", "tonemap", "target"]);
+            }
         }
     }
     // A device opened with nothing asked for.

@@ -6,6 +6,10 @@
 //! is the median of its per-frame ratios: both sides of every ratio saw the
 //! same machine at the same moment.
 
+mod embedding;
+
+pub use embedding::{embedding_stages, EmbeddingBenchError, EmbeddingStage};
+
 use super::timing::TIMING_SLOTS;
 use super::{AdapterReport, GpuConfig, GpuContext, GpuError, GpuInput, GpuRenderer, HdrFormat};
 use crate::conventions::{rotation_matrix, Camera};
