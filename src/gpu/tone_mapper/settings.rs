@@ -15,8 +15,8 @@ pub struct ToneMapperSettings {
     /// The display encoding: the sRGB transfer, a gamma, or PQ (into a
     /// 10-bit or scRGB target, for an operator with display levels).
     pub encoding: Encoding,
-    /// The format of the views [`ToneMapper::record`] writes: one of
-    /// [`TARGET_FORMATS`]. A swap chain's, typically.
+    /// The format of the views [`super::ToneMapper::record`] writes: one of
+    /// [`super::TARGET_FORMATS`]. A swap chain's, typically.
     pub target: wgpu::TextureFormat,
     /// A compute pass, a render pass, or whichever the target allows.
     pub path: OutputPath,
