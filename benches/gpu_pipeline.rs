@@ -237,41 +237,7 @@ fn tone_mapper(c: &mut Criterion) {
         GpuConfig::default(),
     )
     .unwrap_or_else(|e| panic!("{e}"));
-    let texture = |format, usage| {
-        ctx.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("bench"),
-            size: wgpu::Extent3d {
-                width: w,
-                height: h,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format,
-            usage,
-            view_formats: &[],
-        })
-    };
-    let input = texture(
-        wgpu::TextureFormat::Rgba32Float,
-        wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-    );
-    let texels: Vec<f32> = img
-        .pixels
-        .iter()
-        .flat_map(|p| [p[0], p[1], p[2], 1.0])
-        .collect();
-    ctx.queue.write_texture(
-        input.as_image_copy(),
-        bytemuck::cast_slice(&texels),
-        wgpu::TexelCopyBufferLayout {
-            offset: 0,
-            bytes_per_row: Some(w * 16),
-            rows_per_image: None,
-        },
-        input.size(),
-    );
+    let input = tonegate::gpu::bench::hdr_input(&ctx, &img);
     let input = input.create_view(&Default::default());
     let mut group = c.benchmark_group("tone_mapper_1080p");
     group.sample_size(10);
@@ -302,7 +268,8 @@ fn tone_mapper(c: &mut Criterion) {
             },
         )
         .unwrap_or_else(|e| panic!("{e}"));
-        let output = texture(format, usage).create_view(&Default::default());
+        let output = tonegate::gpu::bench::texture(&ctx, (w, h), format, usage)
+            .create_view(&Default::default());
         group.bench_function(tag, |b| {
             b.iter(|| {
                 let mut encoder = ctx.device.create_command_encoder(&Default::default());

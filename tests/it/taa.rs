@@ -25,7 +25,7 @@ fn scene(variant: &str, sharpen: f64, omega: f64) -> Scene {
 }
 
 /// `keys`: more lines of the `[taa]` table ("" for every default).
-fn scene_with(variant: &str, sharpen: f64, omega: f64, keys: &str) -> Scene {
+pub(crate) fn scene_with(variant: &str, sharpen: f64, omega: f64, keys: &str) -> Scene {
     let text = format!(
         r#"
 name = "taa-test"

@@ -71,11 +71,14 @@ pub fn embedding_stages(
     };
     let mut mapper = ToneMapper::new(&ctx.device, &ctx.queue, settings)?;
     mapper.enable_timestamps()?;
-    let (input, output) = textures(ctx, img);
-    let (input, output) = (
-        input.create_view(&Default::default()),
-        output.create_view(&Default::default()),
-    );
+    let input = hdr_input(ctx, img).create_view(&Default::default());
+    let output = texture(
+        ctx,
+        (img.width, img.height),
+        wgpu::TextureFormat::Rgba8Unorm,
+        wgpu::TextureUsages::STORAGE_BINDING,
+    )
+    .create_view(&Default::default());
     let mut ours: Vec<(Vec<StageTiming>, f64)> = Vec::new();
     let mut theirs: Vec<(Vec<StageTiming>, f64)> = Vec::new();
     // Frame 0 of each compiles nothing (the renderer's pipelines are made
@@ -147,26 +150,34 @@ fn floor_ms(ctx: &GpuContext, floors: &Floors) -> Result<f64, GpuError> {
         .map_or(f64::NAN, |t| t.ms))
 }
 
-/// `img` in an `Rgba32Float` texture, and an `Rgba8Unorm` storage target of
-/// its size.
-fn textures(ctx: &GpuContext, img: &HdrImage) -> (wgpu::Texture, wgpu::Texture) {
-    let texture = |format, usage| {
-        ctx.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("tonegate.bench.embedding"),
-            size: wgpu::Extent3d {
-                width: img.width,
-                height: img.height,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format,
-            usage,
-            view_formats: &[],
-        })
-    };
+/// A one-level 2-D texture of `size`, as an application makes one.
+pub fn texture(
+    ctx: &GpuContext,
+    (width, height): (u32, u32),
+    format: wgpu::TextureFormat,
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
+    ctx.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("tonegate.bench.application"),
+        size: wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage,
+        view_formats: &[],
+    })
+}
+
+/// `img` in an `Rgba32Float` texture: an application's HDR frame.
+pub fn hdr_input(ctx: &GpuContext, img: &HdrImage) -> wgpu::Texture {
     let input = texture(
+        ctx,
+        (img.width, img.height),
         wgpu::TextureFormat::Rgba32Float,
         wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
     );
@@ -185,9 +196,5 @@ fn textures(ctx: &GpuContext, img: &HdrImage) -> (wgpu::Texture, wgpu::Texture) 
         },
         input.size(),
     );
-    let output = texture(
-        wgpu::TextureFormat::Rgba8Unorm,
-        wgpu::TextureUsages::STORAGE_BINDING,
-    );
-    (input, output)
+    input
 }

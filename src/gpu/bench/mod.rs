@@ -8,7 +8,7 @@
 
 mod embedding;
 
-pub use embedding::{embedding_stages, EmbeddingBenchError, EmbeddingStage};
+pub use embedding::{embedding_stages, hdr_input, texture, EmbeddingBenchError, EmbeddingStage};
 
 use super::timing::TIMING_SLOTS;
 use super::{AdapterReport, GpuConfig, GpuContext, GpuError, GpuInput, GpuRenderer, HdrFormat};
