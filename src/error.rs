@@ -54,6 +54,10 @@ pub enum Error {
     #[cfg(feature = "history")]
     #[error("writing JUnit XML: {0}")]
     Junit(#[from] quick_junit::SerializeError),
+    /// A submission of frames could not be read or stored.
+    #[cfg(feature = "history")]
+    #[error(transparent)]
+    Frames(#[from] crate::frames::FramesError),
     /// The server could not start, or stopped serving.
     #[error("{what}: {source}")]
     Service {

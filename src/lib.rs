@@ -8,9 +8,10 @@
 //! Cargo features (all on by default) follow the layers: without any, the
 //! crate is the CPU reference, the metrics, the file formats, scenes,
 //! suites, plans and the parsers of what a client sends; `gpu` adds the
-//! wgpu renderer and what runs on it, `history` the run store (and with
-//! `gpu` the gate), `postgres` and `s3` a fleet's history and artifact
-//! store, `server` the HTTP API and the runner, `cli` the binary.
+//! wgpu renderer and what runs on it, `history` the run store and the gate
+//! of submitted frames (`frames`; with `gpu`, the suite's gate), `postgres`
+//! and `s3` a fleet's history and artifact store, `server` the HTTP API and
+//! the runner, `cli` the binary.
 
 pub mod changepoint;
 pub mod check;
@@ -18,6 +19,8 @@ pub mod color;
 pub mod conventions;
 pub mod env;
 pub mod error;
+#[cfg(feature = "history")]
+pub mod frames;
 pub mod fuzzing;
 #[cfg(all(feature = "gpu", feature = "history"))]
 pub mod gate;

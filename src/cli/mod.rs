@@ -34,6 +34,7 @@ mod adapters;
 mod bench;
 mod compare;
 mod fleet;
+mod frames;
 mod gate;
 mod golden;
 mod image;
@@ -80,6 +81,10 @@ pub enum Command {
     /// Bless or verify the golden images.
     #[command(subcommand)]
     Golden(golden::GoldenCommand),
+    /// Your renderer's frames through the gate: submit a folder of images, triage
+    /// their digests, read the triage log. Exit 0 pass, 1 fail, 2 could not run.
+    #[command(subcommand)]
+    Frames(frames::FramesCommand),
     /// Export a built-in HDR environment, or list them.
     Env(image::EnvArgs),
     /// List the tone-mapping operators with their parameters, ranges and defaults.
@@ -219,6 +224,7 @@ fn exit_code(e: &Error) -> u8 {
         | Error::Json { .. }
         | Error::Junit(_)
         | Error::Service { .. }
+        | Error::Frames(_)
         | Error::Invalid(_) => 2,
     }
 }
@@ -235,6 +241,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         Command::Plan(a) => image::plan(a),
         Command::Render(a) => image::render(a),
         Command::Golden(c) => golden::golden(c),
+        Command::Frames(c) => frames::frames(c),
         Command::Env(a) => image::env(a),
         Command::Operators(a) => image::operators(a),
         Command::Serve(a) => serve::serve(a),

@@ -371,7 +371,9 @@ impl History {
                 args![&cutoff],
             )? as i64;
             let orphans = "FROM blobs WHERE stored_at < $1
-                 AND NOT EXISTS (SELECT 1 FROM run_artifacts a WHERE a.sha256 = blobs.sha256)";
+                 AND NOT EXISTS (SELECT 1 FROM run_artifacts a WHERE a.sha256 = blobs.sha256)
+                 AND NOT EXISTS (SELECT 1 FROM submitted_frames f WHERE f.sha256 = blobs.sha256)
+                 AND NOT EXISTS (SELECT 1 FROM digest_labels l WHERE l.sha256 = blobs.sha256)";
             if let Some(r) = tx.query_opt(
                 &format!("SELECT COUNT(*), CAST(COALESCE(SUM(size), 0) AS BIGINT) {orphans}"),
                 args![&cutoff],

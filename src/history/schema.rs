@@ -179,6 +179,44 @@ pub(super) const MIGRATIONS: &[&str] = &[
     r#"
     ALTER TABLE blobs ADD COLUMN pending TEXT;
     "#,
+    // 8: frames a user's own renderer wrote (docs/frames.md): each
+    //    submission (its idempotency key, its keys, its report), the frames
+    //    in it by test name and digest (the SHA-256 of the file, whose bytes
+    //    are a blob), what people said of each digest of a test, and every
+    //    triage action, in order.
+    r#"
+    CREATE TABLE frame_submissions (
+        id              INTEGER PRIMARY KEY,
+        idempotency_key TEXT UNIQUE,
+        submitted_at    TEXT NOT NULL,
+        keys            TEXT NOT NULL,
+        passed          INTEGER NOT NULL,
+        report          TEXT NOT NULL
+    );
+    CREATE TABLE submitted_frames (
+        submission_id INTEGER NOT NULL REFERENCES frame_submissions (id) ON DELETE CASCADE,
+        test          TEXT NOT NULL,
+        sha256        TEXT NOT NULL REFERENCES blobs (sha256),
+        verdict       TEXT NOT NULL,
+        PRIMARY KEY (submission_id, test)
+    );
+    CREATE INDEX submitted_frames_by_blob ON submitted_frames (sha256);
+    CREATE TABLE digest_labels (
+        test   TEXT NOT NULL,
+        sha256 TEXT NOT NULL REFERENCES blobs (sha256),
+        label  TEXT NOT NULL CHECK (label IN ('positive', 'negative', 'untriaged')),
+        PRIMARY KEY (test, sha256)
+    );
+    CREATE TABLE triage_log (
+        id     INTEGER PRIMARY KEY,
+        at     TEXT NOT NULL,
+        test   TEXT NOT NULL,
+        sha256 TEXT NOT NULL,
+        label  TEXT NOT NULL,
+        who    TEXT NOT NULL,
+        why    TEXT NOT NULL
+    );
+    "#,
 ];
 
 /// The schema version this build writes.

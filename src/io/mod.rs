@@ -356,22 +356,24 @@ pub fn read_frame_png(path: &Path) -> Result<Frame, HdrIoError> {
         action: "read",
         source,
     };
+    let mut bytes = Vec::new();
+    open_regular(path)
+        .and_then(|mut f| f.read_to_end(&mut bytes))
+        .map_err(io)?;
+    decode_frame_png(&bytes, &file)
+}
+
+/// [`read_frame_png`] on bytes in memory; `file` names them in errors.
+pub fn decode_frame_png(bytes: &[u8], file: &str) -> Result<Frame, HdrIoError> {
     // The IHDR chunk comes first: its bit depth is byte 24.
-    let mut head = [0u8; 25];
-    let depth = {
-        let mut f = open_regular(path).map_err(io)?;
-        let n = f.read(&mut head).map_err(io)?;
-        (n == head.len()).then_some(head[24])
-    };
-    if depth != Some(16) {
-        return png::read_png8(path).map(Frame::Rgb8);
+    if bytes.get(24) != Some(&16) {
+        return png::decode_png8(bytes, file).map(Frame::Rgb8);
     }
-    let image = png::read_png16(path)?;
-    let bytes = std::fs::read(path).map_err(io)?;
-    let chunks = read_hdr_png_info(&bytes, &file)?;
+    let image = png::decode_png16(bytes, file)?;
+    let chunks = read_hdr_png_info(bytes, file)?;
     if chunks.cicp != Some(Cicp::BT2100_PQ) {
         return Err(HdrIoError::Unsupported {
-            file,
+            file: file.to_owned(),
             format: "PNG",
             detail: format!(
                 "a 16-bit frame must be BT.2100 PQ (cICP primaries 9, transfer 16), and this one's cICP {}",

@@ -61,22 +61,34 @@ fn png8(image: DynamicImage, file: &str) -> Result<Rgb8Image, HdrIoError> {
 pub(crate) fn read_png16(path: &Path) -> Result<Rgb16Image, HdrIoError> {
     let file = path.display().to_string();
     let (handle, len) = open(path, &file)?;
-    match read_png(handle, len, &file)? {
+    png16(read_png(handle, len, &file)?, &file)
+}
+
+/// [`read_png16`] on bytes in memory; `file` names them in errors.
+pub(crate) fn decode_png16(bytes: &[u8], file: &str) -> Result<Rgb16Image, HdrIoError> {
+    png16(
+        read_png(Cursor::new(bytes), bytes.len() as u64, file)?,
+        file,
+    )
+}
+
+fn png16(image: DynamicImage, file: &str) -> Result<Rgb16Image, HdrIoError> {
+    match image {
         DynamicImage::ImageRgb16(rgb) => Ok(from_raw(rgb.width(), rgb.height(), &rgb.into_raw())),
         DynamicImage::ImageLuma16(grey) => {
             Ok(grey_to_rgb(grey.width(), grey.height(), &grey.into_raw()))
         }
         DynamicImage::ImageRgba16(rgba) => {
             let (w, h) = rgba.dimensions();
-            let rgb = opaque_rgb(&file, rgba.into_raw().as_slice(), 4, u16::MAX)?;
+            let rgb = opaque_rgb(file, rgba.into_raw().as_slice(), 4, u16::MAX)?;
             Ok(from_raw(w, h, &rgb))
         }
         DynamicImage::ImageLumaA16(grey) => {
             let (w, h) = grey.dimensions();
-            let luma = opaque_rgb(&file, grey.into_raw().as_slice(), 2, u16::MAX)?;
+            let luma = opaque_rgb(file, grey.into_raw().as_slice(), 2, u16::MAX)?;
             Ok(grey_to_rgb(w, h, &luma))
         }
-        _ => Err(wrong_depth(&file, "8-bit", "read_png8")),
+        _ => Err(wrong_depth(file, "8-bit", "read_png8")),
     }
 }
 

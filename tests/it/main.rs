@@ -21,6 +21,7 @@ mod dashboard;
 mod display;
 mod docs_examples;
 mod fleet;
+mod frames;
 mod fuzz_regressions;
 mod golden;
 mod gpu;

@@ -1,0 +1,162 @@
+//! `tonegate frames`: a renderer's own frames through the gate
+//! (docs/frames.md): `submit` a folder, `triage` a digest, `log` the
+//! triage actions.
+
+use super::{write_json, write_text, DbArgs};
+use clap::{Args, Subcommand, ValueEnum};
+use std::path::PathBuf;
+use std::process::ExitCode;
+use tonegate::error::Result;
+use tonegate::frames::rules::Rules;
+use tonegate::frames::{collect_folder, parse_keys, submit, Submission};
+use tonegate::history::{History, Label};
+
+#[derive(Subcommand)]
+pub enum FramesCommand {
+    /// Judge a folder of images (PNG 8-bit or PQ 16-bit, EXR, Radiance HDR, PFM),
+    /// each a frame of the test its path names, and store them. Exit 0 every frame
+    /// passed, 1 one did not, 2 the submission could not be judged (nothing stored).
+    Submit(SubmitArgs),
+    /// Say what a digest of a test is: positive (it may look like this), negative
+    /// (it must not) or untriaged.
+    Triage(TriageArgs),
+    /// Print the triage actions, oldest first.
+    Log(LogArgs),
+}
+
+#[derive(Args)]
+pub struct SubmitArgs {
+    /// The folder: `ui/button.png` in it is a frame of test `ui/button`.
+    pub folder: PathBuf,
+    /// A key of the submission, NAME=VALUE (device, backend, branch, commit, …).
+    #[arg(long = "key", value_name = "NAME=VALUE")]
+    pub keys: Vec<String>,
+    /// A retry with the same key stores nothing and answers what the first did.
+    #[arg(long, value_name = "KEY")]
+    pub idempotency_key: Option<String>,
+    /// The tests' thresholds and what an untriaged digest does (docs/frames.md#rules).
+    #[arg(long, value_name = "FILE")]
+    pub rules: Option<PathBuf>,
+    /// Write the report as JSON ("-" for stdout).
+    #[arg(long, value_name = "FILE|-")]
+    pub json: Option<PathBuf>,
+    /// Write JUnit XML, one test case a frame.
+    #[arg(long, value_name = "FILE")]
+    pub junit: Option<PathBuf>,
+    #[command(flatten)]
+    pub db: DbArgs,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+pub enum LabelArg {
+    Positive,
+    Negative,
+    Untriaged,
+}
+
+#[derive(Args)]
+pub struct TriageArgs {
+    /// The test.
+    #[arg(long)]
+    pub test: String,
+    /// The digest (as `submit` reports it).
+    #[arg(long)]
+    pub digest: String,
+    /// What it is.
+    #[arg(value_enum)]
+    pub label: LabelArg,
+    /// Who says so.
+    #[arg(long)]
+    pub who: String,
+    /// Why.
+    #[arg(long)]
+    pub why: String,
+    #[command(flatten)]
+    pub db: DbArgs,
+}
+
+#[derive(Args)]
+pub struct LogArgs {
+    /// Only this test's.
+    #[arg(long)]
+    pub test: Option<String>,
+    /// Write JSON instead ("-" for stdout).
+    #[arg(long, value_name = "FILE|-")]
+    pub json: Option<PathBuf>,
+    #[command(flatten)]
+    pub db: DbArgs,
+}
+
+pub fn frames(c: FramesCommand) -> Result<ExitCode> {
+    match c {
+        FramesCommand::Submit(a) => submit_folder(a),
+        FramesCommand::Triage(a) => triage(a),
+        FramesCommand::Log(a) => log(a),
+    }
+}
+
+fn submit_folder(a: SubmitArgs) -> Result<ExitCode> {
+    a.db.set_retry(10);
+    let rules = match &a.rules {
+        Some(path) => Rules::load(path).map_err(super::invalid)?,
+        None => Rules::default(),
+    };
+    let keys = parse_keys(&a.keys)?;
+    let inputs = collect_folder(&a.folder)?;
+    let history = History::open(&a.db.db)?;
+    let report = submit(
+        &history,
+        Submission {
+            inputs,
+            keys,
+            idempotency_key: a.idempotency_key.as_deref(),
+            rules: &rules,
+        },
+    )?;
+    if let Some(path) = &a.json {
+        write_json(path, "the submission's report", &report)?;
+    }
+    if let Some(path) = &a.junit {
+        write_text(path, &report.junit()?)?;
+    }
+    if a.json.as_deref() != Some(std::path::Path::new("-")) {
+        print!("{}", report.console());
+    }
+    Ok(ExitCode::from(report.exit_code() as u8))
+}
+
+fn triage(a: TriageArgs) -> Result<ExitCode> {
+    a.db.set_retry(10);
+    let label = match a.label {
+        LabelArg::Positive => Label::Positive,
+        LabelArg::Negative => Label::Negative,
+        LabelArg::Untriaged => Label::Untriaged,
+    };
+    let history = History::open(&a.db.db)?;
+    history.triage(&a.test, &a.digest, label, &a.who, &a.why)?;
+    println!("{} {}: {}", a.test, a.digest, label.as_str());
+    Ok(ExitCode::SUCCESS)
+}
+
+fn log(a: LogArgs) -> Result<ExitCode> {
+    a.db.set_retry(10);
+    let history = History::open_read_only(&a.db.db)?;
+    let entries = history.triage_log(a.test.as_deref())?;
+    match &a.json {
+        Some(path) => write_json(path, "the triage log", &entries)?,
+        None => {
+            for e in &entries {
+                println!(
+                    "{} {} {} {} by {}: {}",
+                    e.at,
+                    e.test,
+                    e.digest,
+                    e.label.as_str(),
+                    e.who,
+                    e.why
+                );
+            }
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,294 @@
+//! Frames a user's own renderer wrote, through the gate (docs/frames.md):
+//! a submission is a folder of images, each a frame of the test its name
+//! says, with keys (device, backend, branch, commit, …) for the whole
+//! submission. Each image is stored once by its digest (the SHA-256 of its
+//! file); each frame passes when its digest is a positive of its test, or
+//! when it is within its test's rules of one; a negative digest fails, and
+//! an untriaged one fails or warns as the rules say. People triage digests
+//! (`tonegate frames triage`); every action is logged.
+
+pub mod report;
+pub mod rules;
+
+mod judge;
+
+use crate::history::{History, HistoryError, NewFrame};
+use crate::image::{Frame, HdrImage};
+use crate::io::{HdrIoError, LoadOptions};
+pub use report::{FrameVerdict, Status, SubmissionReport};
+use rules::Rules;
+use sha2::{Digest, Sha256};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// The most frames one submission may have: a folder with more is refused
+/// before any file is read.
+pub const MAX_FRAMES: usize = 4096;
+
+/// The most bytes one submitted file may have, checked before it is read.
+pub const MAX_FILE_BYTES: u64 = 256 << 20;
+
+/// The extensions a submitted image may have.
+pub const EXTENSIONS: [&str; 5] = ["png", "exr", "hdr", "pfm", "pic"];
+
+/// Why a submission was refused. Nothing of it is stored.
+#[derive(Debug, thiserror::Error)]
+pub enum FramesError {
+    #[error("{file}: {detail}")]
+    File { file: String, detail: String },
+    #[error(transparent)]
+    Image(#[from] HdrIoError),
+    #[error("{count} files in {folder}: a submission takes at most {max}")]
+    TooMany {
+        folder: String,
+        count: usize,
+        max: usize,
+    },
+    #[error("{file}: {bytes} bytes, over the {max} bytes a submitted image may have")]
+    TooBig { file: String, bytes: u64, max: u64 },
+    #[error("{first} and {second} are both frames of test {test:?}: one image a test")]
+    Duplicate {
+        test: String,
+        first: String,
+        second: String,
+    },
+    #[error("{folder}: no images (.png, .exr, .hdr, .pfm)")]
+    Empty { folder: String },
+    #[error("key {0:?}: keys are name=value, the name of letters, digits, '_', '-' and '.'")]
+    Key(String),
+    #[error(transparent)]
+    History(#[from] HistoryError),
+}
+
+/// A file to submit: the test it is a frame of, and where it is.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Input {
+    pub test: String,
+    pub path: PathBuf,
+}
+
+/// A submitted image decoded: a display frame (8-bit, or 16-bit PQ), or
+/// scene-referred light.
+pub enum Decoded {
+    Frame(Frame),
+    Hdr(HdrImage),
+}
+
+/// The images in `folder` and its subfolders, each a frame of the test
+/// named by its path from `folder` without its extension (`ui/button` for
+/// `ui/button.png`), in name order. Files of other extensions are left
+/// out; links are not followed.
+pub fn collect_folder(folder: &Path) -> Result<Vec<Input>, FramesError> {
+    let name = folder.display().to_string();
+    let mut found: BTreeMap<String, PathBuf> = BTreeMap::new();
+    let mut pending = vec![folder.to_path_buf()];
+    let mut files = 0usize;
+    while let Some(dir) = pending.pop() {
+        let entries = std::fs::read_dir(&dir).map_err(|e| FramesError::File {
+            file: dir.display().to_string(),
+            detail: format!("cannot list it: {e}"),
+        })?;
+        for entry in entries {
+            let entry = entry.map_err(|e| FramesError::File {
+                file: dir.display().to_string(),
+                detail: format!("cannot list it: {e}"),
+            })?;
+            let path = entry.path();
+            let kind = entry.file_type().map_err(|e| FramesError::File {
+                file: path.display().to_string(),
+                detail: e.to_string(),
+            })?;
+            if kind.is_dir() {
+                pending.push(path);
+                continue;
+            }
+            let ext = path
+                .extension()
+                .and_then(|e| e.to_str())
+                .map(str::to_ascii_lowercase);
+            if !kind.is_file() || !ext.is_some_and(|e| EXTENSIONS.contains(&e.as_str())) {
+                continue;
+            }
+            files += 1;
+            if files > MAX_FRAMES {
+                return Err(FramesError::TooMany {
+                    folder: name,
+                    count: files,
+                    max: MAX_FRAMES,
+                });
+            }
+            let test = test_name(folder, &path)?;
+            if let Some(first) = found.get(&test) {
+                let (a, b) = ordered(first, &path);
+                return Err(FramesError::Duplicate {
+                    test,
+                    first: a,
+                    second: b,
+                });
+            }
+            found.insert(test, path);
+        }
+    }
+    if found.is_empty() {
+        return Err(FramesError::Empty { folder: name });
+    }
+    Ok(found
+        .into_iter()
+        .map(|(test, path)| Input { test, path })
+        .collect())
+}
+
+fn ordered(a: &Path, b: &Path) -> (String, String) {
+    let (a, b) = (a.display().to_string(), b.display().to_string());
+    if a <= b {
+        (a, b)
+    } else {
+        (b, a)
+    }
+}
+
+/// `path`'s test name: its path from `folder`, `/`-separated, without the
+/// extension.
+fn test_name(folder: &Path, path: &Path) -> Result<String, FramesError> {
+    let file = path.display().to_string();
+    let relative = path.strip_prefix(folder).unwrap_or(path).with_extension("");
+    let mut parts = Vec::new();
+    for c in relative.components() {
+        match c {
+            std::path::Component::Normal(p) => match p.to_str() {
+                Some(s) => parts.push(s.to_owned()),
+                None => {
+                    return Err(FramesError::File {
+                        file,
+                        detail: "a name that is not UTF-8 cannot be a test name".into(),
+                    })
+                }
+            },
+            _ => {
+                return Err(FramesError::File {
+                    file,
+                    detail: "a test name is a plain path inside the folder".into(),
+                })
+            }
+        }
+    }
+    Ok(parts.join("/"))
+}
+
+/// `name=value` pairs, as `--key` gives them.
+pub fn parse_keys(pairs: &[String]) -> Result<BTreeMap<String, String>, FramesError> {
+    let mut keys = BTreeMap::new();
+    for pair in pairs {
+        let Some((k, v)) = pair.split_once('=') else {
+            return Err(FramesError::Key(pair.clone()));
+        };
+        let plain = |c: char| c.is_ascii_alphanumeric() || "_-.".contains(c);
+        if k.is_empty()
+            || !k.chars().all(plain)
+            || keys.insert(k.to_owned(), v.to_owned()).is_some()
+        {
+            return Err(FramesError::Key(pair.clone()));
+        }
+    }
+    Ok(keys)
+}
+
+/// One file read, checked for size before it is read, hashed and decoded.
+struct Read {
+    input: Input,
+    bytes: Vec<u8>,
+    digest: String,
+    image: Decoded,
+}
+
+fn read(input: Input) -> Result<Read, FramesError> {
+    let file = input.path.display().to_string();
+    let meta = std::fs::metadata(&input.path).map_err(|e| FramesError::File {
+        file: file.clone(),
+        detail: e.to_string(),
+    })?;
+    if meta.len() > MAX_FILE_BYTES {
+        return Err(FramesError::TooBig {
+            file,
+            bytes: meta.len(),
+            max: MAX_FILE_BYTES,
+        });
+    }
+    let bytes = std::fs::read(&input.path).map_err(|e| FramesError::File {
+        file: file.clone(),
+        detail: e.to_string(),
+    })?;
+    let digest = hex::encode(Sha256::digest(&bytes));
+    let image = decode_bytes(&bytes, &file)?;
+    Ok(Read {
+        input,
+        bytes,
+        digest,
+        image,
+    })
+}
+
+/// Decodes a submitted image: a PNG (by its signature) as a frame, 8-bit
+/// or 16-bit with a cICP chunk saying BT.2100 PQ; anything else as EXR,
+/// Radiance or PFM light (NaN and infinities refused). `file` names it in
+/// errors.
+pub fn decode_bytes(bytes: &[u8], file: &str) -> Result<Decoded, FramesError> {
+    const PNG: [u8; 8] = [0x89, b'P', b'N', b'G', b'\r', b'\n', 0x1a, b'\n'];
+    Ok(if bytes.starts_with(&PNG) {
+        Decoded::Frame(crate::io::decode_frame_png(bytes, file)?)
+    } else {
+        Decoded::Hdr(crate::io::decode_hdr(bytes, file, &LoadOptions::default())?.0)
+    })
+}
+
+/// What one submission asks.
+pub struct Submission<'a> {
+    pub inputs: Vec<Input>,
+    pub keys: BTreeMap<String, String>,
+    /// A retried submission with the same key stores nothing and answers
+    /// what the first did.
+    pub idempotency_key: Option<&'a str>,
+    pub rules: &'a Rules,
+}
+
+/// Reads, judges and stores a submission. Every file is read and decoded
+/// before anything is stored, so a bad file stores nothing; the images,
+/// the frames and the report are then stored in one transaction.
+pub fn submit(history: &History, s: Submission) -> Result<SubmissionReport, FramesError> {
+    if let Some(done) = s
+        .idempotency_key
+        .map(|k| history.submission_by_key(k))
+        .transpose()?
+        .flatten()
+    {
+        return report::stored(&done);
+    }
+    let read: Vec<Read> = s.inputs.into_iter().map(read).collect::<Result<_, _>>()?;
+    let mut verdicts = Vec::with_capacity(read.len());
+    for r in &read {
+        verdicts.push(judge::judge(
+            history, s.rules, &r.input, &r.digest, &r.image,
+        )?);
+    }
+    let mut report = SubmissionReport::new(s.keys, verdicts);
+    let frames: Vec<NewFrame> = read
+        .iter()
+        .zip(&report.frames)
+        .map(|(r, v)| NewFrame {
+            test: &r.input.test,
+            sha256: &r.digest,
+            bytes: &r.bytes,
+            verdict: v.status.as_str(),
+        })
+        .collect();
+    let keys = serde_json::to_string(&report.keys).unwrap_or_default();
+    let text = serde_json::to_string(&report).unwrap_or_default();
+    let stored =
+        history.store_submission(s.idempotency_key, &keys, report.passed, &text, &frames)?;
+    if !stored.new {
+        // Another process stored the same key first: its answer stands.
+        return report::stored(&stored);
+    }
+    report.submission = stored.id;
+    Ok(report)
+}

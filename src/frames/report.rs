@@ -1,0 +1,166 @@
+//! What a submission answers: a verdict a frame, the figures against the
+//! positive it was judged by, as JSON and JUnit, and the exit code CI
+//! reads (0 passed, 1 failed, 2 the submission could not be judged).
+
+use super::FramesError;
+use crate::history::{HistoryError, StoredSubmission};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// Where a frame's digest stands.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Status {
+    /// Its digest is a positive of its test.
+    Positive,
+    /// Untriaged, but within its test's rules of a positive.
+    Matched,
+    /// Its digest is a negative of its test.
+    Negative,
+    /// Nobody has said, and no positive is near enough.
+    Untriaged,
+}
+
+impl Status {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Status::Positive => "positive",
+            Status::Matched => "matched",
+            Status::Negative => "negative",
+            Status::Untriaged => "untriaged",
+        }
+    }
+}
+
+/// The positive a frame was held to, and how far it was.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Closest {
+    pub digest: String,
+    /// Each figure computed, by its check's name (`psnr`, `max_abs_diff`,
+    /// `hdr_flip_mean`, …).
+    pub figures: BTreeMap<String, f64>,
+    /// The rules it broke, as `PSNR >= 45 dB (was 38.2)`.
+    pub failed: Vec<String>,
+}
+
+/// One frame's verdict.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FrameVerdict {
+    pub test: String,
+    pub file: String,
+    pub digest: String,
+    pub status: Status,
+    pub passed: bool,
+    /// An untriaged digest passed under `untriaged = "warn"`.
+    pub warning: bool,
+    /// The positive it matched or came closest to, when the test has one
+    /// and the two could be compared.
+    pub closest: Option<Closest>,
+    /// In words: why it passed or failed.
+    pub detail: String,
+}
+
+/// A submission's answer.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SubmissionReport {
+    /// Its id in the history (the first submission's, for a retry under
+    /// the same idempotency key).
+    pub submission: i64,
+    pub keys: BTreeMap<String, String>,
+    pub passed: bool,
+    pub frames: Vec<FrameVerdict>,
+    /// Frames whose digests nobody has triaged.
+    pub untriaged: usize,
+}
+
+impl SubmissionReport {
+    pub fn new(keys: BTreeMap<String, String>, frames: Vec<FrameVerdict>) -> SubmissionReport {
+        SubmissionReport {
+            submission: 0,
+            keys,
+            passed: frames.iter().all(|f| f.passed),
+            untriaged: frames
+                .iter()
+                .filter(|f| f.status == Status::Untriaged)
+                .count(),
+            frames,
+        }
+    }
+
+    /// 0 when every frame passed, 1 otherwise.
+    pub fn exit_code(&self) -> i32 {
+        if self.passed {
+            0
+        } else {
+            1
+        }
+    }
+
+    /// One line a frame that did not simply pass, then a summary.
+    pub fn console(&self) -> String {
+        let mut out = String::new();
+        for f in &self.frames {
+            let mark = match (f.passed, f.warning) {
+                (true, false) if f.status == Status::Positive => continue,
+                (true, false) => "ok  ",
+                (true, true) => "WARN",
+                (false, _) => "FAIL",
+            };
+            out.push_str(&format!(
+                "{mark} {} ({}): {}\n",
+                f.test,
+                f.status.as_str(),
+                f.detail
+            ));
+        }
+        let failed = self.frames.iter().filter(|f| !f.passed).count();
+        out.push_str(&format!(
+            "submission {}: {} frames, {} failed, {} untriaged: {}\n",
+            self.submission,
+            self.frames.len(),
+            failed,
+            self.untriaged,
+            if self.passed { "PASSED" } else { "FAILED" }
+        ));
+        out
+    }
+
+    /// JUnit XML: one suite, one test case a frame.
+    pub fn junit(&self) -> Result<String, quick_junit::SerializeError> {
+        use quick_junit::{NonSuccessKind, Report, TestCase, TestCaseStatus, TestSuite};
+        let mut report = Report::new("tonegate frames");
+        let mut suite = TestSuite::new("frames");
+        for (k, v) in &self.keys {
+            suite.add_property((k.as_str(), v.as_str()));
+        }
+        for f in &self.frames {
+            let status = if f.passed {
+                TestCaseStatus::success()
+            } else {
+                let mut s = TestCaseStatus::non_success(NonSuccessKind::Failure);
+                s.set_message(f.detail.clone());
+                s
+            };
+            let mut case = TestCase::new(f.test.clone(), status);
+            case.set_classname("tonegate.frames");
+            case.set_system_out(format!(
+                "{} {} {}: {}",
+                f.file,
+                f.digest,
+                f.status.as_str(),
+                f.detail
+            ));
+            suite.add_test_case(case);
+        }
+        report.add_test_suite(suite);
+        report.to_string()
+    }
+}
+
+/// The report a stored submission answered with.
+pub fn stored(s: &StoredSubmission) -> Result<SubmissionReport, FramesError> {
+    let mut report: SubmissionReport = serde_json::from_str(&s.report)
+        .map_err(|e| HistoryError::Invalid(format!("submission {}'s stored report: {e}", s.id)))?;
+    report.submission = s.id;
+    Ok(report)
+}

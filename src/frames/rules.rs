@@ -1,0 +1,193 @@
+//! The rules a user keeps beside their frames (docs/frames.md#rules): for
+//! tests whose names match a pattern, how far a frame may be from a positive
+//! digest and still pass, in the check vocabulary, and what an untriaged
+//! digest does.
+
+use crate::check::spec::Check;
+use serde::Deserialize;
+use std::path::Path;
+
+/// What an untriaged digest does to its submission.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Untriaged {
+    /// Fails it (exit 1) until someone marks the digest.
+    #[default]
+    Fail,
+    /// Passes it, with a warning in the report.
+    Warn,
+}
+
+/// The rules file.
+#[derive(Clone, Debug, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Rules {
+    #[serde(default)]
+    pub untriaged: Untriaged,
+    /// The first whose pattern matches a test applies to it.
+    #[serde(default)]
+    pub tests: Vec<TestRule>,
+}
+
+/// The thresholds of the tests a pattern matches.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TestRule {
+    /// A test name, where `*` stands for any characters but `/` and `**`
+    /// for any characters at all.
+    pub pattern: String,
+    /// Checks of an 8-bit or PQ PNG against a positive (the checks a
+    /// scene's `[[checks]]` has for one frame against its golden).
+    #[serde(default)]
+    pub checks: Vec<Check>,
+    /// Bounds for an HDR file (EXR, Radiance, PFM) against a positive.
+    #[serde(default)]
+    pub hdr: HdrBounds,
+}
+
+/// How far an HDR file may be from a positive (docs/hdr-metrics.md's
+/// figures), each bound only when given.
+#[derive(Clone, Debug, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HdrBounds {
+    pub max_hdr_flip_mean: Option<f64>,
+    pub min_pu21_psnr: Option<f64>,
+    pub max_delta_e_itp_mean: Option<f64>,
+}
+
+impl HdrBounds {
+    pub fn is_empty(&self) -> bool {
+        *self == HdrBounds::default()
+    }
+}
+
+impl Rules {
+    /// Reads and checks a rules file; every error names the file, and the
+    /// rule and key it is about.
+    pub fn load(path: &Path) -> Result<Rules, String> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| format!("reading {}: {e}", path.display()))?;
+        let rules: Rules =
+            toml::from_str(&text).map_err(|e| format!("{}: {}", path.display(), e.message()))?;
+        rules
+            .check()
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+        Ok(rules)
+    }
+
+    fn check(&self) -> Result<(), String> {
+        for (i, rule) in self.tests.iter().enumerate() {
+            let at = format!("tests[{i}] ({:?})", rule.pattern);
+            if rule.pattern.is_empty() {
+                return Err(format!("{at}: an empty pattern"));
+            }
+            for c in &rule.checks {
+                if !one_frame(c) {
+                    return Err(format!(
+                        "{at}: {} is not a check of a frame against another",
+                        c.rule().kind
+                    ));
+                }
+                let bound = c.rule().bound;
+                if !bound.is_finite() || bound < 0.0 {
+                    return Err(format!(
+                        "{at}: {} must be a finite number >= 0",
+                        c.rule().kind
+                    ));
+                }
+            }
+            let h = &rule.hdr;
+            for (key, v) in [
+                ("max_hdr_flip_mean", h.max_hdr_flip_mean),
+                ("min_pu21_psnr", h.min_pu21_psnr),
+                ("max_delta_e_itp_mean", h.max_delta_e_itp_mean),
+            ] {
+                if v.is_some_and(|v| !v.is_finite() || v < 0.0) {
+                    return Err(format!("{at}: hdr.{key} must be a finite number >= 0"));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The rule for `test`: the first that matches.
+    pub fn for_test(&self, test: &str) -> Option<&TestRule> {
+        self.tests.iter().find(|r| matches(&r.pattern, test))
+    }
+}
+
+/// Whether `c` bounds one frame against another (the rest are about a
+/// sequence, a stage's time or another scene).
+fn one_frame(c: &Check) -> bool {
+    matches!(
+        c,
+        Check::MinPsnr(_)
+            | Check::MinSsim(_)
+            | Check::MaxMse(_)
+            | Check::MaxAbsDiff(_)
+            | Check::MaxMeanAbsDiff(_)
+            | Check::MaxFractionOver { .. }
+            | Check::MaxFlipMean(_)
+            | Check::MaxFlipPercentile { .. }
+    )
+}
+
+/// Whether `name` matches `pattern` (`*`: any run of characters but `/`;
+/// `**`: any run at all).
+pub fn matches(pattern: &str, name: &str) -> bool {
+    let p: Vec<char> = pattern.chars().collect();
+    let n: Vec<char> = name.chars().collect();
+    glob(&p, &n)
+}
+
+fn glob(p: &[char], n: &[char]) -> bool {
+    match p {
+        [] => n.is_empty(),
+        ['*', '*', rest @ ..] => (0..=n.len()).any(|i| glob(rest, &n[i..])),
+        ['*', rest @ ..] => (0..=n.len())
+            .take_while(|&i| i == 0 || n[i - 1] != '/')
+            .any(|i| glob(rest, &n[i..])),
+        [c, rest @ ..] => n.first() == Some(c) && glob(rest, &n[1..]),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn patterns_match_within_and_across_folders() {
+        assert!(matches("ui/*", "ui/button"));
+        assert!(!matches("ui/*", "ui/menu/item"));
+        assert!(matches("ui/**", "ui/menu/item"));
+        assert!(matches("*-dark", "button-dark"));
+        assert!(!matches("*-dark", "button-light"));
+        assert!(matches("sky", "sky"));
+        assert!(!matches("sky", "skyline"));
+        assert!(matches("**", "a/b/c"));
+    }
+
+    #[test]
+    fn a_rules_file_is_checked_key_by_key() {
+        let ok: Rules = toml::from_str(
+            r#"
+            untriaged = "warn"
+            [[tests]]
+            pattern = "ui/*"
+            checks = [{ max_abs_diff = 1 }, { max_fraction_over = { lsb = 1, fraction = 0.01 } }]
+            hdr = { max_hdr_flip_mean = 0.05 }
+            "#,
+        )
+        .unwrap();
+        ok.check().unwrap();
+        assert_eq!(ok.untriaged, Untriaged::Warn);
+        assert!(ok.for_test("ui/button").is_some() && ok.for_test("menu").is_none());
+        let fps: Rules =
+            toml::from_str("[[tests]]\npattern = \"a\"\nchecks = [{ min_fps = 30.0 }]").unwrap();
+        assert!(fps
+            .check()
+            .unwrap_err()
+            .contains("min_fps is not a check of a frame"));
+        assert!(toml::from_str::<Rules>("[[tests]]\npattern = \"a\"\nbogus = 1").is_err());
+    }
+}

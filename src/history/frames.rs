@@ -1,0 +1,236 @@
+//! Frames a user's own renderer wrote, in the history (docs/frames.md):
+//! each submission whole or not at all, each image once by the SHA-256 of
+//! its file (a blob, as a run's artifacts are), what people said of each
+//! digest of a test, and every triage action in order.
+
+use super::backend::{args, Sql};
+use super::{now, History, HistoryError};
+use serde::Serialize;
+
+/// What people said of a digest of a test.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Label {
+    /// The test's image may look like this.
+    Positive,
+    /// It must not.
+    Negative,
+    /// Nobody has said yet.
+    Untriaged,
+}
+
+impl Label {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Label::Positive => "positive",
+            Label::Negative => "negative",
+            Label::Untriaged => "untriaged",
+        }
+    }
+
+    /// The label a stored word names.
+    pub fn parse(word: &str) -> Result<Label, HistoryError> {
+        match word {
+            "positive" => Ok(Label::Positive),
+            "negative" => Ok(Label::Negative),
+            "untriaged" => Ok(Label::Untriaged),
+            other => Err(HistoryError::Invalid(format!(
+                "digest label {other:?}: positive, negative or untriaged"
+            ))),
+        }
+    }
+}
+
+/// A frame of a submission as stored: its test, its file's SHA-256 and
+/// bytes, and the verdict it got.
+pub struct NewFrame<'a> {
+    pub test: &'a str,
+    pub sha256: &'a str,
+    pub bytes: &'a [u8],
+    pub verdict: &'a str,
+}
+
+/// A submission the history holds.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StoredSubmission {
+    pub id: i64,
+    pub passed: bool,
+    /// The report it answered with (JSON).
+    pub report: String,
+    /// False when the submission was already stored under its idempotency
+    /// key, and this is that one.
+    pub new: bool,
+}
+
+/// One triage action.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TriageEntry {
+    pub at: String,
+    pub test: String,
+    pub digest: String,
+    pub label: Label,
+    pub who: String,
+    pub why: String,
+}
+
+impl History {
+    /// The submission stored under `key`, if any.
+    pub fn submission_by_key(&self, key: &str) -> Result<Option<StoredSubmission>, HistoryError> {
+        submission_by_key(self.db(), key)
+    }
+
+    /// Every digest of `test` the history has seen, with its label, in
+    /// digest order.
+    pub fn digest_labels(&self, test: &str) -> Result<Vec<(String, Label)>, HistoryError> {
+        self.db()
+            .query(
+                "SELECT sha256, label FROM digest_labels WHERE test = $1 ORDER BY sha256",
+                args![test],
+            )?
+            .iter()
+            .map(|r| Ok((r.text(0)?, Label::parse(&r.text(1)?)?)))
+            .collect()
+    }
+
+    /// The bytes of a stored image, by its SHA-256; None when there is none.
+    pub fn blob(&self, sha256: &str) -> Result<Option<Vec<u8>>, HistoryError> {
+        let Some(r) = self.db().query_opt(
+            "SELECT data, store FROM blobs WHERE sha256 = $1",
+            args![sha256],
+        )?
+        else {
+            return Ok(None);
+        };
+        let data = r.blob(0)?;
+        match r.opt_text(1)? {
+            Some(store) if data.is_empty() => Err(HistoryError::Invalid(format!(
+                "image {sha256} is kept in {}, and submitted frames are read from the history only",
+                super::redacted(&store)
+            ))),
+            _ => Ok(Some(data)),
+        }
+    }
+
+    /// Stores a submission in one transaction: each image once, a row per
+    /// frame, the digests new to their test as untriaged, and the report.
+    /// Under an idempotency key already used it stores nothing and returns
+    /// the submission stored then (`new` false).
+    pub fn store_submission(
+        &self,
+        key: Option<&str>,
+        keys: &str,
+        passed: bool,
+        report: &str,
+        frames: &[NewFrame],
+    ) -> Result<StoredSubmission, HistoryError> {
+        let mut stored = None;
+        self.db().transaction(&mut |tx| {
+            if let Some(done) = key.map(|k| submission_by_key(tx, k)).transpose()?.flatten() {
+                stored = Some(done);
+                return Ok(());
+            }
+            let at = now();
+            let id = tx
+                .query_opt(
+                    "INSERT INTO frame_submissions (idempotency_key, submitted_at, keys, passed, report)
+                     VALUES ($1, $2, $3, $4, $5) RETURNING id",
+                    args![key, &at, keys, passed, report],
+                )?
+                .ok_or_else(|| HistoryError::Invalid("a submission without an id".into()))?
+                .int(0)?;
+            for f in frames {
+                tx.execute(
+                    "INSERT INTO blobs (sha256, size, data, stored_at) VALUES ($1, $2, $3, $4)
+                     ON CONFLICT (sha256) DO UPDATE SET stored_at = excluded.stored_at",
+                    args![f.sha256, f.bytes.len(), f.bytes, &at],
+                )?;
+                tx.execute(
+                    "INSERT INTO submitted_frames (submission_id, test, sha256, verdict)
+                     VALUES ($1, $2, $3, $4)",
+                    args![id, f.test, f.sha256, f.verdict],
+                )?;
+                tx.execute(
+                    "INSERT INTO digest_labels (test, sha256, label) VALUES ($1, $2, 'untriaged')
+                     ON CONFLICT (test, sha256) DO NOTHING",
+                    args![f.test, f.sha256],
+                )?;
+            }
+            stored = Some(StoredSubmission {
+                id,
+                passed,
+                report: report.to_owned(),
+                new: true,
+            });
+            Ok(())
+        })?;
+        stored.ok_or_else(|| HistoryError::Invalid("the submission was not stored".into()))
+    }
+
+    /// Labels `digest` of `test` (a digest a submission of that test had),
+    /// and logs who did it and why; refused for a digest the test never had.
+    pub fn triage(
+        &self,
+        test: &str,
+        digest: &str,
+        label: Label,
+        who: &str,
+        why: &str,
+    ) -> Result<(), HistoryError> {
+        self.db().transaction(&mut |tx| {
+            let changed = tx.execute(
+                "UPDATE digest_labels SET label = $3 WHERE test = $1 AND sha256 = $2",
+                args![test, digest, label.as_str()],
+            )?;
+            if changed == 0 {
+                return Err(HistoryError::Invalid(format!(
+                    "test {test:?} has no digest {digest}: only a digest a submission of the test had can be triaged"
+                )));
+            }
+            tx.execute(
+                "INSERT INTO triage_log (at, test, sha256, label, who, why)
+                 VALUES ($1, $2, $3, $4, $5, $6)",
+                args![&now(), test, digest, label.as_str(), who, why],
+            )?;
+            Ok(())
+        })
+    }
+
+    /// The triage actions, oldest first; of one test when given.
+    pub fn triage_log(&self, test: Option<&str>) -> Result<Vec<TriageEntry>, HistoryError> {
+        let columns = "SELECT at, test, sha256, label, who, why FROM triage_log";
+        let rows = match test {
+            Some(t) => self
+                .db()
+                .query(&format!("{columns} WHERE test = $1 ORDER BY id"), args![t])?,
+            None => self.db().query(&format!("{columns} ORDER BY id"), &[])?,
+        };
+        rows.iter()
+            .map(|r| {
+                Ok(TriageEntry {
+                    at: r.text(0)?,
+                    test: r.text(1)?,
+                    digest: r.text(2)?,
+                    label: Label::parse(&r.text(3)?)?,
+                    who: r.text(4)?,
+                    why: r.text(5)?,
+                })
+            })
+            .collect()
+    }
+}
+
+fn submission_by_key(db: &dyn Sql, key: &str) -> Result<Option<StoredSubmission>, HistoryError> {
+    db.query_opt(
+        "SELECT id, passed, report FROM frame_submissions WHERE idempotency_key = $1",
+        args![key],
+    )?
+    .map(|r| {
+        Ok(StoredSubmission {
+            id: r.int(0)?,
+            passed: r.bool(1)?,
+            report: r.text(2)?,
+            new: false,
+        })
+    })
+    .transpose()
+}
