@@ -9,7 +9,7 @@ use std::process::ExitCode;
 use tonegate::error::Result;
 use tonegate::frames::rules::Rules;
 use tonegate::frames::{collect_folder, parse_keys, submit, Submission};
-use tonegate::history::{History, Label};
+use tonegate::history::{History, Label, MAIN};
 
 #[derive(Subcommand)]
 pub enum FramesCommand {
@@ -22,6 +22,10 @@ pub enum FramesCommand {
     Triage(TriageArgs),
     /// Print the triage actions, oldest first.
     Log(LogArgs),
+    /// A branch landed: its positives and negatives become the main line's.
+    Promote(PromoteArgs),
+    /// Ignore failures of matching tests for a while (a known flake, a driver bug).
+    Ignore(IgnoreArgs),
 }
 
 #[derive(Args)]
@@ -71,6 +75,45 @@ pub struct TriageArgs {
     /// Why.
     #[arg(long)]
     pub why: String,
+    /// On this branch (its submissions fall back to the main line's triage);
+    /// the main line when left out or when it is the rules' main branch.
+    #[arg(long)]
+    pub branch: Option<String>,
+    /// The rules file, for its main branch's name (default "main").
+    #[arg(long, value_name = "FILE")]
+    pub rules: Option<PathBuf>,
+    #[command(flatten)]
+    pub db: DbArgs,
+}
+
+#[derive(Args)]
+pub struct PromoteArgs {
+    /// The branch that landed.
+    #[arg(long)]
+    pub branch: String,
+    #[arg(long)]
+    pub who: String,
+    #[arg(long)]
+    pub why: String,
+    #[command(flatten)]
+    pub db: DbArgs,
+}
+
+#[derive(Args)]
+pub struct IgnoreArgs {
+    /// The tests it covers: a name, `*` any characters but `/`, `**` any.
+    #[arg(long, value_name = "PATTERN")]
+    pub test: String,
+    /// Only in submissions with this key, NAME=VALUE (repeatable: all of them).
+    #[arg(long = "key", value_name = "NAME=VALUE")]
+    pub keys: Vec<String>,
+    /// How long it lasts, in hours (at most a year).
+    #[arg(long)]
+    pub hours: f64,
+    #[arg(long)]
+    pub who: String,
+    #[arg(long)]
+    pub reason: String,
     #[command(flatten)]
     pub db: DbArgs,
 }
@@ -92,6 +135,8 @@ pub fn frames(c: FramesCommand) -> Result<ExitCode> {
         FramesCommand::Submit(a) => submit_folder(a),
         FramesCommand::Triage(a) => triage(a),
         FramesCommand::Log(a) => log(a),
+        FramesCommand::Promote(a) => promote(a),
+        FramesCommand::Ignore(a) => ignore(a),
     }
 }
 
@@ -132,9 +177,49 @@ fn triage(a: TriageArgs) -> Result<ExitCode> {
         LabelArg::Negative => Label::Negative,
         LabelArg::Untriaged => Label::Untriaged,
     };
+    let rules = match &a.rules {
+        Some(path) => Rules::load(path).map_err(super::invalid)?,
+        None => Rules::default(),
+    };
+    let branch = a
+        .branch
+        .as_deref()
+        .filter(|b| *b != rules.main_branch)
+        .unwrap_or(MAIN);
     let history = History::open(&a.db.db)?;
-    history.triage(&a.test, &a.digest, label, &a.who, &a.why)?;
+    history.triage(branch, &a.test, &a.digest, label, (&a.who, &a.why))?;
     println!("{} {}: {}", a.test, a.digest, label.as_str());
+    Ok(ExitCode::SUCCESS)
+}
+
+fn promote(a: PromoteArgs) -> Result<ExitCode> {
+    a.db.set_retry(10);
+    let history = History::open(&a.db.db)?;
+    let n = history.promote(&a.branch, &a.who, &a.why)?;
+    println!("{n} labels of {} promoted to the main line", a.branch);
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The longest an ignore rule may last: a year.
+const MOST_HOURS: f64 = 24.0 * 366.0;
+
+fn ignore(a: IgnoreArgs) -> Result<ExitCode> {
+    a.db.set_retry(10);
+    if !(a.hours > 0.0 && a.hours <= MOST_HOURS) {
+        return Err(super::invalid(format!(
+            "--hours {}: an ignore rule lasts more than 0 and at most {MOST_HOURS} hours",
+            a.hours
+        )));
+    }
+    let keys = parse_keys(&a.keys)?;
+    let keys = serde_json::to_string(&keys).unwrap_or_default();
+    let history = History::open(&a.db.db)?;
+    let lasting = std::time::Duration::from_secs_f64(a.hours * 3600.0);
+    let rule = history.add_ignore_rule(&a.test, &keys, lasting, (&a.who, &a.reason))?;
+    println!(
+        "ignore rule {}: {} until {}",
+        rule.id, rule.pattern, rule.expires_at
+    );
     Ok(ExitCode::SUCCESS)
 }
 

@@ -8,19 +8,77 @@ use super::report::{Closest, FrameVerdict, Status};
 use super::rules::{Rules, TestRule, Untriaged};
 use super::{decode_bytes, Decoded, FramesError, Input};
 use crate::check::spec::{Check, Side};
-use crate::history::{History, Label};
+use crate::history::{History, IgnoreRule, Label};
 use crate::metrics::frames::{compare_frames, frame_fraction_over};
 use crate::metrics::hdr::{compare_hdr, HdrOptions};
 use std::collections::BTreeMap;
 
-pub(super) fn judge(
-    history: &History,
-    rules: &Rules,
+/// The ignore rules that apply to a submission: those whose keys it has.
+pub(super) struct Ignores(Vec<IgnoreRule>);
+
+impl Ignores {
+    pub(super) fn of(rules: Vec<IgnoreRule>, keys: &BTreeMap<String, String>) -> Ignores {
+        Ignores(
+            rules
+                .into_iter()
+                .filter(|r| {
+                    let wanted: BTreeMap<String, String> =
+                        serde_json::from_str(&r.keys).unwrap_or_default();
+                    wanted.iter().all(|(k, v)| keys.get(k) == Some(v))
+                })
+                .collect(),
+        )
+    }
+
+    fn covering(&self, test: &str) -> Option<&IgnoreRule> {
+        self.0
+            .iter()
+            .find(|r| super::rules::matches(&r.pattern, test))
+    }
+}
+
+/// What a submission's frames are judged with.
+pub(super) struct On<'a> {
+    pub history: &'a History,
+    pub rules: &'a Rules,
+    /// The branch whose triage applies (falling back to the main line's).
+    pub branch: &'a str,
+    pub ignores: &'a Ignores,
+}
+
+impl On<'_> {
+    /// One frame's verdict; a failing one that an ignore rule covers is
+    /// `ignored`, and passes.
+    pub(super) fn judge(
+        &self,
+        input: &Input,
+        digest: &str,
+        image: &Decoded,
+    ) -> Result<FrameVerdict, FramesError> {
+        let mut v = judge(self, input, digest, image)?;
+        if !v.passed || v.warning {
+            if let Some(r) = self.ignores.covering(&input.test) {
+                v.detail = format!(
+                    "ignored until {} by rule {} ({}: {}); {}",
+                    r.expires_at, r.id, r.who, r.reason, v.detail
+                );
+                v.status = Status::Ignored;
+                v.passed = true;
+                v.warning = false;
+            }
+        }
+        Ok(v)
+    }
+}
+
+fn judge(
+    on: &On,
     input: &Input,
     digest: &str,
     image: &Decoded,
 ) -> Result<FrameVerdict, FramesError> {
-    let labels = history.digest_labels(&input.test)?;
+    let (history, rules) = (on.history, on.rules);
+    let labels = history.digest_labels(on.branch, &input.test)?;
     let label = labels
         .iter()
         .find(|(d, _)| d == digest)

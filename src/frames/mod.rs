@@ -12,7 +12,7 @@ pub mod rules;
 
 mod judge;
 
-use crate::history::{History, HistoryError, NewFrame};
+use crate::history::{History, HistoryError, NewFrame, MAIN};
 use crate::image::{Frame, HdrImage};
 use crate::io::{HdrIoError, LoadOptions};
 pub use report::{FrameVerdict, Status, SubmissionReport};
@@ -264,13 +264,24 @@ pub fn submit(history: &History, s: Submission) -> Result<SubmissionReport, Fram
         return report::stored(&done);
     }
     let read: Vec<Read> = s.inputs.into_iter().map(read).collect::<Result<_, _>>()?;
+    // The branch's triage, falling back to the main line's.
+    let named = s.keys.get("branch").filter(|b| **b != s.rules.main_branch);
+    let branch = named.map_or(MAIN, String::as_str).to_owned();
+    let shown = named
+        .cloned()
+        .unwrap_or_else(|| s.rules.main_branch.clone());
+    let ignores = judge::Ignores::of(history.active_ignore_rules()?, &s.keys);
+    let on = judge::On {
+        history,
+        rules: s.rules,
+        branch: &branch,
+        ignores: &ignores,
+    };
     let mut verdicts = Vec::with_capacity(read.len());
     for r in &read {
-        verdicts.push(judge::judge(
-            history, s.rules, &r.input, &r.digest, &r.image,
-        )?);
+        verdicts.push(on.judge(&r.input, &r.digest, &r.image)?);
     }
-    let mut report = SubmissionReport::new(s.keys, verdicts);
+    let mut report = SubmissionReport::new(s.keys, shown, verdicts);
     let frames: Vec<NewFrame> = read
         .iter()
         .zip(&report.frames)
@@ -283,8 +294,14 @@ pub fn submit(history: &History, s: Submission) -> Result<SubmissionReport, Fram
         .collect();
     let keys = serde_json::to_string(&report.keys).unwrap_or_default();
     let text = serde_json::to_string(&report).unwrap_or_default();
-    let stored =
-        history.store_submission(s.idempotency_key, &keys, report.passed, &text, &frames)?;
+    let stored = history.store_submission(
+        s.idempotency_key,
+        &branch,
+        &keys,
+        report.passed,
+        &text,
+        &frames,
+    )?;
     if !stored.new {
         // Another process stored the same key first: its answer stands.
         return report::stored(&stored);

@@ -19,6 +19,8 @@ pub enum Status {
     Negative,
     /// Nobody has said, and no positive is near enough.
     Untriaged,
+    /// It would have failed, and an ignore rule covers its test.
+    Ignored,
 }
 
 impl Status {
@@ -28,6 +30,7 @@ impl Status {
             Status::Matched => "matched",
             Status::Negative => "negative",
             Status::Untriaged => "untriaged",
+            Status::Ignored => "ignored",
         }
     }
 }
@@ -67,6 +70,9 @@ pub struct SubmissionReport {
     /// the same idempotency key).
     pub submission: i64,
     pub keys: BTreeMap<String, String>,
+    /// The branch its frames were judged on: the main line's name, or the
+    /// `branch` key's (which falls back to the main line's triage).
+    pub branch: String,
     pub passed: bool,
     pub frames: Vec<FrameVerdict>,
     /// Frames whose digests nobody has triaged.
@@ -74,10 +80,15 @@ pub struct SubmissionReport {
 }
 
 impl SubmissionReport {
-    pub fn new(keys: BTreeMap<String, String>, frames: Vec<FrameVerdict>) -> SubmissionReport {
+    pub fn new(
+        keys: BTreeMap<String, String>,
+        branch: String,
+        frames: Vec<FrameVerdict>,
+    ) -> SubmissionReport {
         SubmissionReport {
             submission: 0,
             keys,
+            branch,
             passed: frames.iter().all(|f| f.passed),
             untriaged: frames
                 .iter()

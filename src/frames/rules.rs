@@ -19,14 +19,32 @@ pub enum Untriaged {
 }
 
 /// The rules file.
-#[derive(Clone, Debug, Default, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Rules {
     #[serde(default)]
     pub untriaged: Untriaged,
+    /// The branch whose triage every other branch falls back to (a
+    /// submission's `branch` key; one without it is on this branch).
+    #[serde(default = "main_branch")]
+    pub main_branch: String,
     /// The first whose pattern matches a test applies to it.
     #[serde(default)]
     pub tests: Vec<TestRule>,
+}
+
+fn main_branch() -> String {
+    "main".into()
+}
+
+impl Default for Rules {
+    fn default() -> Rules {
+        Rules {
+            untriaged: Untriaged::default(),
+            main_branch: main_branch(),
+            tests: Vec::new(),
+        }
+    }
 }
 
 /// The thresholds of the tests a pattern matches.

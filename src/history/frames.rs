@@ -1,7 +1,9 @@
 //! Frames a user's own renderer wrote, in the history (docs/frames.md):
 //! each submission whole or not at all, each image once by the SHA-256 of
 //! its file (a blob, as a run's artifacts are), what people said of each
-//! digest of a test, and every triage action in order.
+//! digest of a test on a branch (the main line is `MAIN`, which a branch
+//! falls back to and is promoted into), every triage action in order, and
+//! the rules that ignore a test's failures until they expire.
 
 use super::backend::{args, Sql};
 use super::{now, History, HistoryError};
@@ -41,6 +43,10 @@ impl Label {
     }
 }
 
+/// The main line's branch in the history: what every other branch falls
+/// back to.
+pub const MAIN: &str = "";
+
 /// A frame of a submission as stored: its test, its file's SHA-256 and
 /// bytes, and the verdict it got.
 pub struct NewFrame<'a> {
@@ -66,6 +72,8 @@ pub struct StoredSubmission {
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct TriageEntry {
     pub at: String,
+    /// The branch it was on ([`MAIN`] for the main line).
+    pub branch: String,
     pub test: String,
     pub digest: String,
     pub label: Label,
@@ -79,17 +87,32 @@ impl History {
         submission_by_key(self.db(), key)
     }
 
-    /// Every digest of `test` the history has seen, with its label, in
-    /// digest order.
-    pub fn digest_labels(&self, test: &str) -> Result<Vec<(String, Label)>, HistoryError> {
-        self.db()
-            .query(
-                "SELECT sha256, label FROM digest_labels WHERE test = $1 ORDER BY sha256",
-                args![test],
-            )?
-            .iter()
-            .map(|r| Ok((r.text(0)?, Label::parse(&r.text(1)?)?)))
-            .collect()
+    /// Every digest of `test` seen on `branch` or the main line, in
+    /// digest order, with its label there: the branch's where it said
+    /// positive or negative, else the main line's.
+    pub fn digest_labels(
+        &self,
+        branch: &str,
+        test: &str,
+    ) -> Result<Vec<(String, Label)>, HistoryError> {
+        let mut labels: std::collections::BTreeMap<String, Label> = Default::default();
+        // The main line's first, then the branch's said labels over them.
+        for r in self.db().query(
+            "SELECT sha256, label, branch FROM digest_labels
+             WHERE test = $1 AND (branch = $2 OR branch = $3)
+             ORDER BY CASE WHEN branch = $3 THEN 0 ELSE 1 END",
+            args![test, branch, MAIN],
+        )? {
+            let (sha, label) = (r.text(0)?, Label::parse(&r.text(1)?)?);
+            let on_branch = r.text(2)? != MAIN;
+            match labels.get(&sha) {
+                Some(_) if on_branch && label == Label::Untriaged => {}
+                _ => {
+                    labels.insert(sha, label);
+                }
+            }
+        }
+        Ok(labels.into_iter().collect())
     }
 
     /// The bytes of a stored image, by its SHA-256; None when there is none.
@@ -118,6 +141,7 @@ impl History {
     pub fn store_submission(
         &self,
         key: Option<&str>,
+        branch: &str,
         keys: &str,
         passed: bool,
         report: &str,
@@ -150,9 +174,10 @@ impl History {
                     args![id, f.test, f.sha256, f.verdict],
                 )?;
                 tx.execute(
-                    "INSERT INTO digest_labels (test, sha256, label) VALUES ($1, $2, 'untriaged')
-                     ON CONFLICT (test, sha256) DO NOTHING",
-                    args![f.test, f.sha256],
+                    "INSERT INTO digest_labels (branch, test, sha256, label)
+                     VALUES ($1, $2, $3, 'untriaged')
+                     ON CONFLICT (branch, test, sha256) DO NOTHING",
+                    args![branch, f.test, f.sha256],
                 )?;
             }
             stored = Some(StoredSubmission {
@@ -166,38 +191,104 @@ impl History {
         stored.ok_or_else(|| HistoryError::Invalid("the submission was not stored".into()))
     }
 
-    /// Labels `digest` of `test` (a digest a submission of that test had),
-    /// and logs who did it and why; refused for a digest the test never had.
+    /// Labels `digest` of `test` on `branch` (a digest a submission of
+    /// that test had, on any branch), and logs who did it and why; refused
+    /// for a digest the test never had.
     pub fn triage(
         &self,
+        branch: &str,
         test: &str,
         digest: &str,
         label: Label,
-        who: &str,
-        why: &str,
+        (who, why): (&str, &str),
     ) -> Result<(), HistoryError> {
+        self.db()
+            .transaction(&mut |tx| label_digest(tx, branch, test, digest, label, who, why))
+    }
+
+    /// Copies `branch`'s positive and negative labels into the main line
+    /// (the branch landed), each logged; returns how many.
+    pub fn promote(&self, branch: &str, who: &str, why: &str) -> Result<usize, HistoryError> {
+        if branch == MAIN {
+            return Err(HistoryError::Invalid(
+                "the main line is promoted into, not from".into(),
+            ));
+        }
+        let mut promoted = 0;
         self.db().transaction(&mut |tx| {
-            let changed = tx.execute(
-                "UPDATE digest_labels SET label = $3 WHERE test = $1 AND sha256 = $2",
-                args![test, digest, label.as_str()],
+            promoted = 0;
+            let said = tx.query(
+                "SELECT test, sha256, label FROM digest_labels
+                 WHERE branch = $1 AND label <> 'untriaged' ORDER BY test, sha256",
+                args![branch],
             )?;
-            if changed == 0 {
-                return Err(HistoryError::Invalid(format!(
-                    "test {test:?} has no digest {digest}: only a digest a submission of the test had can be triaged"
-                )));
+            let why = format!("promoted from {branch}: {why}");
+            for r in said {
+                let (test, sha) = (r.text(0)?, r.text(1)?);
+                let label = Label::parse(&r.text(2)?)?;
+                label_digest(tx, MAIN, &test, &sha, label, who, &why)?;
+                promoted += 1;
             }
-            tx.execute(
-                "INSERT INTO triage_log (at, test, sha256, label, who, why)
-                 VALUES ($1, $2, $3, $4, $5, $6)",
-                args![&now(), test, digest, label.as_str(), who, why],
-            )?;
             Ok(())
+        })?;
+        Ok(promoted)
+    }
+
+    /// Adds a rule that ignores failures of the tests `pattern` matches in
+    /// submissions with every one of `keys` (JSON object text), for
+    /// `lasting` from now; returns it.
+    pub fn add_ignore_rule(
+        &self,
+        pattern: &str,
+        keys: &str,
+        lasting: std::time::Duration,
+        (who, reason): (&str, &str),
+    ) -> Result<IgnoreRule, HistoryError> {
+        let expires_at = super::stamps::later(lasting);
+        let id = self
+            .db()
+            .query_opt(
+                "INSERT INTO ignore_rules (pattern, keys, created_at, expires_at, who, reason)
+                 VALUES ($1, $2, $3, $4, $5, $6) RETURNING id",
+                args![pattern, keys, &now(), &expires_at, who, reason],
+            )?
+            .ok_or_else(|| HistoryError::Invalid("an ignore rule without an id".into()))?
+            .int(0)?;
+        Ok(IgnoreRule {
+            id,
+            pattern: pattern.to_owned(),
+            keys: keys.to_owned(),
+            expires_at,
+            who: who.to_owned(),
+            reason: reason.to_owned(),
         })
+    }
+
+    /// The ignore rules that have not expired, oldest first.
+    pub fn active_ignore_rules(&self) -> Result<Vec<IgnoreRule>, HistoryError> {
+        self.db()
+            .query(
+                "SELECT id, pattern, keys, expires_at, who, reason FROM ignore_rules
+                 WHERE expires_at > $1 ORDER BY id",
+                args![&now()],
+            )?
+            .iter()
+            .map(|r| {
+                Ok(IgnoreRule {
+                    id: r.int(0)?,
+                    pattern: r.text(1)?,
+                    keys: r.text(2)?,
+                    expires_at: r.text(3)?,
+                    who: r.text(4)?,
+                    reason: r.text(5)?,
+                })
+            })
+            .collect()
     }
 
     /// The triage actions, oldest first; of one test when given.
     pub fn triage_log(&self, test: Option<&str>) -> Result<Vec<TriageEntry>, HistoryError> {
-        let columns = "SELECT at, test, sha256, label, who, why FROM triage_log";
+        let columns = "SELECT at, branch, test, sha256, label, who, why FROM triage_log";
         let rows = match test {
             Some(t) => self
                 .db()
@@ -208,11 +299,12 @@ impl History {
             .map(|r| {
                 Ok(TriageEntry {
                     at: r.text(0)?,
-                    test: r.text(1)?,
-                    digest: r.text(2)?,
-                    label: Label::parse(&r.text(3)?)?,
-                    who: r.text(4)?,
-                    why: r.text(5)?,
+                    branch: r.text(1)?,
+                    test: r.text(2)?,
+                    digest: r.text(3)?,
+                    label: Label::parse(&r.text(4)?)?,
+                    who: r.text(5)?,
+                    why: r.text(6)?,
                 })
             })
             .collect()
@@ -233,4 +325,52 @@ fn submission_by_key(db: &dyn Sql, key: &str) -> Result<Option<StoredSubmission>
         })
     })
     .transpose()
+}
+
+/// A rule that ignores failures of matching tests until it expires.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct IgnoreRule {
+    pub id: i64,
+    /// The tests it covers (`frames::rules::matches`).
+    pub pattern: String,
+    /// The submission keys it needs, as a JSON object.
+    pub keys: String,
+    pub expires_at: String,
+    pub who: String,
+    pub reason: String,
+}
+
+/// Sets the label of `digest` of `test` on `branch` and logs it, inside a
+/// transaction.
+fn label_digest(
+    tx: &dyn Sql,
+    branch: &str,
+    test: &str,
+    digest: &str,
+    label: Label,
+    who: &str,
+    why: &str,
+) -> Result<(), HistoryError> {
+    let seen = tx
+        .query_opt(
+            "SELECT 1 FROM digest_labels WHERE test = $1 AND sha256 = $2",
+            args![test, digest],
+        )?
+        .is_some();
+    if !seen {
+        return Err(HistoryError::Invalid(format!(
+            "test {test:?} has no digest {digest}: only a digest a submission of the test had can be triaged"
+        )));
+    }
+    tx.execute(
+        "INSERT INTO digest_labels (branch, test, sha256, label) VALUES ($1, $2, $3, $4)
+         ON CONFLICT (branch, test, sha256) DO UPDATE SET label = excluded.label",
+        args![branch, test, digest, label.as_str()],
+    )?;
+    tx.execute(
+        "INSERT INTO triage_log (at, branch, test, sha256, label, who, why)
+         VALUES ($1, $2, $3, $4, $5, $6, $7)",
+        args![&now(), branch, test, digest, label.as_str(), who, why],
+    )?;
+    Ok(())
 }

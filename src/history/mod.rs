@@ -37,7 +37,7 @@ pub use artifacts::{
     STRAY_GRACE,
 };
 pub use fleet::{ClaimedJob, Expired, RunnerInfo, RunnerRow, MAX_ATTEMPTS};
-pub use frames::{Label, NewFrame, StoredSubmission, TriageEntry};
+pub use frames::{IgnoreRule, Label, NewFrame, StoredSubmission, TriageEntry, MAIN};
 pub use jobs::{valid_label, JobRow, JobSpec, LISTED_SCENES, MAX_QUEUED_JOBS};
 pub use objects::{artifact_store, is_store_url, set_artifact_store, store_last_recovery, Objects};
 pub use reconnect::{last_recovery, set_retry_budget};

@@ -182,8 +182,10 @@ pub(super) const MIGRATIONS: &[&str] = &[
     // 8: frames a user's own renderer wrote (docs/frames.md): each
     //    submission (its idempotency key, its keys, its report), the frames
     //    in it by test name and digest (the SHA-256 of the file, whose bytes
-    //    are a blob), what people said of each digest of a test, and every
-    //    triage action, in order.
+    //    are a blob), what people said of each digest of a test on a branch
+    //    ('' is the main line, which every branch falls back to), every
+    //    triage action in order, and the rules that ignore failures of
+    //    matching tests until they expire.
     r#"
     CREATE TABLE frame_submissions (
         id              INTEGER PRIMARY KEY,
@@ -202,19 +204,31 @@ pub(super) const MIGRATIONS: &[&str] = &[
     );
     CREATE INDEX submitted_frames_by_blob ON submitted_frames (sha256);
     CREATE TABLE digest_labels (
+        branch TEXT NOT NULL,
         test   TEXT NOT NULL,
         sha256 TEXT NOT NULL REFERENCES blobs (sha256),
         label  TEXT NOT NULL CHECK (label IN ('positive', 'negative', 'untriaged')),
-        PRIMARY KEY (test, sha256)
+        PRIMARY KEY (branch, test, sha256)
     );
+    CREATE INDEX digest_labels_by_test ON digest_labels (test, branch);
     CREATE TABLE triage_log (
         id     INTEGER PRIMARY KEY,
         at     TEXT NOT NULL,
+        branch TEXT NOT NULL,
         test   TEXT NOT NULL,
         sha256 TEXT NOT NULL,
         label  TEXT NOT NULL,
         who    TEXT NOT NULL,
         why    TEXT NOT NULL
+    );
+    CREATE TABLE ignore_rules (
+        id         INTEGER PRIMARY KEY,
+        pattern    TEXT NOT NULL,
+        keys       TEXT NOT NULL,
+        created_at TEXT NOT NULL,
+        expires_at TEXT NOT NULL,
+        who        TEXT NOT NULL,
+        reason     TEXT NOT NULL
     );
     "#,
 ];

@@ -27,6 +27,16 @@ pub(super) fn ago(d: Duration) -> String {
     t.to_rfc3339_opts(chrono::SecondsFormat::Millis, true)
 }
 
+/// The current time plus `d`, in the stored form; a span past what the
+/// calendar holds gives the last time it does.
+pub(super) fn later(d: Duration) -> String {
+    let t = chrono::Duration::from_std(d)
+        .ok()
+        .and_then(|d| chrono::Utc::now().checked_add_signed(d))
+        .unwrap_or(chrono::DateTime::<chrono::Utc>::MAX_UTC);
+    t.to_rfc3339_opts(chrono::SecondsFormat::Millis, true)
+}
+
 /// This machine's name, for telling whose `running` rows may be judged dead.
 pub fn host_name() -> String {
     std::fs::read_to_string("/proc/sys/kernel/hostname")

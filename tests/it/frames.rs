@@ -10,8 +10,9 @@ use crate::common;
 use crate::common::postgres as pg;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
+use std::process::Output;
 use tonegate::env::BuiltinEnv;
-use tonegate::history::{History, Label};
+use tonegate::history::{History, Label, MAIN};
 use tonegate::image::{Frame, Image, Rgb16Image, Rgb8Image};
 use tonegate::io::{write_frame_png, write_image_hdr};
 
@@ -77,8 +78,8 @@ fn frame<'a>(report: &'a Value, test: &str) -> &'a Value {
         .unwrap_or_else(|| panic!("no frame {test} in {report}"))
 }
 
-fn triage(db: &Path, test: &str, digest: &str, label: &str) {
-    let out = common::tonegate(&[
+fn triage_run(db: &Path, test: &str, digest: &str, label: &str, more: &[&str]) -> Output {
+    let mut args = vec![
         "frames",
         "triage",
         "--db",
@@ -92,12 +93,22 @@ fn triage(db: &Path, test: &str, digest: &str, label: &str) {
         "ada",
         "--why",
         "looked right",
-    ]);
+    ];
+    args.extend_from_slice(more);
+    common::tonegate(&args)
+}
+
+fn triage_on(db: &Path, test: &str, digest: &str, label: &str, more: &[&str]) {
+    let out = triage_run(db, test, digest, label, more);
     assert!(
         out.status.success(),
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
+}
+
+fn triage(db: &Path, test: &str, digest: &str, label: &str) {
+    triage_on(db, test, digest, label, &[]);
 }
 
 /// On a SQLite history and on a PostgreSQL server the test starts.
@@ -152,7 +163,7 @@ fn first_run_triage_second_run(db: &Path, tmp: &Path) {
     // Each image is stored once however often it was submitted.
     let h = History::open(db).unwrap();
     for t in tests {
-        let labels = h.digest_labels(t).unwrap();
+        let labels = h.digest_labels(MAIN, t).unwrap();
         assert_eq!(labels.len(), 1, "{t}");
         assert_eq!(labels[0].1, Label::Positive);
         assert!(h.blob(&labels[0].0).unwrap().is_some());
@@ -236,11 +247,11 @@ fn a_retried_submission_stores_nothing_twice() {
     let retry = submit(&db, &dir, &["--idempotency-key", "ci-1234-frames"]);
     assert_eq!(retry.report, first.report);
     let h = History::open(&db).unwrap();
-    assert_eq!(h.digest_labels("ui/button").unwrap().len(), 1);
+    assert_eq!(h.digest_labels(MAIN, "ui/button").unwrap().len(), 1);
     // Another key is another submission.
     let other = submit(&db, &dir, &["--idempotency-key", "ci-1235-frames"]);
     assert_ne!(other.report["submission"], first.report["submission"]);
-    assert_eq!(h.digest_labels("ui/button").unwrap().len(), 2);
+    assert_eq!(h.digest_labels(MAIN, "ui/button").unwrap().len(), 2);
 }
 
 #[test]
@@ -310,24 +321,181 @@ fn bad_folders_are_refused_by_name_and_store_nothing() {
     case("empty", &|_| {}, "no images");
     // Nothing of any of them was stored.
     let h = History::open(&db).unwrap();
-    assert!(h.digest_labels("fine").unwrap().is_empty());
+    assert!(h.digest_labels(MAIN, "fine").unwrap().is_empty());
     assert!(h.triage_log(None).unwrap().is_empty());
     // Triage of a digest the test never had is refused.
+    let out = triage_run(&db, "fine", "00", "positive", &[]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("has no digest 00"));
+}
+
+/// A branch's submission uses the main line's positives and its own; what
+/// is triaged on the branch stays there until the branch is promoted, and
+/// the next main-line run sees it then.
+#[test]
+fn a_branch_falls_back_to_main_and_its_promotion_reaches_main() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (db, dir) = (tmp.path().join("h.sqlite"), tmp.path().join("frames"));
+    folder(&dir);
+    let first = submit(&db, &dir, &[]);
+    for f in first.report["frames"].as_array().unwrap() {
+        triage(
+            &db,
+            f["test"].as_str().unwrap(),
+            f["digest"].as_str().unwrap(),
+            "positive",
+        );
+    }
+    // The branch changes one frame.
+    write_frame_png(&dir.join("ui/button.png"), &Frame::Rgb8(frame8(7))).unwrap();
+    let on_branch = ["--key", "branch=feature-x"];
+    let branch = submit(&db, &dir, &on_branch);
+    assert_eq!(branch.code, 1);
+    assert_eq!(branch.report["branch"], "feature-x");
+    assert_eq!(
+        frame(&branch.report, "ui/menu")["status"],
+        "positive",
+        "main's positive"
+    );
+    let changed = frame(&branch.report, "ui/button");
+    assert_eq!(changed["status"], "untriaged");
+    let digest = changed["digest"].as_str().unwrap().to_owned();
+    triage_on(
+        &db,
+        "ui/button",
+        &digest,
+        "positive",
+        &["--branch", "feature-x"],
+    );
+    assert_eq!(submit(&db, &dir, &on_branch).code, 0);
+    // The main line has not seen it ("main" is the main line by name too).
+    let main = submit(&db, &dir, &["--key", "branch=main"]);
+    assert_eq!(main.code, 1);
+    assert_eq!(frame(&main.report, "ui/button")["status"], "untriaged");
     let out = common::tonegate(&[
         "frames",
-        "triage",
+        "promote",
         "--db",
         db.to_str().unwrap(),
-        "--test",
-        "fine",
-        "--digest",
-        "00",
-        "positive",
+        "--branch",
+        "feature-x",
         "--who",
         "ada",
         "--why",
-        "x",
+        "merged",
     ]);
-    assert_eq!(out.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("has no digest 00"));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(String::from_utf8_lossy(&out.stdout).starts_with("1 labels"));
+    let after = submit(&db, &dir, &[]);
+    assert_eq!(after.code, 0, "{}", after.report);
+    let log = History::open(&db)
+        .unwrap()
+        .triage_log(Some("ui/button"))
+        .unwrap();
+    let last = log.last().unwrap();
+    assert_eq!(
+        (last.branch.as_str(), last.why.as_str()),
+        ("", "promoted from feature-x: merged")
+    );
+}
+
+/// An ignore rule passes a failing frame of the tests and keys it covers,
+/// and no others, until it expires; then the frame fails again.
+#[test]
+fn an_ignore_rule_expires_and_the_frame_fails_again() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (db, dir) = (tmp.path().join("h.sqlite"), tmp.path().join("frames"));
+    std::fs::create_dir_all(dir.join("ui")).unwrap();
+    write_frame_png(&dir.join("ui/flaky.png"), &Frame::Rgb8(frame8(0))).unwrap();
+    assert_eq!(submit(&db, &dir, &[]).code, 1);
+    let seconds = 6.0;
+    let hours = format!("{}", seconds / 3600.0);
+    let out = common::tonegate(&[
+        "frames",
+        "ignore",
+        "--db",
+        db.to_str().unwrap(),
+        "--test",
+        "ui/*",
+        "--key",
+        "device=gpu-a",
+        "--hours",
+        &hours,
+        "--who",
+        "ada",
+        "--reason",
+        "driver bug 42",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let started = std::time::Instant::now();
+    let covered = submit(&db, &dir, &["--key", "device=gpu-a"]);
+    let other = submit(&db, &dir, &["--key", "device=gpu-b"]);
+    assert!(
+        started.elapsed().as_secs_f64() < seconds,
+        "the machine was too slow to see the rule live"
+    );
+    assert_eq!(covered.code, 0, "{}", covered.report);
+    let f = frame(&covered.report, "ui/flaky");
+    assert_eq!(f["status"], "ignored");
+    assert!(
+        f["detail"].as_str().unwrap().contains("driver bug 42"),
+        "{f}"
+    );
+    assert_eq!(other.code, 1, "another device is not covered");
+    std::thread::sleep(std::time::Duration::from_secs_f64(
+        seconds + 0.2 - started.elapsed().as_secs_f64().min(seconds),
+    ));
+    let expired = submit(&db, &dir, &["--key", "device=gpu-a"]);
+    assert_eq!(expired.code, 1);
+    assert_eq!(frame(&expired.report, "ui/flaky")["status"], "untriaged");
+    // Out-of-range durations are refused.
+    for bad in ["0", "-1", "9000", "nan"] {
+        let out = common::tonegate(&[
+            "frames",
+            "ignore",
+            "--db",
+            db.to_str().unwrap(),
+            "--test",
+            "x",
+            "--hours",
+            bad,
+            "--who",
+            "a",
+            "--reason",
+            "r",
+        ]);
+        assert_eq!(out.status.code(), Some(2), "--hours {bad}");
+    }
+}
+
+/// A thousand frames of fifty distinct images are fifty stored images.
+#[test]
+fn a_thousand_frames_of_fifty_images_store_fifty() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (db, dir) = (tmp.path().join("h.sqlite"), tmp.path().join("frames"));
+    std::fs::create_dir_all(&dir).unwrap();
+    let images: Vec<Vec<u8>> = (0..50)
+        .map(|i| {
+            let path = tmp.path().join(format!("src{i}.png"));
+            let img = Image::from_fn(16, 16, |x, y| [(x * 16) as u8, (y * 16) as u8, i as u8]);
+            write_frame_png(&path, &Frame::Rgb8(img)).unwrap();
+            std::fs::read(&path).unwrap()
+        })
+        .collect();
+    for n in 0..1000 {
+        std::fs::write(dir.join(format!("t{n:04}.png")), &images[n % 50]).unwrap();
+    }
+    let run = submit(&db, &dir, &[]);
+    assert_eq!(run.code, 1, "{}", run.stderr);
+    assert_eq!(run.report["frames"].as_array().unwrap().len(), 1000);
+    let stats = History::open(&db).unwrap().artifact_stats().unwrap();
+    assert_eq!(stats.blobs, 50);
 }
