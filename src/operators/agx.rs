@@ -134,10 +134,10 @@ impl ToneOperator for Agx {
             include_str!("../../shaders/operators/agx.wgsl"),
         )
     }
+    /// The look is in the uniform with the exposure, so an application
+    /// switches it per frame without a new pipeline.
     fn gpu_config(&self, v: &Values) -> Vec<f32> {
-        vec![v.num("exposure") as f32]
-    }
-    fn gpu_constants(&self, v: &Values) -> Vec<(&'static str, f64)> {
-        vec![("PUNCHY", (v.word("look") == "punchy") as u32 as f64)]
+        let punchy = v.word("look") == "punchy";
+        vec![v.num("exposure") as f32, f32::from(u8::from(punchy))]
     }
 }

@@ -293,8 +293,9 @@ fn views_and_settings_the_tone_mapper_cannot_use_are_refused_with_the_reason() {
 /// 100 frames into a ring of three `Bgra8UnormSrgb` render attachments (a
 /// swap chain's), the exposure changing every frame, compile nothing
 /// more. The frames are the bytes a mapper made for that exposure gives,
-/// so the uniform write took effect; switching to another operator
-/// compiles once, and switching back nothing.
+/// so the uniform write took effect; AgX's look is a uniform write too;
+/// switching to another operator compiles once, and switching back
+/// nothing.
 #[test]
 fn exposure_changes_per_frame_compile_nothing_after_prepare() {
     let (device, queue) = own_device("llvmpipe");
@@ -364,6 +365,30 @@ fn exposure_changes_per_frame_compile_nothing_after_prepare() {
     mapper.record(&mut encoder, &input, &views[0]).unwrap();
     queue.submit([encoder.finish()]);
     assert!(first != read(&device, &queue, &targets[0], 0));
+    // AgX's look is in the uniform too: the punchy look and back compile
+    // nothing, and the punchy frame is a fresh punchy mapper's.
+    let look = |word| ToneMapperSettings {
+        operator: Operator::named("agx", &[("look", Value::Word(word))]).unwrap(),
+        target: F::Bgra8UnormSrgb,
+        ..Default::default()
+    };
+    let frame_with = |m: &mut ToneMapper, k: usize| {
+        let mut encoder = device.create_command_encoder(&Default::default());
+        m.record(&mut encoder, &input, &views[k]).unwrap();
+        queue.submit([encoder.finish()]);
+        read(&device, &queue, &targets[k], 0)
+    };
+    mapper.set_settings(look("punchy")).unwrap();
+    let punchy = frame_with(&mut mapper, 1);
+    mapper.set_settings(look("none")).unwrap();
+    let plain = frame_with(&mut mapper, 1);
+    assert_eq!(mapper.compiled_pipelines(), prepared, "the look compiled");
+    let mut fresh = ToneMapper::new(&device, &queue, look("punchy")).unwrap();
+    assert!(
+        punchy == frame_with(&mut fresh, 2),
+        "the punchy look took effect"
+    );
+    assert!(punchy != plain);
     // Another operator is new pipelines, once; back again is none.
     let hable = ToneMapperSettings {
         operator: Operator::named("hable", &[]).unwrap(),
