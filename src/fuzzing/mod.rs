@@ -73,13 +73,26 @@ pub fn hdr(data: &[u8]) {
     }
 }
 
-/// A PNG as `compare` reads it.
+/// A PNG as `compare` reads it, and as a submitted frame is read (8-bit,
+/// or 16-bit with a cICP chunk saying PQ).
 pub fn png(data: &[u8]) {
     match crate::io::decode_png8(data, NAME) {
         Ok(img) => {
             let n = u64::from(img.width) * u64::from(img.height);
             assert!((1..=crate::io::DEFAULT_MAX_PIXELS).contains(&n));
             assert_eq!(img.pixels.len() as u64, n);
+        }
+        Err(e) => image_error(&e),
+    }
+    match crate::io::decode_frame_png(data, NAME) {
+        Ok(frame) => {
+            let (w, h, len) = match &frame {
+                crate::image::Frame::Rgb8(i) => (i.width, i.height, i.pixels.len()),
+                crate::image::Frame::Pq16(i) => (i.width, i.height, i.pixels.len()),
+            };
+            let n = u64::from(w) * u64::from(h);
+            assert!((1..=crate::io::DEFAULT_MAX_PIXELS).contains(&n));
+            assert_eq!(len as u64, n);
         }
         Err(e) => image_error(&e),
     }
