@@ -41,21 +41,21 @@ impl Ignores {
 pub(super) struct On<'a> {
     pub history: &'a History,
     pub rules: &'a Rules,
-    /// The branch whose triage applies (falling back to the main line's).
-    pub branch: &'a str,
     pub ignores: &'a Ignores,
 }
 
 impl On<'_> {
     /// One frame's verdict; a failing one that an ignore rule covers is
     /// `ignored`, and passes.
+    /// `labels`: its test's digests and their labels on the branch;
+    /// `image`: the frame decoded, which an untriaged digest needs.
     pub(super) fn judge(
         &self,
         input: &Input,
-        digest: &str,
-        image: &Decoded,
+        (digest, labels): (&str, &[(String, Label)]),
+        image: Option<&Decoded>,
     ) -> Result<FrameVerdict, FramesError> {
-        let mut v = judge(self, input, digest, image)?;
+        let mut v = judge(self, input, (digest, labels), image)?;
         if !v.passed || v.warning {
             if let Some(r) = self.ignores.covering(&input.test) {
                 v.detail = format!(
@@ -74,11 +74,10 @@ impl On<'_> {
 fn judge(
     on: &On,
     input: &Input,
-    digest: &str,
-    image: &Decoded,
+    (digest, labels): (&str, &[(String, Label)]),
+    image: Option<&Decoded>,
 ) -> Result<FrameVerdict, FramesError> {
     let (history, rules) = (on.history, on.rules);
-    let labels = history.digest_labels(on.branch, &input.test)?;
     let label = labels
         .iter()
         .find(|(d, _)| d == digest)
@@ -113,6 +112,12 @@ fn judge(
         }
         Label::Untriaged => {}
     }
+    let Some(image) = image else {
+        return Err(FramesError::File {
+            file: input.path.display().to_string(),
+            detail: "an untriaged frame reached judging undecoded (a tonegate bug)".into(),
+        });
+    };
     let rule = rules.for_test(&input.test);
     let mut best: Option<Closest> = None;
     let mut problems = Vec::new();

@@ -163,11 +163,18 @@ impl History {
                 .ok_or_else(|| HistoryError::Invalid("a submission without an id".into()))?
                 .int(0)?;
             for f in frames {
-                tx.execute(
-                    "INSERT INTO blobs (sha256, size, data, stored_at) VALUES ($1, $2, $3, $4)
-                     ON CONFLICT (sha256) DO UPDATE SET stored_at = excluded.stored_at",
-                    args![f.sha256, f.bytes.len(), f.bytes, &at],
-                )?;
+                // An image the history holds is not written again (nor
+                // touched: updating a row rewrites its whole blob); the
+                // frame's row keeps it from a prune from now on.
+                let held = tx
+                    .query_opt("SELECT 1 FROM blobs WHERE sha256 = $1", args![f.sha256])?
+                    .is_some();
+                if !held {
+                    tx.execute(
+                        "INSERT INTO blobs (sha256, size, data, stored_at) VALUES ($1, $2, $3, $4)",
+                        args![f.sha256, f.bytes.len(), f.bytes, &at],
+                    )?;
+                }
                 tx.execute(
                     "INSERT INTO submitted_frames (submission_id, test, sha256, verdict)
                      VALUES ($1, $2, $3, $4)",
