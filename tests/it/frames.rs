@@ -78,33 +78,30 @@ fn frame<'a>(report: &'a Value, test: &str) -> &'a Value {
         .unwrap_or_else(|| panic!("no frame {test} in {report}"))
 }
 
-fn triage_run(db: &Path, test: &str, digest: &str, label: &str, more: &[&str]) -> Output {
-    let mut args = vec![
-        "frames",
-        "triage",
-        "--db",
-        db.to_str().unwrap(),
-        "--test",
-        test,
-        "--digest",
-        digest,
-        label,
-        "--who",
-        "ada",
-        "--why",
-        "looked right",
-    ];
-    args.extend_from_slice(more);
-    common::tonegate(&args)
+/// `tonegate frames SUB --db DB ARGS...`.
+fn frames_cmd(db: &Path, sub: &str, args: &[&str]) -> Output {
+    let mut all = vec!["frames", sub, "--db", db.to_str().unwrap()];
+    all.extend_from_slice(args);
+    common::tonegate(&all)
 }
 
-fn triage_on(db: &Path, test: &str, digest: &str, label: &str, more: &[&str]) {
-    let out = triage_run(db, test, digest, label, more);
+fn succeeded(out: &Output) {
     assert!(
         out.status.success(),
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
+}
+
+fn triage_run(db: &Path, test: &str, digest: &str, label: &str, more: &[&str]) -> Output {
+    let mut args = vec!["--test", test, "--digest", digest, label];
+    args.extend_from_slice(&["--who", "ada", "--why", "looked right"]);
+    args.extend_from_slice(more);
+    frames_cmd(db, "triage", &args)
+}
+
+fn triage_on(db: &Path, test: &str, digest: &str, label: &str, more: &[&str]) {
+    succeeded(&triage_run(db, test, digest, label, more));
 }
 
 fn triage(db: &Path, test: &str, digest: &str, label: &str) {
@@ -145,7 +142,7 @@ fn first_run_triage_second_run(db: &Path, tmp: &Path) {
         assert_eq!(frame(&second.report, t)["status"], "positive");
     }
     // The log says who did what, in order; JUnit has a case a frame.
-    let log = common::tonegate(&["frames", "log", "--db", db.to_str().unwrap(), "--json", "-"]);
+    let log = frames_cmd(db, "log", &["--json", "-"]);
     let log: Value = serde_json::from_slice(&log.stdout).unwrap();
     let logged: Vec<&str> = log
         .as_array()
@@ -372,23 +369,12 @@ fn a_branch_falls_back_to_main_and_its_promotion_reaches_main() {
     let main = submit(&db, &dir, &["--key", "branch=main"]);
     assert_eq!(main.code, 1);
     assert_eq!(frame(&main.report, "ui/button")["status"], "untriaged");
-    let out = common::tonegate(&[
-        "frames",
+    let out = frames_cmd(
+        &db,
         "promote",
-        "--db",
-        db.to_str().unwrap(),
-        "--branch",
-        "feature-x",
-        "--who",
-        "ada",
-        "--why",
-        "merged",
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+        &["--branch", "feature-x", "--who", "ada", "--why", "merged"],
     );
+    succeeded(&out);
     assert!(String::from_utf8_lossy(&out.stdout).starts_with("1 labels"));
     let after = submit(&db, &dir, &[]);
     assert_eq!(after.code, 0, "{}", after.report);
@@ -414,27 +400,23 @@ fn an_ignore_rule_expires_and_the_frame_fails_again() {
     assert_eq!(submit(&db, &dir, &[]).code, 1);
     let seconds = 6.0;
     let hours = format!("{}", seconds / 3600.0);
-    let out = common::tonegate(&[
-        "frames",
+    let out = frames_cmd(
+        &db,
         "ignore",
-        "--db",
-        db.to_str().unwrap(),
-        "--test",
-        "ui/*",
-        "--key",
-        "device=gpu-a",
-        "--hours",
-        &hours,
-        "--who",
-        "ada",
-        "--reason",
-        "driver bug 42",
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+        &[
+            "--test",
+            "ui/*",
+            "--key",
+            "device=gpu-a",
+            "--hours",
+            &hours,
+            "--who",
+            "ada",
+            "--reason",
+            "driver bug 42",
+        ],
     );
+    succeeded(&out);
     let started = std::time::Instant::now();
     let covered = submit(&db, &dir, &["--key", "device=gpu-a"]);
     let other = submit(&db, &dir, &["--key", "device=gpu-b"]);
@@ -458,20 +440,8 @@ fn an_ignore_rule_expires_and_the_frame_fails_again() {
     assert_eq!(frame(&expired.report, "ui/flaky")["status"], "untriaged");
     // Out-of-range durations are refused.
     for bad in ["0", "-1", "9000", "nan"] {
-        let out = common::tonegate(&[
-            "frames",
-            "ignore",
-            "--db",
-            db.to_str().unwrap(),
-            "--test",
-            "x",
-            "--hours",
-            bad,
-            "--who",
-            "a",
-            "--reason",
-            "r",
-        ]);
+        let args = ["--test", "x", "--hours", bad, "--who", "a", "--reason", "r"];
+        let out = frames_cmd(&db, "ignore", &args);
         assert_eq!(out.status.code(), Some(2), "--hours {bad}");
     }
 }

@@ -7,11 +7,12 @@
 //! same machine at the same moment.
 
 mod embedding;
+mod floors;
 
 pub use embedding::{embedding_stages, hdr_input, texture, EmbeddingBenchError, EmbeddingStage};
 
 use super::timing::TIMING_SLOTS;
-use super::{AdapterReport, GpuConfig, GpuContext, GpuError, GpuInput, GpuRenderer, HdrFormat};
+use super::{AdapterReport, GpuConfig, GpuContext, GpuError, GpuInput, GpuRenderer};
 use crate::conventions::{rotation_matrix, Camera};
 use crate::env::BuiltinEnv;
 use crate::operators::Operator;
@@ -19,6 +20,7 @@ use crate::perf::{quantile, summarise, StageTiming};
 use crate::plan::StagePlan;
 use crate::reference::Pipeline;
 use crate::scene::{Bloom, BrightPass, Encoding, Factor, NonNegative, Positive, Radius, TaaParams};
+use floors::{median_ratio, Floors};
 use serde::Serialize;
 
 #[derive(Clone, Debug)]
@@ -137,66 +139,6 @@ pub fn bench_operator() -> (Operator, Bloom) {
         strength: NonNegative::try_from(0.5).unwrap_or_else(|_| unreachable!()),
     };
     (op, bloom)
-}
-
-/// The two floor passes, recorded after a frame's stages in the same
-/// submission and timed in their own query slots.
-struct Floors {
-    write: super::stages::Dispatch,
-    read_write: super::stages::Dispatch,
-    queries: super::timing::Queries,
-    _textures: [wgpu::Texture; 2],
-}
-
-impl Floors {
-    const NAMES: [&'static str; 2] = ["floor", "floor_rw"];
-
-    /// None where the adapter has no timestamps (nothing to time).
-    fn new(ctx: &GpuContext, width: u32, height: u32, format: HdrFormat) -> Option<Floors> {
-        let queries = super::timing::Queries::new(ctx, 2)?;
-        let input = super::stages::hdr_texture(ctx, "tonegate.floor_in", width, height, format);
-        let out = super::stages::hdr_texture(ctx, "tonegate.floor", width, height, format);
-        Some(Floors {
-            write: super::floor::floor(ctx, format, &out),
-            read_write: super::floor::floor_rw(ctx, format, &input, &out),
-            queries,
-            _textures: [input, out],
-        })
-    }
-
-    fn encode(&self, encoder: &mut wgpu::CommandEncoder, slot: u32) {
-        for (i, d) in [&self.write, &self.read_write].into_iter().enumerate() {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some(&format!("tonegate.{}", Self::NAMES[i])),
-                timestamp_writes: Some(self.queries.writes(slot, i)),
-            });
-            d.record(&mut pass);
-        }
-        self.queries.resolve(encoder, slot);
-    }
-}
-
-/// The median over frames of `stage`'s time / `floor`'s in the same frame.
-fn median_ratio(
-    frames: &[Vec<StageTiming>],
-    floors: &[Vec<StageTiming>],
-    stage: &str,
-    floor: usize,
-) -> f64 {
-    let ratios: Vec<f64> = frames
-        .iter()
-        .zip(floors)
-        .filter_map(|(f, fl)| {
-            let s = f.iter().find(|t| t.stage == stage)?.ms;
-            let d = fl.get(floor)?.ms;
-            (d > 0.0).then_some(s / d)
-        })
-        .collect();
-    if ratios.is_empty() {
-        f64::NAN
-    } else {
-        quantile(&ratios, 0.5)
-    }
 }
 
 /// A renderer of the bench's full plan at `width`×`height` over the built-in
