@@ -194,6 +194,8 @@ fn measure(label: &str, db: PathBuf, runs: usize) {
             limits: Limits::default(),
             conn: Default::default(),
             hold_workers: None,
+            scoped: Default::default(),
+            alerts: None,
         })
         .await
         .unwrap();

@@ -13,6 +13,8 @@
 //! and `s3` a fleet's history and artifact store, `server` the HTTP API and
 //! the runner, `cli` the binary.
 
+#[cfg(feature = "server")]
+pub mod alerts;
 pub mod changepoint;
 pub mod check;
 pub mod color;

@@ -52,6 +52,10 @@ pub struct CheckArgs {
     /// checks catch a broken TAA.
     #[arg(long, value_enum)]
     pub taa_fault: Option<tonegate::gpu::TaaFault>,
+    /// Fault injection: wait this many milliseconds after each rendered
+    /// frame, to prove a drop in FPS is found (a change point, an alert).
+    #[arg(long, value_name = "MS", value_parser = clap::value_parser!(u32).range(1..=10_000))]
+    pub fault_delay_ms: Option<u32>,
     /// Only this scene of the suite (repeatable); the stress suite is then
     /// skipped.
     #[arg(long = "scene")]
@@ -118,6 +122,7 @@ pub fn check(a: CheckArgs) -> Result<ExitCode> {
         let mut config = a.gpu.config();
         config.fault_gain = a.fault_gain;
         config.taa_fault = a.taa_fault;
+        config.fault_delay_ms = a.fault_delay_ms;
         Renderer::Gpu {
             adapter: a.gpu.adapter(),
             config,

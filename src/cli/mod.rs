@@ -166,6 +166,7 @@ impl GpuArgs {
             execution: self.execution,
             fault_gain: None,
             taa_fault: None,
+            fault_delay_ms: None,
         }
     }
 }

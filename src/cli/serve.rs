@@ -20,9 +20,21 @@ pub struct ServeArgs {
     /// mode 0600) when the file does not exist. Default: `token` beside the database.
     #[arg(long, env = "TONEGATE_TOKEN_FILE")]
     pub token_file: Option<PathBuf>,
-    /// Require the token for reads too (the dashboard then asks for it).
+    /// A token that may only submit frames (what a CI job holds); created
+    /// like --token-file's when the file does not exist.
+    #[arg(long, env = "TONEGATE_SUBMIT_TOKEN_FILE")]
+    pub submit_token_file: Option<PathBuf>,
+    /// A token that may only triage frames (mark digests, promote branches,
+    /// add ignore rules); created like --token-file's when the file does not exist.
+    #[arg(long, env = "TONEGATE_TRIAGE_TOKEN_FILE")]
+    pub triage_token_file: Option<PathBuf>,
+    /// Require a token for reads too (the dashboard then asks for it).
     #[arg(long)]
     pub private_reads: bool,
+    /// Scan the history for alerts and deliver them to the webhooks this
+    /// file names (docs/alerts.md).
+    #[arg(long, value_name = "FILE")]
+    pub alerts: Option<PathBuf>,
     /// The suite `POST /api/v1/runs` runs.
     #[arg(long, default_value = "golden/suite.toml")]
     pub suite: PathBuf,
@@ -100,6 +112,33 @@ pub fn serve(a: ServeArgs) -> Result<ExitCode> {
         dir.join("token")
     });
     let token = tonegate::server::load_or_make_token(&token_file)?;
+    let scoped_token = |file: &Option<PathBuf>| -> Result<Option<String>> {
+        let Some(f) = file else { return Ok(None) };
+        let t = tonegate::server::load_or_make_token(f)?;
+        if t == token {
+            return Err(Error::Invalid(format!(
+                "{}: the same token as --token-file's; a scoped token must be its own",
+                f.display()
+            )));
+        }
+        Ok(Some(t))
+    };
+    let scoped = tonegate::server::ScopedTokens {
+        submit: scoped_token(&a.submit_token_file)?,
+        triage: scoped_token(&a.triage_token_file)?,
+    };
+    if scoped.submit.is_some() && scoped.submit == scoped.triage {
+        return Err(Error::Invalid(
+            "--submit-token-file and --triage-token-file hold the same token; each scope needs its own"
+                .into(),
+        ));
+    }
+    let alerts = a
+        .alerts
+        .as_deref()
+        .map(tonegate::alerts::Alerts::load)
+        .transpose()
+        .map_err(Error::Invalid)?;
     let opts = ServeOptions {
         bind: a.bind,
         db: a.db.db.clone(),
@@ -122,6 +161,8 @@ pub fn serve(a: ServeArgs) -> Result<ExitCode> {
             header_timeout: std::time::Duration::from_secs(a.header_timeout),
         },
         hold_workers: None,
+        scoped,
+        alerts,
     };
     let _ = tracing_subscriber::fmt()
         .with_writer(std::io::stderr)

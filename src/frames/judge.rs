@@ -85,7 +85,7 @@ fn judge(
     let verdict =
         |status: Status, passed: bool, closest: Option<Closest>, detail: String| FrameVerdict {
             test: input.test.clone(),
-            file: input.path.display().to_string(),
+            file: input.file.clone(),
             digest: digest.to_owned(),
             status,
             passed,
@@ -114,7 +114,7 @@ fn judge(
     }
     let Some(image) = image else {
         return Err(FramesError::File {
-            file: input.path.display().to_string(),
+            file: input.file.clone(),
             detail: "an untriaged frame reached judging undecoded (a tonegate bug)".into(),
         });
     };

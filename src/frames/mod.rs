@@ -61,11 +61,23 @@ pub enum FramesError {
     History(#[from] HistoryError),
 }
 
-/// A file to submit: the test it is a frame of, and where it is.
+/// A file to submit: the test it is a frame of, what errors and reports
+/// call it (its path, or an uploaded part's file name), and its bytes or
+/// where they are.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Input {
     pub test: String,
-    pub path: PathBuf,
+    pub file: String,
+    pub source: Source,
+}
+
+/// Where a submitted file's bytes are.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Source {
+    /// A file, read (its size checked first) when the submission is judged.
+    Path(PathBuf),
+    /// Bytes already received (an upload, its size checked as it came).
+    Bytes(Vec<u8>),
 }
 
 /// A submitted image decoded: a display frame (8-bit, or 16-bit PQ), or
@@ -135,7 +147,11 @@ pub fn collect_folder(folder: &Path) -> Result<Vec<Input>, FramesError> {
     }
     Ok(found
         .into_iter()
-        .map(|(test, path)| Input { test, path })
+        .map(|(test, path)| Input {
+            test,
+            file: path.display().to_string(),
+            source: Source::Path(path),
+        })
         .collect())
 }
 
@@ -205,23 +221,28 @@ struct Read {
     labels: Vec<(String, crate::history::Label)>,
 }
 
-fn read(input: Input) -> Result<Read, FramesError> {
-    let file = input.path.display().to_string();
-    let meta = std::fs::metadata(&input.path).map_err(|e| FramesError::File {
-        file: file.clone(),
-        detail: e.to_string(),
-    })?;
-    if meta.len() > MAX_FILE_BYTES {
-        return Err(FramesError::TooBig {
-            file,
-            bytes: meta.len(),
-            max: MAX_FILE_BYTES,
-        });
-    }
-    let bytes = std::fs::read(&input.path).map_err(|e| FramesError::File {
-        file: file.clone(),
-        detail: e.to_string(),
-    })?;
+fn read(mut input: Input) -> Result<Read, FramesError> {
+    let file = input.file.clone();
+    let bytes = match std::mem::replace(&mut input.source, Source::Bytes(Vec::new())) {
+        Source::Bytes(bytes) => bytes,
+        Source::Path(path) => {
+            let meta = std::fs::metadata(&path).map_err(|e| FramesError::File {
+                file: file.clone(),
+                detail: e.to_string(),
+            })?;
+            if meta.len() > MAX_FILE_BYTES {
+                return Err(FramesError::TooBig {
+                    file,
+                    bytes: meta.len(),
+                    max: MAX_FILE_BYTES,
+                });
+            }
+            std::fs::read(&path).map_err(|e| FramesError::File {
+                file: file.clone(),
+                detail: e.to_string(),
+            })?
+        }
+    };
     let digest = hex::encode(Sha256::digest(&bytes));
     Ok(Read {
         input,
@@ -230,6 +251,37 @@ fn read(input: Input) -> Result<Read, FramesError> {
         image: None,
         labels: Vec::new(),
     })
+}
+
+/// A test name an uploaded file's name gives (`ui/button.png` is a frame
+/// of `ui/button`): `/`-separated plain names, no `.` or `..`, no empty
+/// part, no backslash or control character, and an image extension.
+pub fn test_of_upload(name: &str) -> Result<String, FramesError> {
+    let bad = |detail: &str| FramesError::File {
+        file: name.to_owned(),
+        detail: detail.to_owned(),
+    };
+    let (stem, ext) = name
+        .rsplit_once('.')
+        .filter(|(stem, _)| !stem.is_empty() && !stem.ends_with('/'))
+        .ok_or_else(|| bad("no extension: name each image test.png, .exr, .hdr or .pfm"))?;
+    if !EXTENSIONS.contains(&ext.to_ascii_lowercase().as_str()) {
+        return Err(bad("not an image extension (.png, .exr, .hdr, .pfm)"));
+    }
+    if name.len() > 512 {
+        return Err(bad("a name over 512 bytes"));
+    }
+    for part in stem.split('/') {
+        if part.is_empty() || part == "." || part == ".." {
+            return Err(bad(
+                "a test name is a plain relative path: no empty part, '.', '..' or leading '/'",
+            ));
+        }
+        if part.chars().any(|c| c == '\\' || c.is_control()) {
+            return Err(bad("a backslash or control character in the name"));
+        }
+    }
+    Ok(stem.to_owned())
 }
 
 /// Decodes a submitted image: a PNG (by its signature) as a frame, 8-bit
@@ -298,8 +350,7 @@ pub fn submit(history: &History, s: Submission) -> Result<SubmissionReport, Fram
         .enumerate()
         .filter(|(i, _)| undecided.binary_search(i).is_ok())
         .try_for_each(|(_, r)| {
-            let file = r.input.path.display().to_string();
-            r.image = Some(decode_bytes(&r.bytes, &file)?);
+            r.image = Some(decode_bytes(&r.bytes, &r.input.file)?);
             Ok::<(), FramesError>(())
         })?;
     let ignores = judge::Ignores::of(history.active_ignore_rules()?, &s.keys);

@@ -85,11 +85,14 @@ impl Rules {
     pub fn load(path: &Path) -> Result<Rules, String> {
         let text = std::fs::read_to_string(path)
             .map_err(|e| format!("reading {}: {e}", path.display()))?;
-        let rules: Rules =
-            toml::from_str(&text).map_err(|e| format!("{}: {}", path.display(), e.message()))?;
-        rules
-            .check()
-            .map_err(|e| format!("{}: {e}", path.display()))?;
+        Rules::parse(&text, &path.display().to_string())
+    }
+
+    /// Parses and checks a rules file's text; `name` says where it came
+    /// from in errors.
+    pub fn parse(text: &str, name: &str) -> Result<Rules, String> {
+        let rules: Rules = toml::from_str(text).map_err(|e| format!("{name}: {}", e.message()))?;
+        rules.check().map_err(|e| format!("{name}: {e}"))?;
         Ok(rules)
     }
 

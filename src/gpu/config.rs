@@ -146,6 +146,12 @@ pub struct GpuConfig {
     /// checks catch one (`check --taa-fault no-clip`). None in every real run.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub taa_fault: Option<TaaFault>,
+    /// Fault injection: wait this many milliseconds after each frame of a
+    /// sequence, a deliberately slower renderer that proves a change in
+    /// FPS is found and alerted on (`check --fault-delay-ms 40`). None in
+    /// every real run.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fault_delay_ms: Option<u32>,
 }
 
 /// The ways `check --taa-fault` breaks the TAA stage.

@@ -10,7 +10,7 @@ use super::{now, History, HistoryError};
 use serde::Serialize;
 
 /// What people said of a digest of a test.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, serde::Deserialize, utoipa::ToSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum Label {
     /// The test's image may look like this.
@@ -156,9 +156,9 @@ impl History {
             let at = now();
             let id = tx
                 .query_opt(
-                    "INSERT INTO frame_submissions (idempotency_key, submitted_at, keys, passed, report)
-                     VALUES ($1, $2, $3, $4, $5) RETURNING id",
-                    args![key, &at, keys, passed, report],
+                    "INSERT INTO frame_submissions (idempotency_key, submitted_at, keys, passed, report, branch)
+                     VALUES ($1, $2, $3, $4, $5, $6) RETURNING id",
+                    args![key, &at, keys, passed, report, branch],
                 )?
                 .ok_or_else(|| HistoryError::Invalid("a submission without an id".into()))?
                 .int(0)?;
@@ -209,8 +209,23 @@ impl History {
         label: Label,
         (who, why): (&str, &str),
     ) -> Result<(), HistoryError> {
-        self.db()
-            .transaction(&mut |tx| label_digest(tx, branch, test, digest, label, who, why))
+        self.triage_many(branch, &[(test, digest, label)], (who, why))
+    }
+
+    /// Labels several digests at once, each logged: all of them or, when
+    /// one cannot be (a digest its test never had), none.
+    pub fn triage_many(
+        &self,
+        branch: &str,
+        actions: &[(&str, &str, Label)],
+        (who, why): (&str, &str),
+    ) -> Result<(), HistoryError> {
+        self.db().transaction(&mut |tx| {
+            for &(test, digest, label) in actions {
+                label_digest(tx, branch, test, digest, label, who, why)?;
+            }
+            Ok(())
+        })
     }
 
     /// Copies `branch`'s positive and negative labels into the main line

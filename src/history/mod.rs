@@ -11,6 +11,7 @@
 //! marks it `aborted` when the process that owned it is gone.
 
 mod address;
+mod alerts;
 mod artifacts;
 pub(crate) mod backend;
 mod fleet;
@@ -30,8 +31,10 @@ mod record;
 mod schema;
 mod sqlite;
 mod stamps;
+mod submissions;
 
 pub use address::{is_url, redacted, without_host};
+pub use alerts::{AlertAttempt, AlertDelivery, AlertRow, Attempted, DueDelivery, RunBrief};
 pub use artifacts::{
     ArtifactStats, Kept, PendingDone, PendingImage, PendingName, Pruned, StoredArtifact,
     STRAY_GRACE,
@@ -51,6 +54,7 @@ use schema::MIGRATIONS;
 pub use schema::SCHEMA_VERSION;
 use stamps::{ago, process_start};
 pub use stamps::{git_commit, host_name, now, write_problem};
+pub use submissions::{SubmissionRow, SubmittedFrame};
 
 /// The schema's migrations, oldest first: for tests and tools that build a
 /// history as an older tonegate wrote it.

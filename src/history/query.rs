@@ -102,7 +102,12 @@ fn mark_changes(points: &mut [TrendPoint]) {
 fn series_config(config: &str) -> String {
     match serde_json::from_str::<serde_json::Value>(config) {
         Ok(serde_json::Value::Object(mut m)) => {
-            for k in ["fault_gain", "taa_fault", "adapter_chosen"] {
+            for k in [
+                "fault_gain",
+                "taa_fault",
+                "fault_delay_ms",
+                "adapter_chosen",
+            ] {
                 m.remove(k);
             }
             serde_json::Value::Object(m).to_string()

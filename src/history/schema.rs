@@ -231,6 +231,46 @@ pub(super) const MIGRATIONS: &[&str] = &[
         reason     TEXT NOT NULL
     );
     "#,
+    // 9: a submission's branch as the history keys it ('' the main line),
+    //    so a submission's digests can be triaged together; alerts
+    //    (docs/alerts.md): each event once by its key, a delivery of it to
+    //    each webhook with its state and back-off, every attempt, and the
+    //    run and submission ids alerts start after (what was recorded
+    //    before alerts were set up raises none).
+    r#"
+    ALTER TABLE frame_submissions ADD COLUMN branch TEXT NOT NULL DEFAULT '';
+    CREATE TABLE alert_events (
+        id         INTEGER PRIMARY KEY,
+        event_key  TEXT NOT NULL UNIQUE,
+        kind       TEXT NOT NULL,
+        created_at TEXT NOT NULL,
+        summary    TEXT NOT NULL,
+        payload    TEXT NOT NULL
+    );
+    CREATE TABLE alert_deliveries (
+        id            INTEGER PRIMARY KEY,
+        event_id      INTEGER NOT NULL REFERENCES alert_events (id) ON DELETE CASCADE,
+        webhook       TEXT NOT NULL,
+        state         TEXT NOT NULL CHECK (state IN ('pending', 'delivered', 'failed')),
+        attempts      INTEGER NOT NULL,
+        next_at       TEXT NOT NULL,
+        claimed_until TEXT,
+        delivered_at  TEXT,
+        UNIQUE (event_id, webhook)
+    );
+    CREATE INDEX alert_deliveries_due ON alert_deliveries (state, next_at);
+    CREATE TABLE alert_attempts (
+        id          INTEGER PRIMARY KEY,
+        delivery_id INTEGER NOT NULL REFERENCES alert_deliveries (id) ON DELETE CASCADE,
+        at          TEXT NOT NULL,
+        status      INTEGER,
+        error       TEXT
+    );
+    CREATE TABLE alert_marks (
+        name  TEXT PRIMARY KEY,
+        value INTEGER NOT NULL
+    );
+    "#,
 ];
 
 /// The schema version this build writes.

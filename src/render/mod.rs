@@ -412,6 +412,11 @@ impl<'a> SceneRenderer<'a> {
             }
             frames.push(f.image);
             progress(f.index);
+            if let Engine::Gpu(r) = &self.engine {
+                if let Some(ms) = r.config.fault_delay_ms {
+                    std::thread::sleep(std::time::Duration::from_millis(u64::from(ms)));
+                }
+            }
             Ok(())
         })?;
         let wall_s = start.elapsed().as_secs_f64();

@@ -180,7 +180,7 @@ where
 
 /// A body over the limit is 413, as the server answers a raw body over it;
 /// anything else wrong with the form is the client's, 400.
-fn multipart_error(e: &multer::Error) -> ApiError {
+pub fn multipart_error(e: &multer::Error) -> ApiError {
     if let multer::Error::StreamReadFailed(inner) = e {
         if let Some(BodyError::Busy(detail)) = inner.downcast_ref::<BodyError>() {
             return ApiError::unavailable("busy", detail.clone(), 1);

@@ -1,5 +1,7 @@
-//! Who may do what: the bearer token for everything that changes state,
-//! and for reads too under `--private-reads`.
+//! Who may do what: the server's bearer token for everything that changes
+//! state, a submit token for submitting frames and a triage token for
+//! triaging them (each besides the server's), and any of them for reads
+//! under `--private-reads`.
 
 use super::error::ApiError;
 use super::AppState;
@@ -21,25 +23,101 @@ fn same_secret(a: &[u8], b: &[u8]) -> bool {
     a.len() == b.len() && a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
 }
 
+/// What a token may do. The server's own token (`--token-file`) may do
+/// everything; the scoped tokens one thing each.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scope {
+    /// Start runs and the rest of what only the server's token may do.
+    Write,
+    /// Submit frames (`--submit-token-file`): what a CI job holds.
+    Submit,
+    /// Triage digests, promote branches, add ignore rules
+    /// (`--triage-token-file`): what the people who look at images hold.
+    Triage,
+}
+
+impl Scope {
+    fn what(self) -> &'static str {
+        match self {
+            Scope::Write => "the server's token (serve --token-file)",
+            Scope::Submit => "the submit token (serve --submit-token-file) or the server's",
+            Scope::Triage => "the triage token (serve --triage-token-file) or the server's",
+        }
+    }
+}
+
+/// The tokens that scopes other than `Write` may use.
+#[derive(Clone, Debug, Default)]
+pub struct ScopedTokens {
+    pub submit: Option<String>,
+    pub triage: Option<String>,
+}
+
 impl AppState {
-    pub fn authorize_write(&self, headers: &HeaderMap) -> Result<(), ApiError> {
+    /// The scope of the request's token: 401 without one, 403 for one
+    /// that is none of this server's.
+    fn token_scope(&self, headers: &HeaderMap, wanted: Scope) -> Result<Scope, ApiError> {
         let given = headers
             .get(header::AUTHORIZATION)
             .and_then(|v| v.to_str().ok())
             .and_then(bearer_token);
-        match given {
-            None => Err(ApiError::new(
+        let Some(given) = given.map(|t| t.trim().as_bytes()) else {
+            return Err(ApiError::new(
                 StatusCode::UNAUTHORIZED,
                 "unauthorized",
-                "this needs the bearer token: Authorization: Bearer <token> (serve --token-file)",
-            )),
-            Some(t) if same_secret(t.trim().as_bytes(), self.token.as_bytes()) => Ok(()),
-            Some(_) => Err(ApiError::new(
+                format!(
+                    "this needs a bearer token, Authorization: Bearer <token>: {}",
+                    wanted.what()
+                ),
+            ));
+        };
+        // Every token is compared, whichever matches, so the time taken
+        // does not say which one was close.
+        let admin = same_secret(given, self.token.as_bytes());
+        let submit = self
+            .scoped
+            .submit
+            .as_ref()
+            .is_some_and(|t| same_secret(given, t.as_bytes()));
+        let triage = self
+            .scoped
+            .triage
+            .as_ref()
+            .is_some_and(|t| same_secret(given, t.as_bytes()));
+        match (admin, submit, triage) {
+            (true, _, _) => Ok(Scope::Write),
+            (_, true, _) => Ok(Scope::Submit),
+            (_, _, true) => Ok(Scope::Triage),
+            _ => Err(ApiError::new(
                 StatusCode::FORBIDDEN,
                 "forbidden",
                 "the bearer token is not this server's",
             )),
         }
+    }
+
+    /// Lets the request through when its token may do `scope`.
+    pub fn authorize(&self, headers: &HeaderMap, scope: Scope) -> Result<(), ApiError> {
+        let has = self.token_scope(headers, scope)?;
+        if has == Scope::Write || has == scope {
+            return Ok(());
+        }
+        Err(ApiError::new(
+            StatusCode::FORBIDDEN,
+            "forbidden",
+            format!(
+                "this token may only {}; this needs {}",
+                match has {
+                    Scope::Submit => "submit frames",
+                    _ => "triage",
+                },
+                scope.what()
+            ),
+        ))
+    }
+
+    pub fn authorize_write(&self, headers: &HeaderMap) -> Result<(), ApiError> {
+        self.authorize(headers, Scope::Write)
     }
 
     /// Whether the request may see results: always, unless reads are private
@@ -48,9 +126,11 @@ impl AppState {
         self.authorize_read(headers).is_ok()
     }
 
+    /// Reads are open, or under `--private-reads` need any of the
+    /// server's tokens.
     pub fn authorize_read(&self, headers: &HeaderMap) -> Result<(), ApiError> {
         if self.private_reads {
-            self.authorize_write(headers)
+            self.token_scope(headers, Scope::Write).map(|_| ())
         } else {
             Ok(())
         }

@@ -3,15 +3,19 @@
 //! embedded dashboard at `/` (static files compiled into the binary; no CDN).
 //!
 //! Reads are open unless `private_reads`; everything that changes state
-//! (`POST /runs`) needs the bearer token. `POST /tonemap` changes nothing
-//! stored: it is open like a read, and bounded by its queues instead.
+//! needs a bearer token: the server's for `POST /runs`, the submit scope's
+//! (or the server's) for submitting frames, the triage scope's (or the
+//! server's) for triaging them. `POST /tonemap` changes nothing stored: it
+//! is open like a read, and bounded by its queues instead.
 
+mod alerts;
 mod artifacts;
 mod assets;
 mod auth;
 mod edge;
 pub mod error;
 mod fleet;
+mod frames;
 mod health;
 pub mod listen;
 mod matrix;
@@ -88,7 +92,13 @@ pub struct ServeOptions {
     pub conn: listen::ConnLimits,
     /// Tests only: the tone-map workers read-lock this around every job.
     pub hold_workers: Option<Arc<RwLock<()>>>,
+    /// The tokens that may only submit frames, or only triage them.
+    pub scoped: ScopedTokens,
+    /// Alerts to scan for and deliver (`--alerts FILE`).
+    pub alerts: Option<crate::alerts::Alerts>,
 }
+
+pub use auth::{Scope, ScopedTokens};
 
 /// The one suite run the server lets go at a time.
 pub enum RunSlot {
@@ -100,6 +110,7 @@ pub enum RunSlot {
 pub struct AppState {
     pub db: PathBuf,
     token: String,
+    scoped: ScopedTokens,
     private_reads: bool,
     pub suite: PathBuf,
     pub adapter: AdapterChoice,
@@ -197,7 +208,9 @@ pub async fn start_run(
     paths(
         runs::list_runs, runs::get_run, runs::post_run, artifacts::get_artifact, trends::trends,
         trends::tradeoff, health::healthz, tonemap::sample, tonemap::tonemap, tonemap::operators, fleet::queue,
-        fleet::runners, matrix::matrix
+        fleet::runners, matrix::matrix, frames::submit, frames::list, frames::get, frames::digests,
+        frames::log, frames::triage, frames::bulk, frames::promote, frames::ignore, frames::ignores,
+        frames::image, frames::compare, alerts::alerts
     ),
     components(schemas(error::ErrorBody)),
     modifiers(&BearerAuth, &OperatorParams)
@@ -243,6 +256,24 @@ pub fn router(st: Arc<AppState>) -> Router {
         .route("/operators", get(tonemap::operators))
         .route("/openapi.json", get(openapi))
         .route(
+            "/frames/submissions",
+            get(frames::list)
+                .post(frames::submit)
+                // The handler reads the form itself against this limit.
+                .layer(axum::extract::DefaultBodyLimit::max(st.limits.max_body)),
+        )
+        .route("/frames/submissions/{id}", get(frames::get))
+        .route("/frames/submissions/{id}/triage", post(frames::bulk))
+        .route("/frames/digests", get(frames::digests))
+        .route("/frames/log", get(frames::log))
+        .route("/frames/triage", post(frames::triage))
+        .route("/frames/promote", post(frames::promote))
+        .route("/frames/ignore", post(frames::ignore))
+        .route("/frames/ignores", get(frames::ignores))
+        .route("/frames/images/{digest}", get(frames::image))
+        .route("/frames/compare/{digest}/{against}", get(frames::compare))
+        .route("/alerts", get(alerts::alerts))
+        .route(
             "/tonemap",
             post(tonemap::tonemap)
                 // The handler reads the body itself against this limit.
@@ -270,6 +301,7 @@ pub struct Server {
     listener: tokio::net::TcpListener,
     state: Arc<AppState>,
     conn: listen::ConnLimits,
+    alerts: Option<crate::alerts::Alerts>,
 }
 
 /// Opens (and migrates) the history the server records runs in. A history
@@ -341,9 +373,11 @@ impl Server {
         Ok(Server {
             listener,
             conn: opts.conn,
+            alerts: opts.alerts,
             state: Arc::new(AppState {
                 db: opts.db,
                 token: opts.token,
+                scoped: opts.scoped,
                 private_reads: opts.private_reads,
                 suite: opts.suite,
                 adapter: opts.adapter,
@@ -374,6 +408,13 @@ impl Server {
     ) -> std::io::Result<()> {
         let app = router(self.state.clone());
         let st = self.state.clone();
+        if let Some(alerts) = self.alerts {
+            tokio::spawn(crate::alerts::run(
+                st.db.clone(),
+                alerts,
+                st.closing.subscribe(),
+            ));
+        }
         let served = listen::serve(self.listener, app, self.state, &self.conn, shutdown).await;
         // A suite run of this server's that is still going ends with it:
         // marked aborted now rather than found `running` by the next start.

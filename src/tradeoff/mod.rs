@@ -175,6 +175,7 @@ pub fn measure_scene(
             execution: crate::gpu::Execution::Staged,
             fault_gain: None,
             taa_fault: None,
+            fault_delay_ms: None,
         };
         let r = SceneRenderer::gpu(&variant, &env, ctx, config, knobs.spp).map_err(failed)?;
         let mut times = Vec::new();

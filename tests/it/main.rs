@@ -22,6 +22,7 @@ mod display;
 mod docs_examples;
 mod fleet;
 mod frames;
+mod frames_api;
 mod fuzz_regressions;
 mod golden;
 mod gpu;

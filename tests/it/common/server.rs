@@ -26,6 +26,8 @@ pub async fn start(seeded: &common::Seeded, tweak: impl FnOnce(&mut ServeOptions
         limits: Limits::default(),
         conn: Default::default(),
         hold_workers: None,
+        scoped: Default::default(),
+        alerts: None,
     };
     tweak(&mut opts);
     let server = Server::bind(opts).await.expect("server binds");

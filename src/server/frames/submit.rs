@@ -1,0 +1,239 @@
+//! `POST /api/v1/frames/submissions`: a multipart form of images, each a
+//! part named `file` whose file name is its test's path (`ui/button.png`),
+//! with `key` parts (`name=value`) and an optional `rules` part (the rules
+//! file's TOML). Everything is received and checked before anything is
+//! judged or stored: too many files, a name that is not a plain relative
+//! path, two images of one test, a body over the limit — each refused with
+//! the part it is about, and nothing stored.
+
+use super::super::error::{ApiError, ErrorBody};
+use super::super::{AppState, Scope};
+use crate::frames::rules::Rules;
+use crate::frames::{parse_keys, test_of_upload, FramesError, Input, Source, MAX_FRAMES};
+use crate::request::tonemap::BodyError;
+use axum::extract::{Request, State};
+use axum::http::{header, StatusCode};
+use axum::response::Response;
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+/// The form, received.
+struct Form {
+    inputs: Vec<Input>,
+    keys: Vec<String>,
+    rules: Option<String>,
+}
+
+/// Answers a frames error: the image it names, 400 (422 for an image that
+/// does not decode, as `POST /tonemap` answers one).
+fn frames_error(e: FramesError) -> ApiError {
+    match e {
+        FramesError::History(h) => ApiError::of_history(&h),
+        FramesError::Image(i) => {
+            ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, "bad_image", i.to_string())
+        }
+        other => ApiError::bad(other.to_string()),
+    }
+}
+
+async fn read_form<S>(body: S, content_type: &str) -> Result<Form, ApiError>
+where
+    S: futures_util::Stream<Item = Result<axum::body::Bytes, BodyError>> + Send + 'static,
+{
+    let boundary = multer::parse_boundary(content_type).map_err(|_| {
+        ApiError::bad(
+            "the body is a multipart/form-data form: a `file` part an image, `key` parts, a `rules` part",
+        )
+    })?;
+    let mut mp = multer::Multipart::new(body, boundary);
+    let mut form = Form {
+        inputs: Vec::new(),
+        keys: Vec::new(),
+        rules: None,
+    };
+    let mut tests: BTreeMap<String, String> = BTreeMap::new();
+    while let Some(mut field) = mp
+        .next_field()
+        .await
+        .map_err(|e| crate::request::tonemap::multipart_error(&e))?
+    {
+        let name = field.name().unwrap_or("").to_owned();
+        match (name.as_str(), field.file_name().map(str::to_owned)) {
+            ("file", Some(file)) => {
+                if form.inputs.len() >= MAX_FRAMES {
+                    return Err(ApiError::bad(format!(
+                        "more than {MAX_FRAMES} files: a submission takes at most {MAX_FRAMES}"
+                    )));
+                }
+                let test = test_of_upload(&file).map_err(frames_error)?;
+                if let Some(first) = tests.insert(test.clone(), file.clone()) {
+                    return Err(frames_error(FramesError::Duplicate {
+                        test,
+                        first,
+                        second: file,
+                    }));
+                }
+                let mut bytes = Vec::new();
+                while let Some(chunk) = field
+                    .chunk()
+                    .await
+                    .map_err(|e| crate::request::tonemap::multipart_error(&e))?
+                {
+                    bytes.extend_from_slice(&chunk);
+                }
+                if bytes.is_empty() {
+                    return Err(ApiError::bad(format!("{file}: an empty file")));
+                }
+                form.inputs.push(Input {
+                    test,
+                    file,
+                    source: Source::Bytes(bytes),
+                });
+            }
+            ("file", None) => return Err(ApiError::bad(
+                "a `file` part without a file name: its name is the test's path (ui/button.png)",
+            )),
+            (_, Some(_)) => {
+                return Err(ApiError::bad(format!(
+                    "a file in the part named {}: images go in parts named \"file\"",
+                    super::super::error::clip(&name)
+                )))
+            }
+            ("key", None) => form.keys.push(
+                field
+                    .text()
+                    .await
+                    .map_err(|e| crate::request::tonemap::multipart_error(&e))?,
+            ),
+            ("rules", None) => {
+                if form.rules.is_some() {
+                    return Err(ApiError::bad("two `rules` parts"));
+                }
+                form.rules = Some(
+                    field
+                        .text()
+                        .await
+                        .map_err(|e| crate::request::tonemap::multipart_error(&e))?,
+                );
+            }
+            (other, None) => {
+                return Err(ApiError::bad(format!(
+                    "an unknown part {}: the form takes `file`, `key` and `rules`",
+                    super::super::error::clip(other)
+                )))
+            }
+        }
+    }
+    if form.inputs.is_empty() {
+        return Err(ApiError::bad(
+            "no images: send each as a `file` part named by its test's path (ui/button.png)",
+        ));
+    }
+    Ok(form)
+}
+
+/// Submits frames: judged against their tests' positives and rules, and
+/// stored (each image once) in one transaction. The answer is the report
+/// `frames submit --json` writes; a retry with the same `Idempotency-Key`
+/// stores nothing and answers the first's report.
+#[utoipa::path(post, path = "/api/v1/frames/submissions", tag = "frames",
+    request_body(content_type = "multipart/form-data", description = "`file` parts (the file name is the test's path: ui/button.png), `key` parts (name=value), an optional `rules` part (TOML)"),
+    params(("Idempotency-Key" = Option<String>, Header, description = "A retry with the same key stores nothing and answers the first's report")),
+    security(("bearer" = [])),
+    responses((status = 200, description = "Judged and stored: the report (`passed` says whether the gate passed)", body = Object),
+        (status = 400, description = "A bad form, name, key or rules (nothing stored)", body = ErrorBody),
+        (status = 401, description = "No token", body = ErrorBody), (status = 403, description = "Not a submit token", body = ErrorBody),
+        (status = 413, description = "Over the body limit", body = ErrorBody),
+        (status = 422, description = "An image that does not decode (nothing stored)", body = ErrorBody)))]
+pub async fn submit(State(st): State<Arc<AppState>>, req: Request) -> Result<Response, ApiError> {
+    let headers = req.headers().clone();
+    let limit = st.limits.max_body;
+    let mut upload = (|| {
+        st.authorize(&headers, Scope::Submit)?;
+        super::super::edge::declared_too_large(&headers, limit)?;
+        st.uploads.begin()
+    })()
+    .map_err(ApiError::closing)?;
+    let idempotency_key = match headers.get("idempotency-key") {
+        None => None,
+        Some(v) => Some(
+            v.to_str()
+                .ok()
+                .filter(|k| !k.is_empty() && k.len() <= 255)
+                .ok_or_else(|| ApiError::bad("Idempotency-Key: 1 to 255 visible ASCII characters"))?
+                .to_owned(),
+        ),
+    };
+    let content_type = headers
+        .get(header::CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .unwrap_or("")
+        .to_owned();
+    // The whole form is received before it is parsed (the images are all
+    // held for judging anyway): a refusal is then answered to a client
+    // that is listening, not one still writing into a closed connection.
+    let timeout = st.limits.timeout;
+    let read = async {
+        tokio::time::timeout(timeout, async {
+            let mut stream = req.into_body().into_data_stream();
+            let mut got = bytes::BytesMut::new();
+            while let Some(chunk) = futures_util::StreamExt::next(&mut stream).await {
+                let chunk = chunk.map_err(|e| ApiError::bad(format!("reading the body: {e}")))?;
+                if got.len() + chunk.len() > limit {
+                    return Err(ApiError::new(
+                        StatusCode::PAYLOAD_TOO_LARGE,
+                        "too_large",
+                        format!(
+                            "the form is over the limit of {limit} bytes (serve --max-body-mib)"
+                        ),
+                    ));
+                }
+                upload.charge(chunk.len())?;
+                got.extend_from_slice(&chunk);
+            }
+            let whole = futures_util::stream::once(async move { Ok::<_, BodyError>(got.freeze()) });
+            read_form(whole, &content_type).await
+        })
+        .await
+        .map_err(|_| {
+            ApiError::new(
+                StatusCode::REQUEST_TIMEOUT,
+                "timeout",
+                format!("the form took over {} s to arrive", timeout.as_secs()),
+            )
+        })
+        .and_then(|r| r)
+    };
+    let form = super::super::edge::unless_stopping(&st, read)
+        .await
+        .map_err(ApiError::closing)?;
+    let rules = match &form.rules {
+        None => Rules::default(),
+        Some(text) => Rules::parse(text, "the rules part").map_err(ApiError::bad)?,
+    };
+    let keys = parse_keys(&form.keys).map_err(frames_error)?;
+    if let Some(problem) = st.history_problem().await {
+        return Err(ApiError::new(
+            StatusCode::SERVICE_UNAVAILABLE,
+            "history_read_only",
+            problem,
+        ));
+    }
+    let db = st.db.clone();
+    let report = tokio::task::spawn_blocking(move || {
+        let h = crate::history::History::open(&db).map_err(|e| ApiError::of_history(&e))?;
+        crate::frames::submit(
+            &h,
+            crate::frames::Submission {
+                inputs: form.inputs,
+                keys,
+                idempotency_key: idempotency_key.as_deref(),
+                rules: &rules,
+            },
+        )
+        .map_err(frames_error)
+    })
+    .await
+    .map_err(|e| ApiError::internal(e.to_string()))??;
+    super::super::params::json_text(&report)
+}
