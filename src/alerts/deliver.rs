@@ -67,7 +67,12 @@ pub(super) async fn due(
         let outcome = send(alerts, client, &d).await;
         let id = d.id;
         let recorded = match outcome {
-            Ok(()) => blocking(db, move |h| h.record_attempt(id, Attempted::Delivered)).await,
+            Ok(status) => {
+                blocking(db, move |h| {
+                    h.record_attempt(id, Attempted::Delivered(status))
+                })
+                .await
+            }
             Err((status, error)) => {
                 let n = u32::try_from(d.attempts + 1).unwrap_or(u32::MAX);
                 let next_at = (n < alerts.retry.most_attempts).then(|| {
@@ -98,7 +103,7 @@ async fn send(
     alerts: &Alerts,
     client: &webhook_http::Client,
     d: &DueDelivery,
-) -> Result<(), (Option<i64>, String)> {
+) -> Result<i64, (Option<i64>, String)> {
     let Some(w): Option<&Webhook> = alerts.webhooks.iter().find(|w| w.name == d.webhook) else {
         return Err((
             None,
@@ -125,7 +130,7 @@ async fn send(
         .map_err(|e| (None, format!("not reached: {e}")))?;
     let status = answer.status();
     if status.is_success() {
-        Ok(())
+        Ok(i64::from(status.as_u16()))
     } else {
         Err((
             Some(i64::from(status.as_u16())),

@@ -73,7 +73,8 @@ pub struct AlertRow {
 
 /// The outcome of one attempt.
 pub enum Attempted<'a> {
-    Delivered,
+    /// Accepted, with this HTTP status (a 2xx).
+    Delivered(i64),
     /// Refused or unreachable; tried again at `next_at`, or given up on
     /// when that is None.
     Failed {
@@ -311,16 +312,15 @@ impl History {
         self.db().transaction(&mut |tx| {
             let at = now();
             let (status, error) = match &outcome {
-                Attempted::Delivered => (None, None),
+                Attempted::Delivered(status) => (Some(*status), None),
                 Attempted::Failed { status, error, .. } => (*status, Some(*error)),
             };
-            let delivered = matches!(outcome, Attempted::Delivered);
             tx.execute(
                 "INSERT INTO alert_attempts (delivery_id, at, status, error) VALUES ($1, $2, $3, $4)",
-                args![id, &at, status.or(delivered.then_some(200)), error],
+                args![id, &at, status, error],
             )?;
             match &outcome {
-                Attempted::Delivered => tx.execute(
+                Attempted::Delivered(_) => tx.execute(
                     "UPDATE alert_deliveries SET state = 'delivered', attempts = attempts + 1,
                      delivered_at = $1, claimed_until = NULL WHERE id = $2",
                     args![&at, id],

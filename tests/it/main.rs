@@ -12,6 +12,7 @@ mod common;
 mod aces2;
 mod adaptation;
 mod adapters;
+mod alerts;
 mod api;
 mod architecture;
 mod chaos;

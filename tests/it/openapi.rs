@@ -106,3 +106,28 @@ fn the_dashboards_stage_list_is_the_plans() {
         .collect();
     assert_eq!(listed, tonegate::plan::Stage::NAMES);
 }
+
+/// Every endpoint the OpenAPI document has (each method of each path) has
+/// its row in docs/api.md's table, by method and path up to its first
+/// parameter: an endpoint added without its documentation fails here.
+#[test]
+fn every_endpoint_has_its_row_in_the_api_docs() {
+    use utoipa::OpenApi;
+    let doc = serde_json::to_value(tonegate::server::ApiDoc::openapi()).unwrap();
+    let text = std::fs::read_to_string(crate::common::repo().join("docs/api.md")).unwrap();
+    let rows: Vec<&str> = text.lines().filter(|l| l.starts_with("| `")).collect();
+    let mut missing = Vec::new();
+    let mut seen = 0;
+    for (path, methods) in doc["paths"].as_object().unwrap() {
+        let prefix = path.split('{').next().unwrap();
+        for method in methods.as_object().unwrap().keys() {
+            seen += 1;
+            let wanted = format!("`{} {prefix}", method.to_uppercase());
+            if !rows.iter().any(|r| r.contains(&wanted)) {
+                missing.push(format!("{} {path}", method.to_uppercase()));
+            }
+        }
+    }
+    assert!(seen >= 25, "only {seen} endpoints in the document");
+    assert!(missing.is_empty(), "docs/api.md has no row for {missing:?}");
+}
