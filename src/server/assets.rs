@@ -19,6 +19,11 @@ const FILES: &[(&str, &str, &str)] = &[
         include_str!("dashboard/app.js"),
     ),
     (
+        "/frames.js",
+        "text/javascript; charset=utf-8",
+        include_str!("dashboard/frames.js"),
+    ),
+    (
         "/charts.js",
         "text/javascript; charset=utf-8",
         include_str!("dashboard/charts.js"),

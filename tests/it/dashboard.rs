@@ -5,6 +5,7 @@
 //! out/dashboard/ as CI artifacts.
 
 use crate::common;
+use crate::common::cdp::chromium;
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -46,20 +47,6 @@ fn serve(seeded: &common::Seeded, dir: &Path) -> Serving {
         .trim_end_matches('/')
         .to_owned();
     Serving { child, base }
-}
-
-fn chromium() -> PathBuf {
-    for c in ["chromium", "chromium-browser", "google-chrome"] {
-        if let Ok(o) = Command::new("sh")
-            .args(["-c", &format!("command -v {c}")])
-            .output()
-        {
-            if o.status.success() {
-                return PathBuf::from(String::from_utf8_lossy(&o.stdout).trim());
-            }
-        }
-    }
-    panic!("headless Chromium is needed for the dashboard tests: apt-get install chromium (ci/deps.sh does)");
 }
 
 /// Loads `url`, lets its fetches finish (virtual time), returns the DOM and

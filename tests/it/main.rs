@@ -50,3 +50,4 @@ mod taa;
 mod tone_mapper;
 mod tonemap_cli;
 mod tradeoff;
+mod triage_page;

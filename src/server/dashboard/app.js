@@ -93,6 +93,7 @@ async function route() {
     else if (parts[0] === "tonemap") await tonemapPage(params);
     else if (parts[0] === "fleet") await fleetPage(params);
     else if (parts[0] === "matrix") await matrixPage(params);
+    else if (parts[0] === "frames") await framesPage(parts[1], params);
     else await runsPage(params);
   } catch (e) {
     show(failure(e));

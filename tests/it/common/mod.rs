@@ -4,6 +4,7 @@
 //! copy of the built-in suite.
 #![allow(dead_code)]
 
+pub mod cdp;
 pub mod postgres;
 pub mod seaweed;
 pub mod server;
