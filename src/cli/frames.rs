@@ -47,6 +47,13 @@ pub struct SubmitArgs {
     /// Write JUnit XML, one test case a frame.
     #[arg(long, value_name = "FILE")]
     pub junit: Option<PathBuf>,
+    /// Submit to this `tonegate serve` (http(s)://host:port) instead of
+    /// writing the history: what a CI job without the database does.
+    #[arg(long, value_name = "URL", requires = "token_file")]
+    pub server: Option<String>,
+    /// The submit token (`serve --submit-token-file`), with --server.
+    #[arg(long, value_name = "FILE", env = "TONEGATE_SUBMIT_TOKEN_FILE")]
+    pub token_file: Option<PathBuf>,
     #[command(flatten)]
     pub db: DbArgs,
 }
@@ -148,16 +155,21 @@ fn submit_folder(a: SubmitArgs) -> Result<ExitCode> {
     };
     let keys = parse_keys(&a.keys)?;
     let inputs = collect_folder(&a.folder)?;
-    let history = History::open(&a.db.db)?;
-    let report = submit(
-        &history,
-        Submission {
-            inputs,
-            keys,
-            idempotency_key: a.idempotency_key.as_deref(),
-            rules: &rules,
-        },
-    )?;
+    let report = match &a.server {
+        Some(server) => super::frames_remote::submit(server, &a, inputs)?,
+        None => {
+            let history = History::open(&a.db.db)?;
+            submit(
+                &history,
+                Submission {
+                    inputs,
+                    keys,
+                    idempotency_key: a.idempotency_key.as_deref(),
+                    rules: &rules,
+                },
+            )?
+        }
+    };
     if let Some(path) = &a.json {
         write_json(path, "the submission's report", &report)?;
     }

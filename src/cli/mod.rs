@@ -35,6 +35,7 @@ mod bench;
 mod compare;
 mod fleet;
 mod frames;
+mod frames_remote;
 mod gate;
 mod golden;
 mod image;

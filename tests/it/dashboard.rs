@@ -8,7 +8,7 @@ use crate::common;
 use crate::common::cdp::chromium;
 
 use std::io::{BufRead, BufReader};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Child, Command, Stdio};
 
 struct Serving {

@@ -9,7 +9,9 @@
 //!   comment says the gate fails. Its output is checked where it is stable.
 //!
 //! Commands that serve or wait for work (`serve`, `runner`, a PostgreSQL
-//! address) are checked as synopses only. The README's `check --fault-gain`
+//! address), or talk to a server (`--server`), are checked as synopses
+//! only; docs/frames.md's walk-through, which serves and submits to it, is
+//! run whole by `tests/it/triage_page.rs`. The README's `check --fault-gain`
 //! runs on one scene (`--scene grid-static` added): the whole suite under a
 //! fault is the gate tests' business, and would cost a minute here.
 
@@ -98,7 +100,7 @@ fn is_synopsis(words: &[String]) -> bool {
         .is_some_and(|w| ["serve", "runner", "enqueue", "fleet"].contains(&w.as_str()))
         || words
             .iter()
-            .any(|w| w.contains("postgres://") || w.contains("s3://"))
+            .any(|w| w.contains("postgres://") || w.contains("s3://") || w == "--server")
 }
 
 /// The subcommand path a line names (`history prune`, `golden bless`,

@@ -48,7 +48,9 @@ fn png(img: &Rgb8Image) -> Vec<u8> {
 fn exr(gain: f32) -> Vec<u8> {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("sky.exr");
-    let img = BuiltinEnv::Sky.generate(64, 32).map(|c| c.map(|v| v * gain));
+    let img = BuiltinEnv::Sky
+        .generate(64, 32)
+        .map(|c| c.map(|v| v * gain));
     tonegate::io::write_image_hdr(&p, &img).unwrap();
     std::fs::read(p).unwrap()
 }
@@ -187,7 +189,10 @@ fn frames_are_triaged_in_the_page_and_the_same_submissions_then_pass_in_chromium
     assert_eq!(second_b["untriaged"], 11, "{second_b}");
     let id_b = second_b["submission"].as_i64().unwrap();
     b.open(&format!("{base}/#/frames/{id_b}?operator=hable"));
-    assert_eq!(b.eval("document.querySelectorAll('.frame-card').length"), 11);
+    assert_eq!(
+        b.eval("document.querySelectorAll('.frame-card').length"),
+        11
+    );
     for kind in ["frame", "positive", "diff", "ssim", "flip"] {
         b.wait_for(
             &format!("document.querySelector('.frame-card [data-kind={kind}][data-loaded=\"1\"]')"),
@@ -201,15 +206,22 @@ fn frames_are_triaged_in_the_page_and_the_same_submissions_then_pass_in_chromium
         "document.querySelector('.frame-card[data-test=\"hdr/sky\"] img[data-kind=frame][data-loaded=\"1\"]')",
         "the EXR shown",
     );
-    let src = b.eval("document.querySelector('.frame-card[data-test=\"hdr/sky\"] img[data-kind=positive]').src");
+    let src = b.eval(
+        "document.querySelector('.frame-card[data-test=\"hdr/sky\"] img[data-kind=positive]').src",
+    );
     assert!(src.as_str().unwrap().contains("operator=hable"), "{src}");
     assert_eq!(
         b.eval("document.querySelector('select[name=operator]').value"),
         "hable"
     );
     shot(&mut b, "frames-closest");
-    say(&mut b, "the band moved on purpose; the sky is brighter on gpu-b");
-    b.eval("for (const x of document.querySelectorAll('.frame-card button[name=positive]')) x.click()");
+    say(
+        &mut b,
+        "the band moved on purpose; the sky is brighter on gpu-b",
+    );
+    b.eval(
+        "for (const x of document.querySelectorAll('.frame-card button[name=positive]')) x.click()",
+    );
     b.wait_for(
         "document.querySelectorAll('.frame-card[data-label=positive]').length === 11",
         "eleven marked",
@@ -227,7 +239,10 @@ fn frames_are_triaged_in_the_page_and_the_same_submissions_then_pass_in_chromium
     let rules = "[[tests]]\npattern = \"scene/**\"\nchecks = [{ max_abs_diff = 1 }]\n";
     let off = frame(1, 0).map(|p| p.map(|c| c.saturating_add(1)));
     let one_off = vec![("scene/s01.png".to_string(), png(&off))];
-    assert_eq!(submit(&base, &one_off, &keys_a, Some(rules))["passed"], true);
+    assert_eq!(
+        submit(&base, &one_off, &keys_a, Some(rules))["passed"],
+        true
+    );
     assert_eq!(submit(&base, &one_off, &keys_a, None)["passed"], false);
     let bright = frame(1, 0).map(|p| p.map(|c| (f32::from(c) * 1.02).round().min(255.0) as u8));
     let bright = submit(
@@ -250,4 +265,130 @@ fn frames_are_triaged_in_the_page_and_the_same_submissions_then_pass_in_chromium
         .unwrap()
         .contains("misses"));
     shot(&mut b, "frames-brighter");
+}
+
+/// The `sh` lines of docs/frames.md's "In CI, step by step", in order:
+/// (words, comment).
+fn walkthrough() -> Vec<(Vec<String>, String)> {
+    let text = std::fs::read_to_string(common::repo().join("docs/frames.md")).unwrap();
+    let start = text
+        .find("## In CI, step by step")
+        .expect("docs/frames.md has its walk-through");
+    let section = &text[start..];
+    let section = &section[..section[3..].find("\n## ").map_or(section.len(), |e| e + 3)];
+    let mut out = Vec::new();
+    let mut inside = false;
+    for l in section.lines() {
+        if let Some(lang) = l.trim_start().strip_prefix("```") {
+            inside = !inside && lang.trim() == "sh";
+            continue;
+        }
+        if !inside || l.trim().is_empty() || l.trim_start().starts_with('#') {
+            continue;
+        }
+        let (code, comment) = l.split_once(" #").unwrap_or((l, ""));
+        out.push((
+            code.split_whitespace().map(str::to_owned).collect(),
+            comment.trim().to_owned(),
+        ));
+    }
+    out
+}
+
+/// docs/frames.md's walk-through, run as a newcomer would: its commands in
+/// a fresh folder beside `golden/` (the server on a free port instead of
+/// 8080), and its browser step in real Chromium: the first CI run fails,
+/// the page asks for the triage token and marks every digest, the second
+/// run passes.
+#[test]
+fn the_newcomers_walkthrough_in_the_docs_runs_as_written() {
+    let dir = tempfile::tempdir().unwrap();
+    std::os::unix::fs::symlink(common::repo().join("golden"), dir.path().join("golden")).unwrap();
+    let port = std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
+    let lines = walkthrough();
+    assert!(lines.len() >= 4, "{lines:?}");
+    let mut server: Option<Serving> = None;
+    let mut base = String::new();
+    let mut failed_once = false;
+    for (words, comment) in lines {
+        let words: Vec<String> = words
+            .iter()
+            .map(|w| w.replace("127.0.0.1:8080", &format!("127.0.0.1:{port}")))
+            .collect();
+        assert_eq!(
+            words[0], "tonegate",
+            "the walk-through runs tonegate only: {words:?}"
+        );
+        let background = words.last().map(String::as_str) == Some("&");
+        let args = &words[1..words.len() - usize::from(background)];
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_tonegate"));
+        cmd.args(args)
+            .current_dir(dir.path())
+            .env_remove("TONEGATE_DB");
+        if background {
+            let mut child = cmd
+                .stdout(Stdio::piped())
+                .stderr(Stdio::null())
+                .spawn()
+                .unwrap();
+            base = common::served_base(&mut child);
+            server = Some(Serving(child));
+            continue;
+        }
+        let o = cmd.output().unwrap();
+        let expected = if comment.contains("fails") { 1 } else { 0 };
+        assert_eq!(
+            o.status.code(),
+            Some(expected),
+            "tonegate {}: {}{}",
+            args.join(" "),
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        );
+        if expected == 1 && args[..2] == ["frames", "submit"] {
+            // Step 4: in the browser, as the docs say.
+            assert!(
+                server.is_some(),
+                "the walk-through submits before it serves"
+            );
+            let triage = std::fs::read_to_string(dir.path().join("triage.token")).unwrap();
+            let mut b = Browser::start(&chromium());
+            b.open(&format!("{base}/#/frames"));
+            b.eval("document.querySelector('.submission-row a').click()");
+            b.wait_for(
+                "document.getElementById('view').dataset.ready === '1' && document.querySelector('button[name=all-positive]')",
+                "the submission's page",
+            );
+            say(&mut b, "the first frames of the sphere");
+            b.eval("document.querySelector('button[name=all-positive]').click()");
+            b.wait_for(
+                "!document.getElementById('token-box').hidden",
+                "the token asked for",
+            );
+            b.eval(&format!(
+                "document.querySelector('#token-box input').value = {:?}; document.querySelector('#token-box button').click()",
+                triage.trim()
+            ));
+            b.wait_for(
+                "document.getElementById('view').dataset.ready === '1' && document.querySelector('button[name=all-positive]')",
+                "the page again",
+            );
+            say(&mut b, "the first frames of the sphere");
+            b.eval("document.querySelector('button[name=all-positive]').click()");
+            b.wait_for(
+                "+document.querySelector('#triage-msg').dataset.done > 0",
+                "digests marked",
+            );
+            failed_once = true;
+        }
+    }
+    assert!(failed_once, "the walk-through has no failing first run");
+    assert!(
+        dir.path().join("frames.xml").exists(),
+        "the JUnit report CI reads"
+    );
 }
