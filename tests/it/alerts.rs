@@ -292,9 +292,10 @@ async fn each_event_is_delivered_once_signed_with_its_commit_range_through_refus
         text.contains("c06..c07") && text.contains("went red"),
         "{text}"
     );
+    let red_id = red["id"].as_i64().unwrap().to_string();
     let json: Value = serde_json::from_slice(
         &got.iter()
-            .find(|g| g.path == "/json" && g.accepted && g.event == red["id"].to_string())
+            .find(|g| g.path == "/json" && g.accepted && g.event == red_id)
             .unwrap()
             .body,
     )
