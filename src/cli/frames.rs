@@ -156,7 +156,16 @@ fn submit_folder(a: SubmitArgs) -> Result<ExitCode> {
     let keys = parse_keys(&a.keys)?;
     let inputs = collect_folder(&a.folder)?;
     let report = match &a.server {
-        Some(server) => super::frames_remote::submit(server, &a, inputs)?,
+        Some(server) => super::frames_remote::submit(
+            super::frames_remote::Remote {
+                server,
+                token_file: a.token_file.as_deref(),
+                keys: &a.keys,
+                rules: a.rules.as_ref(),
+                idempotency_key: a.idempotency_key.as_deref(),
+            },
+            inputs,
+        )?,
         None => {
             let history = History::open(&a.db.db)?;
             submit(

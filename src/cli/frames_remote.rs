@@ -3,7 +3,7 @@
 //! (`POST /api/v1/frames/submissions`, docs/api.md#frames) under the
 //! submit token; the server's report is written as a local one would be.
 
-use super::frames::SubmitArgs;
+use std::path::PathBuf;
 use tonegate::error::{Error, Result};
 use tonegate::frames::{Input, Source, SubmissionReport, MAX_FILE_BYTES};
 
@@ -14,7 +14,17 @@ fn file_error(path: &std::path::Path, source: std::io::Error) -> Error {
     }
 }
 
-pub fn submit(server: &str, a: &SubmitArgs, inputs: Vec<Input>) -> Result<SubmissionReport> {
+/// What `frames submit` was given, besides the folder's files.
+pub struct Remote<'a> {
+    pub server: &'a str,
+    pub token_file: Option<&'a std::path::Path>,
+    pub keys: &'a [String],
+    pub rules: Option<&'a PathBuf>,
+    pub idempotency_key: Option<&'a str>,
+}
+
+pub fn submit(a: Remote, inputs: Vec<Input>) -> Result<SubmissionReport> {
+    let server = a.server;
     if !(server.starts_with("http://") || server.starts_with("https://")) {
         return Err(Error::Invalid(format!(
             "--server {server:?}: an http:// or https:// address"
@@ -22,7 +32,6 @@ pub fn submit(server: &str, a: &SubmitArgs, inputs: Vec<Input>) -> Result<Submis
     }
     let token_file = a
         .token_file
-        .as_deref()
         .ok_or_else(|| Error::Invalid("--server needs --token-file (the submit token)".into()))?;
     let token = std::fs::read_to_string(token_file)
         .map_err(|e| file_error(token_file, e))?
@@ -52,10 +61,10 @@ pub fn submit(server: &str, a: &SubmitArgs, inputs: Vec<Input>) -> Result<Submis
             webhook_http::multipart::Part::bytes(bytes).file_name(name),
         );
     }
-    for k in &a.keys {
+    for k in a.keys {
         form = form.text("key", k.clone());
     }
-    if let Some(rules) = &a.rules {
+    if let Some(rules) = a.rules {
         let text = std::fs::read_to_string(rules).map_err(|e| file_error(rules, e))?;
         form = form.text("rules", text);
     }
@@ -72,7 +81,7 @@ pub fn submit(server: &str, a: &SubmitArgs, inputs: Vec<Input>) -> Result<Submis
             .post(&url)
             .bearer_auth(&token)
             .multipart(form);
-        if let Some(k) = &a.idempotency_key {
+        if let Some(k) = a.idempotency_key {
             req = req.header("Idempotency-Key", k);
         }
         let r = req

@@ -137,7 +137,30 @@ impl History {
     /// Queues a check run unless `max_queued` jobs are waiting already
     /// (`HistoryError::QueueFull`); returns the job's id.
     pub fn enqueue_within(&self, spec: &JobSpec, max_queued: u64) -> Result<i64, HistoryError> {
+        self.enqueue_keyed(spec, max_queued, None)
+    }
+
+    /// [`History::enqueue_within`] under an idempotency key: a job queued
+    /// under `key` before is answered with its id and nothing is queued. The
+    /// key is stored with the job in the same statement, so a statement sent
+    /// again after a lost connection (the history's own retry, or the
+    /// client's) finds it rather than queueing the run twice.
+    pub fn enqueue_keyed(
+        &self,
+        spec: &JobSpec,
+        max_queued: u64,
+        key: Option<&str>,
+    ) -> Result<i64, HistoryError> {
         spec.check().map_err(HistoryError::Invalid)?;
+        let by_key = |k: &str| -> Result<Option<i64>, HistoryError> {
+            self.db()
+                .query_opt("SELECT id FROM jobs WHERE idempotency_key = $1", args![k])?
+                .map(|r| r.int(0))
+                .transpose()
+        };
+        if let Some(id) = key.map(by_key).transpose()?.flatten() {
+            return Ok(id);
+        }
         let queued = self
             .db()
             .query_opt("SELECT COUNT(*) FROM jobs WHERE state = 'queued'", &[])?
@@ -148,22 +171,31 @@ impl History {
                 limit: max_queued,
             });
         }
-        self.db()
-            .query_opt(
-                "INSERT INTO jobs (state, suite, scenes, renderer, want_adapter, want_label,
-                                   queued_at, attempts)
-                 VALUES ('queued', $1, $2, $3, $4, $5, $6, 0) RETURNING id",
-                args![
-                    &spec.suite,
-                    scenes_json(&spec.scenes),
-                    if spec.cpu { "cpu" } else { "gpu" },
-                    spec.adapter.as_deref(),
-                    spec.label.as_deref(),
-                    now()
-                ],
-            )?
-            .ok_or_else(|| HistoryError::Invalid("queueing a job returned no id".into()))?
-            .int(0)
+        let inserted = self.db().query_opt(
+            "INSERT INTO jobs (state, suite, scenes, renderer, want_adapter, want_label,
+                               queued_at, attempts, idempotency_key)
+             VALUES ('queued', $1, $2, $3, $4, $5, $6, 0, $7)
+             ON CONFLICT (idempotency_key) DO NOTHING RETURNING id",
+            args![
+                &spec.suite,
+                scenes_json(&spec.scenes),
+                if spec.cpu { "cpu" } else { "gpu" },
+                spec.adapter.as_deref(),
+                spec.label.as_deref(),
+                now(),
+                key
+            ],
+        )?;
+        match (inserted, key) {
+            (Some(r), _) => r.int(0),
+            // Queued under the key by another request meanwhile.
+            (None, Some(k)) => by_key(k)?.ok_or_else(|| {
+                HistoryError::Invalid(format!("idempotency key {k:?}: its job is gone"))
+            }),
+            (None, None) => Err(HistoryError::Invalid(
+                "queueing a job returned no id".into(),
+            )),
+        }
     }
 
     /// The newest `limit` jobs, newest first (`state` filters), each with

@@ -231,13 +231,17 @@ pub(super) const MIGRATIONS: &[&str] = &[
         reason     TEXT NOT NULL
     );
     "#,
-    // 9: a submission's branch as the history keys it ('' the main line),
+    // 9: a queued job's idempotency key (`POST /runs` with an
+    //    `Idempotency-Key` queues a run once however often it is sent);
+    //    a submission's branch as the history keys it ('' the main line),
     //    so a submission's digests can be triaged together; alerts
     //    (docs/alerts.md): each event once by its key, a delivery of it to
     //    each webhook with its state and back-off, every attempt, and the
     //    run and submission ids alerts start after (what was recorded
     //    before alerts were set up raises none).
     r#"
+    ALTER TABLE jobs ADD COLUMN idempotency_key TEXT;
+    CREATE UNIQUE INDEX jobs_by_idempotency_key ON jobs (idempotency_key);
     ALTER TABLE frame_submissions ADD COLUMN branch TEXT NOT NULL DEFAULT '';
     CREATE TABLE alert_events (
         id         INTEGER PRIMARY KEY,

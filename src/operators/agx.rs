@@ -99,7 +99,7 @@ impl Curve for Fit {
 
 impl ToneOperator for Agx {
     fn name(&self) -> &'static str {
-        "agx"
+        super::AGX
     }
     fn summary(&self) -> &'static str {
         "AgX (Sobotka), as three.js's AgXToneMapping, with the punchy look as an option"

@@ -54,6 +54,8 @@ pub const REINHARD_GLOBAL: &str = "reinhard-global";
 pub const REINHARD_AUTO_KEY: &str = "reinhard-auto-key";
 /// `reinhard02`'s name (also the `--preset` of pfstmo's global mode).
 pub const REINHARD02: &str = "reinhard02";
+/// `agx`'s name (what the triage page shows HDR frames with by default).
+pub const AGX: &str = "agx";
 
 use serde::ser::SerializeMap;
 use serde::{Deserialize, Serialize};

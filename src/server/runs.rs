@@ -162,9 +162,19 @@ pub async fn post_run(
     st.authorize_write(req.headers())
         .map_err(ApiError::closing)?;
     declared_too_large(req.headers(), RUN_BODY_LIMIT)?;
+    let key = match req.headers().get("idempotency-key") {
+        None => None,
+        Some(v) => Some(
+            v.to_str()
+                .ok()
+                .filter(|k| !k.is_empty() && k.len() <= 255)
+                .ok_or_else(|| ApiError::bad("Idempotency-Key: 1 to 255 visible ASCII characters"))?
+                .to_owned(),
+        ),
+    };
     let body = read_body(&st, req.into_body(), RUN_BODY_LIMIT, RUN_BODY_TIMEOUT).await?;
     if crate::history::is_url(&st.db.to_string_lossy()) {
-        return queue_run(&st, &body).await;
+        return queue_run(&st, &body, key).await;
     }
     let (renderer, spp) = run_request(&body, &st.adapter, st.gpu_config)?;
     if let Some(problem) = st.history_problem().await {
@@ -198,7 +208,11 @@ pub struct RunQueued {
 }
 
 /// Queues a check run of the server's suite for the fleet's runners.
-async fn queue_run(st: &Arc<AppState>, body: &[u8]) -> Result<Response, ApiError> {
+async fn queue_run(
+    st: &Arc<AppState>,
+    body: &[u8],
+    key: Option<String>,
+) -> Result<Response, ApiError> {
     let spec = job_request(body, &st.suite)?;
     let db = st.db.clone();
     let suite = st.suite.clone();
@@ -206,7 +220,7 @@ async fn queue_run(st: &Arc<AppState>, body: &[u8]) -> Result<Response, ApiError
     let job = tokio::task::spawn_blocking(move || {
         check_queued_scenes(&spec, &suite)?;
         History::open(&db)
-            .and_then(|h| h.enqueue_within(&spec, most))
+            .and_then(|h| h.enqueue_keyed(&spec, most, key.as_deref()))
             .map_err(|e| match e {
                 HistoryError::Invalid(d) => ApiError::bad(d),
                 e @ HistoryError::QueueFull { .. } => {

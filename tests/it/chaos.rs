@@ -75,9 +75,13 @@ fn submit(base: String, out: Arc<Mutex<Submitted>>) {
         for i in 0..JOBS {
             let due = Instant::now() + Duration::from_millis(100);
             loop {
+                // Sent again after a 503 under the same key: a run the
+                // database committed before the answer was lost is not
+                // queued a second time.
                 let r = client
                     .post(format!("{base}/api/v1/runs"))
                     .bearer_auth(TOKEN)
+                    .header("Idempotency-Key", format!("chaos-{i}"))
                     .body(r#"{"renderer": "cpu"}"#)
                     .send()
                     .await

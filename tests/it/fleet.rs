@@ -615,3 +615,27 @@ fn the_queue_and_its_listing_are_bounded() {
     );
     assert_eq!(h.jobs(Some("queued"), 1000).unwrap().len(), 103);
 }
+
+/// A run queued under an idempotency key is queued once: the same key
+/// answers the same job (even once the queue is full), another key queues
+/// another job, and a job without a key is queued each time.
+#[test]
+fn a_run_queued_under_an_idempotency_key_is_queued_once() {
+    let url = pg::database();
+    let h = History::open(Path::new(&url)).unwrap();
+    let spec = JobSpec {
+        suite: "golden/suite.toml".into(),
+        ..Default::default()
+    };
+    let first = h.enqueue_keyed(&spec, 2, Some("ci-41")).unwrap();
+    assert_eq!(h.enqueue_keyed(&spec, 2, Some("ci-41")).unwrap(), first);
+    let other = h.enqueue_keyed(&spec, 2, Some("ci-42")).unwrap();
+    assert_ne!(other, first);
+    // The queue is full now: a retry of an accepted run still gets its id.
+    assert_eq!(h.enqueue_keyed(&spec, 2, Some("ci-42")).unwrap(), other);
+    assert!(h.enqueue_keyed(&spec, 2, Some("ci-43")).is_err());
+    assert_eq!(h.jobs(None, 100).unwrap().len(), 2);
+    h.enqueue_keyed(&spec, 10, None).unwrap();
+    h.enqueue_keyed(&spec, 10, None).unwrap();
+    assert_eq!(h.jobs(None, 100).unwrap().len(), 4);
+}

@@ -27,7 +27,7 @@ use utoipa::IntoParams;
 const REFERENCE_WHITE: f32 = 203.0;
 
 /// The operator HDR images are shown with unless the page asks.
-const DEFAULT_OPERATOR: &str = "agx";
+const DEFAULT_OPERATOR: &str = crate::operators::AGX;
 
 fn digest(s: &str) -> Result<String, ApiError> {
     if s.len() == 64 && s.bytes().all(|b| b.is_ascii_hexdigit()) {
