@@ -152,13 +152,24 @@ impl History {
         key: Option<&str>,
     ) -> Result<i64, HistoryError> {
         spec.check().map_err(HistoryError::Invalid)?;
+        // Without the caller's key, one of this call's own: the history's
+        // retry of the insert after a lost connection still finds its job.
+        let given = key;
+        let own;
+        let key = match key {
+            Some(k) => Some(k),
+            None => {
+                own = own_key();
+                Some(own.as_str())
+            }
+        };
         let by_key = |k: &str| -> Result<Option<i64>, HistoryError> {
             self.db()
                 .query_opt("SELECT id FROM jobs WHERE idempotency_key = $1", args![k])?
                 .map(|r| r.int(0))
                 .transpose()
         };
-        if let Some(id) = key.map(by_key).transpose()?.flatten() {
+        if let Some(id) = given.map(by_key).transpose()?.flatten() {
             return Ok(id);
         }
         let queued = self
@@ -188,7 +199,8 @@ impl History {
         )?;
         match (inserted, key) {
             (Some(r), _) => r.int(0),
-            // Queued under the key by another request meanwhile.
+            // Queued under the key already: by another request, or by this
+            // statement before its connection was lost.
             (None, Some(k)) => by_key(k)?.ok_or_else(|| {
                 HistoryError::Invalid(format!("idempotency key {k:?}: its job is gone"))
             }),
@@ -269,4 +281,19 @@ impl History {
             .map(|r| Ok((r.text(0)?, r.int(1)?)))
             .collect()
     }
+}
+
+/// A key no other enqueue has: this host, process, time and a counter.
+fn own_key() -> String {
+    static COUNT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let n = COUNT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let t = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap_or_default()
+        .as_nanos();
+    format!(
+        "tonegate:{}:{}:{t}:{n}",
+        super::host_name(),
+        std::process::id()
+    )
 }
