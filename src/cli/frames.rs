@@ -47,6 +47,10 @@ pub struct SubmitArgs {
     /// Write JUnit XML, one test case a frame.
     #[arg(long, value_name = "FILE")]
     pub junit: Option<PathBuf>,
+    /// Keep the images in this object store (s3://bucket/prefix) instead of
+    /// the history's table, each once by its SHA-256.
+    #[arg(long, value_name = "s3://BUCKET/PREFIX")]
+    pub artifacts: Option<String>,
     /// Submit to this `tonegate serve` (http(s)://host:port) instead of
     /// writing the history: what a CI job without the database does.
     #[arg(long, value_name = "URL", requires = "token_file")]
@@ -154,6 +158,14 @@ fn submit_folder(a: SubmitArgs) -> Result<ExitCode> {
         None => Rules::default(),
     };
     let keys = parse_keys(&a.keys)?;
+    if let Some(url) = &a.artifacts {
+        if !tonegate::history::is_store_url(url) || a.server.is_some() {
+            return Err(super::invalid(format!(
+                "--artifacts {url:?}: an object store, s3://bucket/prefix, for a history this command writes (not with --server: the server has its own)"
+            )));
+        }
+        tonegate::history::set_artifact_store(Some(url))?;
+    }
     let inputs = collect_folder(&a.folder)?;
     let report = match &a.server {
         Some(server) => super::frames_remote::submit(

@@ -31,6 +31,10 @@ pub struct ServeArgs {
     /// Require a token for reads too (the dashboard then asks for it).
     #[arg(long)]
     pub private_reads: bool,
+    /// Keep the images the server stores (submitted frames) in this object
+    /// store (s3://bucket/prefix), each once by its SHA-256.
+    #[arg(long, value_name = "s3://BUCKET/PREFIX")]
+    pub artifacts: Option<String>,
     /// Scan the history for alerts and deliver them to the webhooks this
     /// file names (docs/alerts.md).
     #[arg(long, value_name = "FILE")]
@@ -132,6 +136,14 @@ pub fn serve(a: ServeArgs) -> Result<ExitCode> {
             "--submit-token-file and --triage-token-file hold the same token; each scope needs its own"
                 .into(),
         ));
+    }
+    if let Some(url) = &a.artifacts {
+        if !tonegate::history::is_store_url(url) {
+            return Err(Error::Invalid(format!(
+                "--artifacts {url:?}: an object store, s3://bucket/prefix"
+            )));
+        }
+        tonegate::history::set_artifact_store(Some(url))?;
     }
     let alerts = a
         .alerts

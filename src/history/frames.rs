@@ -115,10 +115,11 @@ impl History {
         Ok(labels.into_iter().collect())
     }
 
-    /// The bytes of a stored image, by its SHA-256; None when there is none.
+    /// The bytes of a stored image, by its SHA-256, from the history's
+    /// table or the object store that keeps them; None when there is none.
     pub fn blob(&self, sha256: &str) -> Result<Option<Vec<u8>>, HistoryError> {
         let Some(r) = self.db().query_opt(
-            "SELECT data, store FROM blobs WHERE sha256 = $1",
+            "SELECT data, store, pending FROM blobs WHERE sha256 = $1",
             args![sha256],
         )?
         else {
@@ -126,10 +127,16 @@ impl History {
         };
         let data = r.blob(0)?;
         match r.opt_text(1)? {
-            Some(store) if data.is_empty() => Err(HistoryError::Invalid(format!(
-                "image {sha256} is kept in {}, and submitted frames are read from the history only",
-                super::redacted(&store)
-            ))),
+            Some(store) if data.is_empty() && r.opt_text(2)?.is_none() => {
+                super::Objects::open(&store)?
+                    .get_bytes(sha256)?
+                    .map(Some)
+                    .ok_or_else(|| HistoryError::Objects {
+                        url: store.clone(),
+                        detail: format!("image {sha256} is not in the store"),
+                        transient: false,
+                    })
+            }
             _ => Ok(Some(data)),
         }
     }
@@ -147,6 +154,33 @@ impl History {
         report: &str,
         frames: &[NewFrame],
     ) -> Result<StoredSubmission, HistoryError> {
+        // With an object store, the images new to the history go there
+        // first; one it does not take is kept in the table, pending, as a
+        // run's artifacts are.
+        let objects = super::artifact_store();
+        let mut refused: std::collections::HashMap<&str, String> = Default::default();
+        if let Some(o) = &objects {
+            for f in frames {
+                let known = self
+                    .db()
+                    .query_opt(
+                        "SELECT 1 FROM blobs WHERE sha256 = $1 AND pending IS NULL",
+                        args![f.sha256],
+                    )?
+                    .is_some();
+                if known || refused.contains_key(f.sha256) {
+                    continue;
+                }
+                if let Err(e) = o.put(f.sha256, f.bytes.to_vec()) {
+                    if !matches!(e, HistoryError::Objects { .. }) {
+                        return Err(e);
+                    }
+                    tracing::warn!("{e}: the image is kept in the history, pending");
+                    refused.insert(f.sha256, super::objects::pending_reason(&e));
+                }
+            }
+        }
+        let store = objects.as_ref().map(|o| o.url.clone());
         let mut stored = None;
         self.db().transaction(&mut |tx| {
             if let Some(done) = key.map(|k| submission_by_key(tx, k)).transpose()?.flatten() {
@@ -170,9 +204,15 @@ impl History {
                     .query_opt("SELECT 1 FROM blobs WHERE sha256 = $1", args![f.sha256])?
                     .is_some();
                 if !held {
+                    let pending = refused.get(f.sha256);
+                    let (data, store): (&[u8], Option<&str>) = match (&store, pending) {
+                        (Some(s), None) => (&[], Some(s)),
+                        (s, _) => (f.bytes, s.as_deref()),
+                    };
                     tx.execute(
-                        "INSERT INTO blobs (sha256, size, data, stored_at) VALUES ($1, $2, $3, $4)",
-                        args![f.sha256, f.bytes.len(), f.bytes, &at],
+                        "INSERT INTO blobs (sha256, size, data, stored_at, store, pending)
+                         VALUES ($1, $2, $3, $4, $5, $6)",
+                        args![f.sha256, f.bytes.len(), data, &at, store, pending],
                     )?;
                 }
                 tx.execute(

@@ -326,6 +326,19 @@ impl Objects {
         listed.map_err(|e| failed(&self.url, "listing the images", &e))
     }
 
+    /// An image's bytes, whole; `None` when the store has no such image.
+    pub fn get_bytes(&self, sha256: &str) -> Result<Option<Vec<u8>>, HistoryError> {
+        let (store, path) = (self.client()?, self.path(sha256));
+        let got = wait(async move {
+            match store.get(&path).await {
+                Ok(got) => got.bytes().await.map(|b| Some(b.to_vec())),
+                Err(object_store::Error::NotFound { .. }) => Ok(None),
+                Err(e) => Err(e),
+            }
+        });
+        got.map_err(|e| failed(&self.url, &format!("reading {sha256}.png"), &e))
+    }
+
     /// An image as a stream of byte chunks and its length, for an answer
     /// that never holds the whole file. `None` when the store has no such
     /// image.

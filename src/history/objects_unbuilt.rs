@@ -62,6 +62,10 @@ impl Objects {
         match self.never {}
     }
 
+    pub fn get_bytes(&self, _sha256: &str) -> Result<Option<Vec<u8>>, HistoryError> {
+        match self.never {}
+    }
+
     pub fn list(&self) -> Result<Vec<(String, chrono::DateTime<chrono::Utc>)>, HistoryError> {
         match self.never {}
     }

@@ -308,3 +308,123 @@ fn a_fleet_keeps_each_distinct_image_once_in_an_object_store() {
         );
     }
 }
+
+/// Submitted frames in the object store: a folder of 1,000 frames of 50
+/// distinct images stores 50 objects and no bytes in the history; the
+/// triaged digests pass the next submission, and a frame that changed is
+/// compared with its positive read back from the store.
+#[test]
+fn submitted_frames_go_to_the_object_store_once_each() {
+    use tonegate::image::{Frame, Image};
+    let weed = Weed::start(BUCKET);
+    let tmp = tempfile::tempdir().unwrap();
+    let (db, dir) = (tmp.path().join("h.sqlite"), tmp.path().join("frames"));
+    std::fs::create_dir_all(&dir).unwrap();
+    let png = |i: u32, lift: u8| {
+        let p = tmp.path().join("one.png");
+        let img = Image::from_fn(24, 16, |x, y| {
+            [(x * 10) as u8 + lift, (y * 15) as u8, i as u8]
+        });
+        tonegate::io::write_frame_png(&p, &Frame::Rgb8(img)).unwrap();
+        std::fs::read(&p).unwrap()
+    };
+    let images: Vec<Vec<u8>> = (0..50).map(|i| png(i, 0)).collect();
+    for n in 0..1000 {
+        std::fs::write(dir.join(format!("t{n:04}.png")), &images[n % 50]).unwrap();
+    }
+    let store = "s3://tonegate/frames";
+    let submit = |rules: Option<&std::path::Path>| {
+        let mut args = vec![
+            "frames",
+            "submit",
+            dir.to_str().unwrap(),
+            "--db",
+            db.to_str().unwrap(),
+            "--artifacts",
+            store,
+            "--json",
+            "-",
+        ];
+        if let Some(r) = rules {
+            args.extend(["--rules", r.to_str().unwrap()]);
+        }
+        let o = tonegate(&weed, &args);
+        let report: serde_json::Value = serde_json::from_slice(&o.stdout)
+            .unwrap_or_else(|e| panic!("{e}: {}", String::from_utf8_lossy(&o.stderr)));
+        (o.status.code(), report)
+    };
+    let (code, first) = submit(None);
+    assert_eq!(code, Some(1));
+    assert_eq!(weed.keys(BUCKET, "frames/").len(), 50);
+    let c = rusqlite::Connection::open(&db).unwrap();
+    let (blobs, held, stored): (i64, i64, i64) = c
+        .query_row(
+            "SELECT COUNT(*), SUM(length(data)), SUM(store = ?1) FROM blobs",
+            [store],
+            |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)),
+        )
+        .unwrap();
+    assert_eq!((blobs, held, stored), (50, 0, 50));
+    // Every digest positive, then the same frames pass.
+    let h = tonegate::history::History::open(&db).unwrap();
+    let actions: Vec<(String, String)> = first["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| {
+            (
+                f["test"].as_str().unwrap().to_owned(),
+                f["digest"].as_str().unwrap().to_owned(),
+            )
+        })
+        .collect();
+    let labelled: Vec<(&str, &str, tonegate::history::Label)> = actions
+        .iter()
+        .map(|(t, d)| (t.as_str(), d.as_str(), tonegate::history::Label::Positive))
+        .collect();
+    h.triage_many(tonegate::history::MAIN, &labelled, ("ana", "first frames"))
+        .unwrap();
+    assert_eq!(submit(None).0, Some(0));
+    // One frame a code brighter: judged against its positive, read back
+    // from the store, within a one-code rule.
+    std::fs::write(dir.join("t0007.png"), png(7, 1)).unwrap();
+    let rules = tmp.path().join("rules.toml");
+    std::fs::write(
+        &rules,
+        "[[tests]]\npattern = \"*\"\nchecks = [{ max_abs_diff = 1 }]\n",
+    )
+    .unwrap();
+    let (code, third) = submit(Some(&rules));
+    assert_eq!(code, Some(0), "{third}");
+    let frame = third["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|f| f["test"] == "t0007")
+        .unwrap();
+    assert_eq!(frame["status"], "matched", "{frame}");
+    assert_eq!(frame["closest"]["figures"]["max_abs_diff"], 1.0);
+    let (blobs, held): (i64, i64) = c
+        .query_row("SELECT COUNT(*), SUM(length(data)) FROM blobs", [], |r| {
+            Ok((r.get(0)?, r.get(1)?))
+        })
+        .unwrap();
+    let digest = frame["digest"].as_str().unwrap();
+    let found: i64 = c
+        .query_row(
+            "SELECT COUNT(*) FROM blobs WHERE sha256 = ?1",
+            [digest],
+            |r| r.get(0),
+        )
+        .unwrap();
+    let distinct: i64 = c
+        .query_row(
+            "SELECT COUNT(DISTINCT sha256) FROM submitted_frames",
+            [],
+            |r| r.get(0),
+        )
+        .unwrap();
+
+    assert_eq!((blobs, held, found, distinct), (51, 0, 1, 51), "{frame}");
+    assert_eq!(weed.keys(BUCKET, "frames/").len(), 51);
+}
