@@ -207,7 +207,7 @@ fn frames_are_triaged_in_the_page_and_the_same_submissions_then_pass_in_chromium
         "the EXR shown",
     );
     let src = b.eval(
-        "document.querySelector('.frame-card[data-test=\"hdr/sky\"] img[data-kind=positive]').src",
+        "document.querySelector('.frame-card[data-test=\"hdr/sky\"] img[data-kind=positive]').dataset.src",
     );
     assert!(src.as_str().unwrap().contains("operator=hable"), "{src}");
     assert_eq!(

@@ -35,10 +35,21 @@ function whoBox() {
   return who;
 }
 
+// An image of the API. With a token in hand (a server with private
+// reads), it is fetched with the token and shown from a blob, since an
+// <img> cannot send one; otherwise the browser loads it lazily itself.
 function imageOf(src, kind, alt) {
-  const img = h("img", { src, alt, "data-kind": kind, loading: "lazy" });
+  const img = h("img", { alt, "data-kind": kind, "data-src": src, loading: "lazy" });
   img.addEventListener("load", () => img.setAttribute("data-loaded", "1"));
   img.addEventListener("error", () => img.setAttribute("data-loaded", "error"));
+  if (token()) {
+    fetch(src, { headers: authHeaders() })
+      .then((r) => (r.ok ? r.blob() : Promise.reject(new Error(r.statusText))))
+      .then((b) => { img.src = URL.createObjectURL(b); })
+      .catch(() => img.setAttribute("data-loaded", "error"));
+  } else {
+    img.src = src;
+  }
   return h("figure", {}, img, h("figcaption", {}, kind));
 }
 
