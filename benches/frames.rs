@@ -2,8 +2,9 @@
 //! exact matches, 1080p PNG frames whose digests are positives of their
 //! tests (read, hashed, looked up and recorded; not decoded), in frames per
 //! second; and the fuzzy comparison of one untriaged 1080p frame with a
-//! positive (decoded both, every figure, the rules), per frame. Both
-//! through `frames::submit` on a SQLite history in a temporary folder.
+//! positive (decoded both, every figure, the rules), per frame, with the
+//! CPU's metrics and with the GPU's on the default adapter. All through
+//! `frames::submit` on a SQLite history in a temporary folder.
 //!
 //! `cargo bench --bench frames`.
 
@@ -45,6 +46,7 @@ fn submit_all_positive(history: &History, dir: &Path) {
             keys: Default::default(),
             idempotency_key: None,
             rules: &Rules::default(),
+            compare: None,
         },
     )
     .unwrap();
@@ -85,6 +87,7 @@ fn ingest(c: &mut Criterion) {
                     keys: Default::default(),
                     idempotency_key: None,
                     rules: &rules,
+                    compare: None,
                 },
             )
             .unwrap();
@@ -107,21 +110,37 @@ fn ingest(c: &mut Criterion) {
     )
     .unwrap();
     group.throughput(Throughput::Elements(1));
-    group.bench_function("fuzzy_1080p", |b| {
-        b.iter(|| {
-            let report = submit(
-                &history,
-                Submission {
-                    inputs: collect_folder(&fuzzy_dir).unwrap(),
-                    keys: Default::default(),
-                    idempotency_key: None,
-                    rules: &fuzzy,
-                },
-            )
-            .unwrap();
-            assert!(report.passed, "{}", report.console());
-        })
-    });
+    // The same comparison with the GPU's metrics (`frames submit --metrics
+    // gpu`) on the default adapter, in the same run.
+    let ctx = tonegate::gpu::GpuContext::new(&Default::default()).unwrap();
+    let gpu = tonegate::gpu::compare::GpuCompare::new(&ctx);
+    gpu.self_check().unwrap();
+    println!("GPU metrics on {}", ctx.adapter.name);
+    let on_gpu = |t: tonegate::metrics::Raster, r: tonegate::metrics::Raster| gpu.compare(t, r);
+    for (name, compare) in [
+        ("fuzzy_1080p_cpu_metrics", None),
+        (
+            "fuzzy_1080p_gpu_metrics",
+            Some(tonegate::metrics::CompareBy(&on_gpu)),
+        ),
+    ] {
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                let report = submit(
+                    &history,
+                    Submission {
+                        inputs: collect_folder(&fuzzy_dir).unwrap(),
+                        keys: Default::default(),
+                        idempotency_key: None,
+                        rules: &fuzzy,
+                        compare,
+                    },
+                )
+                .unwrap();
+                assert!(report.passed, "{}", report.console());
+            })
+        });
+    }
     group.finish();
 }
 

@@ -9,6 +9,7 @@ use std::process::ExitCode;
 use tonegate::error::Result;
 use tonegate::frames::rules::Rules;
 use tonegate::frames::{collect_folder, parse_keys, submit, Submission};
+use tonegate::gate::MetricsOn;
 use tonegate::history::{History, Label, MAIN};
 
 #[derive(Subcommand)]
@@ -51,6 +52,15 @@ pub struct SubmitArgs {
     /// the history's table, each once by its SHA-256.
     #[arg(long, value_name = "s3://BUCKET/PREFIX")]
     pub artifacts: Option<String>,
+    /// Where an untriaged 8-bit frame's figures against a positive are
+    /// computed: cpu (NVIDIA's FLIP through nv-flip), gpu (on --adapter:
+    /// the check's GPU metrics, trusted once they pass their locks there),
+    /// or auto (the GPU on a hardware adapter, else the CPU).
+    #[arg(long, default_value = "cpu", value_parser = crate::cli::by_name::<MetricsOn>)]
+    pub metrics: MetricsOn,
+    /// The adapter of --metrics gpu|auto.
+    #[arg(long = "adapter", default_value = "default")]
+    pub adapter: tonegate::gpu::AdapterChoice,
     /// Submit to this `tonegate serve` (http(s)://host:port) instead of
     /// writing the history: what a CI job without the database does.
     #[arg(long, value_name = "URL", requires = "token_file")]
@@ -180,6 +190,30 @@ fn submit_folder(a: SubmitArgs) -> Result<ExitCode> {
         )?,
         None => {
             let history = History::open(&a.db.db)?;
+            // The GPU's metrics, where asked for and trusted on the adapter.
+            let ctx = match a.metrics {
+                MetricsOn::Cpu => None,
+                _ => Some(tonegate::gpu::GpuContext::new(&a.adapter)?),
+            };
+            let gpu = match a.metrics.resolve(ctx.as_ref()) {
+                MetricsOn::Gpu => ctx.as_ref().and_then(|c| {
+                    let g = tonegate::gpu::compare::GpuCompare::new(c);
+                    match g.self_check() {
+                        Ok(()) => {
+                            eprintln!("untriaged 8-bit frames are compared with the GPU's metrics on {}", c.adapter.name);
+                            Some(g)
+                        }
+                        Err(why) => {
+                            eprintln!("the GPU's metrics are not trusted on {}: {why}; comparing on the CPU", c.adapter.name);
+                            None
+                        }
+                    }
+                }),
+                _ => None,
+            };
+            let on_gpu = gpu.as_ref().map(|g| {
+                move |t: tonegate::metrics::Raster, r: tonegate::metrics::Raster| g.compare(t, r)
+            });
             submit(
                 &history,
                 Submission {
@@ -187,6 +221,7 @@ fn submit_folder(a: SubmitArgs) -> Result<ExitCode> {
                     keys,
                     idempotency_key: a.idempotency_key.as_deref(),
                     rules: &rules,
+                    compare: on_gpu.as_ref().map(|f| tonegate::metrics::CompareBy(f)),
                 },
             )?
         }

@@ -9,7 +9,7 @@ use super::rules::{Rules, TestRule, Untriaged};
 use super::{decode_bytes, Decoded, FramesError, Input};
 use crate::check::spec::{Check, Side};
 use crate::history::{History, IgnoreRule, Label};
-use crate::metrics::frames::{compare_frames, frame_fraction_over};
+use crate::metrics::frames::{compare_frames_by, frame_fraction_over};
 use crate::metrics::hdr::{compare_hdr, HdrOptions};
 use std::collections::BTreeMap;
 
@@ -42,6 +42,7 @@ pub(super) struct On<'a> {
     pub history: &'a History,
     pub rules: &'a Rules,
     pub ignores: &'a Ignores,
+    pub compare: Option<crate::metrics::CompareBy<'a>>,
 }
 
 impl On<'_> {
@@ -126,7 +127,7 @@ fn judge(
             continue;
         };
         let theirs = decode_bytes(&bytes, &input.test)?;
-        match against(image, &theirs, rule) {
+        match against(image, &theirs, rule, on.compare) {
             Ok(c) => {
                 if better(&c, best.as_ref()) {
                     best = Some(Closest {
@@ -182,12 +183,17 @@ fn better(c: &Closest, best: Option<&Closest>) -> bool {
 
 /// The figures of `ours` against the positive `theirs`, and the rules
 /// broken; an error when the two cannot be compared.
-fn against(ours: &Decoded, theirs: &Decoded, rule: Option<&TestRule>) -> Result<Closest, String> {
+fn against(
+    ours: &Decoded,
+    theirs: &Decoded,
+    rule: Option<&TestRule>,
+    by: Option<crate::metrics::CompareBy>,
+) -> Result<Closest, String> {
     let mut figures = BTreeMap::new();
     let mut failed = Vec::new();
     match (ours, theirs) {
         (Decoded::Frame(a), Decoded::Frame(b)) => {
-            let (m, flip) = compare_frames(a, b).map_err(|e| e.to_string())?;
+            let (m, flip) = compare_frames_by(a, b, by).map_err(|e| e.to_string())?;
             for (k, v) in [
                 ("psnr", m.psnr),
                 ("ssim", m.ssim),

@@ -305,6 +305,9 @@ pub struct Submission<'a> {
     /// what the first did.
     pub idempotency_key: Option<&'a str>,
     pub rules: &'a Rules,
+    /// How 8-bit frames are compared with a positive when not on the CPU
+    /// (the GPU's metrics, `frames submit --metrics gpu`).
+    pub compare: Option<crate::metrics::CompareBy<'a>>,
 }
 
 /// Reads, judges and stores a submission. Every file is read and decoded
@@ -358,6 +361,7 @@ pub fn submit(history: &History, s: Submission) -> Result<SubmissionReport, Fram
         history,
         rules: s.rules,
         ignores: &ignores,
+        compare: s.compare,
     };
     let mut verdicts = Vec::with_capacity(read.len());
     for r in &read {

@@ -218,6 +218,38 @@ fn a_fuzzy_rule_passes_one_code_off_and_not_a_brighter_frame() {
         "{f}"
     );
     assert!(f["detail"].as_str().unwrap().contains("misses"), "{f}");
+    // The same judgement with the GPU's metrics (on the default adapter,
+    // llvmpipe here): the error figures exact, SSIM within 1e-6 and FLIP
+    // within 1e-4 of the CPU's, the bounds `check --metrics gpu` locks
+    // them to (docs/checks.md#metrics-on-the-gpu).
+    let on_gpu = submit(
+        &db,
+        &dir,
+        &["--rules", rules.to_str().unwrap(), "--metrics", "gpu"],
+    );
+    assert_eq!(on_gpu.code, 1, "{}", on_gpu.stderr);
+    assert!(
+        on_gpu.stderr.contains("compared with the GPU's metrics on"),
+        "{}",
+        on_gpu.stderr
+    );
+    let g = frame(&on_gpu.report, "scene");
+    assert_eq!(g["detail"], f["detail"]);
+    for (name, cpu) in f["closest"]["figures"].as_object().unwrap() {
+        let (cpu, gpu) = (
+            cpu.as_f64().unwrap(),
+            g["closest"]["figures"][name].as_f64().unwrap(),
+        );
+        let tolerance = match name.as_str() {
+            "ssim" => 1e-6,
+            "flip_mean" => 1e-4,
+            _ => 1e-9 * cpu.abs().max(1.0),
+        };
+        assert!(
+            (cpu - gpu).abs() <= tolerance,
+            "{name}: CPU {cpu}, GPU {gpu}"
+        );
+    }
     // Marked negative, it fails as such; warned untriaged digests pass.
     let digest = f["digest"].as_str().unwrap().to_owned();
     triage(&db, "scene", &digest, "negative");

@@ -229,6 +229,7 @@ pub async fn submit(State(st): State<Arc<AppState>>, req: Request) -> Result<Res
                 keys,
                 idempotency_key: idempotency_key.as_deref(),
                 rules: &rules,
+                compare: None,
             },
         )
         .map_err(frames_error)
