@@ -251,9 +251,11 @@ fn prune(a: PruneArgs) -> Result<ExitCode> {
     }
     let after = h.artifact_stats()?;
     println!(
-        "pruned the artifacts of {} run(s) started over {} day(s) ago: {} name(s), {} image(s) no kept run uses ({:.1} MiB; {} of them from an object store), {} object(s) nothing named, {} folder(s); the store now holds {} image(s), {:.1} MiB (was {}, {:.1} MiB)",
+        "pruned the artifacts of {} run(s) started over {} day(s) ago and {} frames submission(s) ({} untriaged digest(s) only they had): {} name(s), {} image(s) nothing kept uses ({:.1} MiB; {} of them from an object store), {} object(s) nothing named, {} folder(s); the store now holds {} image(s), {:.1} MiB (was {}, {:.1} MiB)",
         p.runs.len(),
         a.keep_days,
+        p.submissions,
+        p.untriaged_digests,
         p.names,
         p.blobs,
         p.bytes as f64 / 1048576.0,

@@ -25,6 +25,11 @@ pub struct Pruned {
     /// finish), deleted too.
     pub objects: i64,
     pub stray_objects: i64,
+    /// Frames submissions dropped (older than the keep), and the untriaged
+    /// digests only they had. Positive and negative digests stay, with
+    /// their images.
+    pub submissions: i64,
+    pub untriaged_digests: i64,
 }
 
 /// An object in a store that no stored image names is deleted by a prune
@@ -350,8 +355,10 @@ impl History {
     }
 
     /// Drops the artifacts of finished runs that started more than `keep`
-    /// ago (their metrics, checks and reports stay), then deletes the images
-    /// no run names any more and that nothing stored within `keep`.
+    /// ago (their metrics, checks and reports stay) and the frames
+    /// submissions made before then, then deletes the images no run,
+    /// submission or labelled digest names any more and that nothing stored
+    /// within `keep`.
     pub fn prune_artifacts(&self, keep: Duration) -> Result<Pruned, HistoryError> {
         let cutoff = ago(keep);
         let mut out = Pruned::default();
@@ -369,6 +376,23 @@ impl History {
                 "DELETE FROM run_artifacts WHERE run_id IN (
                    SELECT id FROM runs WHERE started_at < $1 AND status <> 'running')",
                 args![&cutoff],
+            )? as i64;
+            // Submissions older than the keep, their frames, and the
+            // untriaged digests no kept submission has.
+            tx.execute(
+                "DELETE FROM submitted_frames WHERE submission_id IN (
+                   SELECT id FROM frame_submissions WHERE submitted_at < $1)",
+                args![&cutoff],
+            )?;
+            out.submissions = tx.execute(
+                "DELETE FROM frame_submissions WHERE submitted_at < $1",
+                args![&cutoff],
+            )? as i64;
+            out.untriaged_digests = tx.execute(
+                "DELETE FROM digest_labels WHERE label = 'untriaged' AND NOT EXISTS (
+                   SELECT 1 FROM submitted_frames f
+                   WHERE f.test = digest_labels.test AND f.sha256 = digest_labels.sha256)",
+                &[],
             )? as i64;
             let orphans = "FROM blobs WHERE stored_at < $1
                  AND NOT EXISTS (SELECT 1 FROM run_artifacts a WHERE a.sha256 = blobs.sha256)
