@@ -43,6 +43,46 @@ pub async fn read<T: Send + 'static>(
     .map_err(|e| ApiError::internal(e.to_string()))?
 }
 
+/// Runs `f` on the history opened for writing, off the async threads; a
+/// history that cannot be written is 503 `history_read_only` with why.
+pub async fn write<T: Send + 'static>(
+    st: &AppState,
+    f: impl FnOnce(&History) -> Result<T, HistoryError> + Send + 'static,
+) -> Result<T, ApiError> {
+    if let Some(problem) = st.history_problem().await {
+        return Err(ApiError::new(
+            StatusCode::SERVICE_UNAVAILABLE,
+            "history_read_only",
+            problem,
+        ));
+    }
+    let db = st.db.clone();
+    tokio::task::spawn_blocking(move || {
+        let h = History::open(&db).map_err(|e| ApiError::of_history(&e))?;
+        f(&h).map_err(|e| match e {
+            HistoryError::Invalid(d) => ApiError::bad(d),
+            e => ApiError::of_history(&e),
+        })
+    })
+    .await
+    .map_err(|e| ApiError::internal(e.to_string()))?
+}
+
+/// The `Idempotency-Key` header, when there is one: 1 to 255 visible
+/// ASCII characters.
+pub fn idempotency_key(headers: &axum::http::HeaderMap) -> Result<Option<String>, ApiError> {
+    headers
+        .get("idempotency-key")
+        .map(|v| {
+            v.to_str()
+                .ok()
+                .filter(|k| !k.is_empty() && k.len() <= 255)
+                .map(str::to_owned)
+                .ok_or_else(|| ApiError::bad("Idempotency-Key: 1 to 255 visible ASCII characters"))
+        })
+        .transpose()
+}
+
 /// Serialises with serde_json's text writer, which keeps `1e999` for +∞.
 pub fn json_text(v: &impl Serialize) -> Result<Response, ApiError> {
     let s = serde_json::to_string(v).map_err(|e| ApiError::internal(e.to_string()))?;

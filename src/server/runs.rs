@@ -162,16 +162,7 @@ pub async fn post_run(
     st.authorize_write(req.headers())
         .map_err(ApiError::closing)?;
     declared_too_large(req.headers(), RUN_BODY_LIMIT)?;
-    let key = match req.headers().get("idempotency-key") {
-        None => None,
-        Some(v) => Some(
-            v.to_str()
-                .ok()
-                .filter(|k| !k.is_empty() && k.len() <= 255)
-                .ok_or_else(|| ApiError::bad("Idempotency-Key: 1 to 255 visible ASCII characters"))?
-                .to_owned(),
-        ),
-    };
+    let key = super::params::idempotency_key(req.headers())?;
     let body = read_body(&st, req.into_body(), RUN_BODY_LIMIT, RUN_BODY_TIMEOUT).await?;
     if crate::history::is_url(&st.db.to_string_lossy()) {
         return queue_run(&st, &body, key).await;

@@ -18,7 +18,7 @@ use tonegate::io::{write_frame_png, write_image_hdr};
 
 /// A 64×40 8-bit frame: a gradient with a bright square whose place `seed`
 /// moves.
-fn frame8(seed: u32) -> Rgb8Image {
+pub(crate) fn frame8(seed: u32) -> Rgb8Image {
     Image::from_fn(64, 40, |x, y| {
         let inside = (x + seed) % 64 >= 20 && (x + seed) % 64 < 36 && (12..28).contains(&y);
         if inside {

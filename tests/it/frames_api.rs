@@ -8,6 +8,7 @@
 
 use crate::common;
 use crate::common::server::{start, TOKEN};
+use crate::frames::frame8;
 use reqwest::multipart::{Form, Part};
 use reqwest::StatusCode;
 use serde_json::{json, Value};
@@ -16,18 +17,6 @@ use tonegate::image::{Frame, Image, Rgb8Image};
 
 pub const SUBMIT: &str = "submit-token-0123456789";
 pub const TRIAGE: &str = "triage-token-0123456789";
-
-/// A 64×40 frame whose bright square `seed` moves.
-pub fn frame8(seed: u32) -> Rgb8Image {
-    Image::from_fn(64, 40, |x, y| {
-        let inside = (x + seed) % 64 >= 20 && (x + seed) % 64 < 36 && (12..28).contains(&y);
-        if inside {
-            [240, 220, 200]
-        } else {
-            [(x * 3) as u8, (y * 5) as u8, ((x + y) * 2) as u8]
-        }
-    })
-}
 
 pub fn png(img: &Rgb8Image) -> Vec<u8> {
     let dir = tempfile::tempdir().unwrap();

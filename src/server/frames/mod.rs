@@ -12,11 +12,9 @@ pub use submit::{__path_submit, submit};
 
 use super::edge::{declared_too_large, read_body, ApiPath as Path};
 use super::error::{ApiError, ErrorBody};
-use super::params::{json_text, limit, query, read};
+use super::params::{json_text, limit, query, read, write};
 use super::{AppState, Scope};
-use crate::history::{
-    History, HistoryError, Label, SubmissionRow, SubmittedFrame, TriageEntry, MAIN,
-};
+use crate::history::{Label, SubmissionRow, SubmittedFrame, TriageEntry, MAIN};
 use axum::extract::{RawQuery, Request, State};
 use axum::http::HeaderMap;
 use axum::response::Response;
@@ -38,30 +36,6 @@ fn submission_id(s: &str) -> Result<i64, ApiError> {
             super::error::clip(s)
         ))
     })
-}
-
-/// Runs `f` on the history opened for writing, off the async threads.
-async fn write<T: Send + 'static>(
-    st: &AppState,
-    f: impl FnOnce(&History) -> Result<T, HistoryError> + Send + 'static,
-) -> Result<T, ApiError> {
-    if let Some(problem) = st.history_problem().await {
-        return Err(ApiError::new(
-            axum::http::StatusCode::SERVICE_UNAVAILABLE,
-            "history_read_only",
-            problem,
-        ));
-    }
-    let db = st.db.clone();
-    tokio::task::spawn_blocking(move || {
-        let h = History::open(&db).map_err(|e| ApiError::of_history(&e))?;
-        f(&h).map_err(|e| match e {
-            HistoryError::Invalid(d) => ApiError::bad(d),
-            e => ApiError::of_history(&e),
-        })
-    })
-    .await
-    .map_err(|e| ApiError::internal(e.to_string()))?
 }
 
 /// A JSON body of at most [`JSON_LIMIT`] bytes, unknown fields refused

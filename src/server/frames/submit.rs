@@ -154,16 +154,7 @@ pub async fn submit(State(st): State<Arc<AppState>>, req: Request) -> Result<Res
         st.uploads.begin()
     })()
     .map_err(ApiError::closing)?;
-    let idempotency_key = match headers.get("idempotency-key") {
-        None => None,
-        Some(v) => Some(
-            v.to_str()
-                .ok()
-                .filter(|k| !k.is_empty() && k.len() <= 255)
-                .ok_or_else(|| ApiError::bad("Idempotency-Key: 1 to 255 visible ASCII characters"))?
-                .to_owned(),
-        ),
-    };
+    let idempotency_key = super::super::params::idempotency_key(&headers)?;
     let content_type = headers
         .get(header::CONTENT_TYPE)
         .and_then(|v| v.to_str().ok())
