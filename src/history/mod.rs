@@ -1,14 +1,12 @@
 //! Run history: every `check` and `tradeoff` run, per-frame metrics,
-//! per-stage timings and FPS, with versioned migrations. Kept in an embedded
-//! SQLite file (WAL mode; the default) or, for a fleet of runners, in one
-//! PostgreSQL database (`--db postgres://…`): the same schema and the same
-//! statements on both (`backend`).
-//!
-//! A run is inserted as `running` before anything is rendered and finished in
-//! one statement at the end; everything in between is written a scene at a
-//! time, each in its own transaction. A process killed mid-run therefore
-//! leaves a consistent file with the run still `running`, and the next open
-//! marks it `aborted` when the process that owned it is gone.
+//! per-stage timings and FPS, submitted frames and alerts, with versioned
+//! migrations; in an embedded SQLite file (WAL mode; the default) or, for a
+//! fleet, one PostgreSQL database (`--db postgres://…`): the same schema and
+//! statements on both (`backend`). A run is inserted as `running` before
+//! anything is rendered and finished in one statement at the end; in between
+//! it is written a scene at a time, each in its own transaction, so a process
+//! killed mid-run leaves a consistent file with the run still `running`, and
+//! the next open marks it `aborted` when its process is gone.
 
 mod address;
 mod alerts;
@@ -39,16 +37,14 @@ pub use artifacts::{
     ArtifactStats, Kept, PendingDone, PendingImage, PendingName, Pruned, StoredArtifact,
     STRAY_GRACE,
 };
+use backend::{args, Backend};
 pub use fleet::{ClaimedJob, Expired, RunnerInfo, RunnerRow, MAX_ATTEMPTS};
 pub use frames::{IgnoreRule, Label, NewFrame, StoredSubmission, TriageEntry, MAIN};
 pub use jobs::{valid_label, JobRow, JobSpec, LISTED_SCENES, MAX_QUEUED_JOBS};
 pub use objects::{artifact_store, is_store_url, set_artifact_store, store_last_recovery, Objects};
-pub use reconnect::{last_recovery, set_retry_budget};
-
 pub use query::{RunRow, RunsFilter, TradeoffRow, TrendFilter, TrendPoint};
+pub use reconnect::{last_recovery, set_retry_budget};
 pub use record::{CheckRecord, FrameRecord, Regression, SceneRecord, TradeoffRecord};
-
-use backend::{args, Backend};
 use rusqlite::Connection;
 use schema::MIGRATIONS;
 pub use schema::SCHEMA_VERSION;

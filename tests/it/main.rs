@@ -24,6 +24,7 @@ mod docs_examples;
 mod fleet;
 mod frames;
 mod frames_api;
+mod frames_store;
 mod fuzz_regressions;
 mod golden;
 mod gpu;
