@@ -263,6 +263,20 @@ async fn hostile_submissions_are_refused_by_the_part_they_are_about_and_store_no
         tonegate::io::write_png16(&p, &img).unwrap();
         std::fs::read(p).unwrap()
     };
+    // A 16-bit frame whose cICP says HLG (transfer 18): its codes would be
+    // read as PQ by a tool that trusted the depth alone.
+    let hlg16 = {
+        let mut out = Vec::new();
+        let mut e = png::Encoder::new(&mut out, 16, 8);
+        e.set_color(png::ColorType::Rgb);
+        e.set_depth(png::BitDepth::Sixteen);
+        let mut w = e.write_header().unwrap();
+        w.write_chunk(png::chunk::ChunkType(*b"cICP"), &[9, 18, 0, 1])
+            .unwrap();
+        w.write_image_data(&vec![0x40u8; 16 * 8 * 6]).unwrap();
+        w.finish().unwrap();
+        out
+    };
     let tiny: Vec<(String, Vec<u8>)> = (0..10_000)
         .map(|i| (format!("t{i:05}.png"), good[..64].to_vec()))
         .collect();
@@ -300,6 +314,12 @@ async fn hostile_submissions_are_refused_by_the_part_they_are_about_and_store_no
             vec![("plain16.png".into(), plain16)],
             StatusCode::UNPROCESSABLE_ENTITY,
             "plain16.png",
+        ),
+        (
+            "cicp says hlg",
+            vec![("hlg16.png".into(), hlg16)],
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "hlg16.png",
         ),
         (
             "ten thousand",
