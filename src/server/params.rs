@@ -49,6 +49,21 @@ pub async fn write<T: Send + 'static>(
     st: &AppState,
     f: impl FnOnce(&History) -> Result<T, HistoryError> + Send + 'static,
 ) -> Result<T, ApiError> {
+    write_with(st, move |h| {
+        f(h).map_err(|e| match e {
+            HistoryError::Invalid(d) => ApiError::bad(d),
+            e => ApiError::of_history(&e),
+        })
+    })
+    .await
+}
+
+/// [`write`] for work whose errors say more than the history's (they are
+/// answered as `f` makes them).
+pub async fn write_with<T: Send + 'static>(
+    st: &AppState,
+    f: impl FnOnce(&History) -> Result<T, ApiError> + Send + 'static,
+) -> Result<T, ApiError> {
     if let Some(problem) = st.history_problem().await {
         return Err(ApiError::new(
             StatusCode::SERVICE_UNAVAILABLE,
@@ -59,10 +74,7 @@ pub async fn write<T: Send + 'static>(
     let db = st.db.clone();
     tokio::task::spawn_blocking(move || {
         let h = History::open(&db).map_err(|e| ApiError::of_history(&e))?;
-        f(&h).map_err(|e| match e {
-            HistoryError::Invalid(d) => ApiError::bad(d),
-            e => ApiError::of_history(&e),
-        })
+        f(&h)
     })
     .await
     .map_err(|e| ApiError::internal(e.to_string()))?

@@ -90,7 +90,7 @@ pub async fn tonemap(
         if is_multipart {
             read_multipart(req, &mut pairs, upload, max_pixels).await
         } else {
-            super::uploads::read_raw(req.into_body(), limit, max_pixels, &mut upload).await
+            super::uploads::read_raw(req.into_body(), limit, Some(max_pixels), &mut upload).await
         }
     });
     // An upload still arriving when the server starts stopping is cut off.

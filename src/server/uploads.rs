@@ -117,15 +117,15 @@ impl Drop for Upload {
 }
 
 /// A raw body, at most `limit` bytes, each chunk charged to `upload` as it
-/// arrives; an image whose header states more than `max_pixels` is refused
-/// as soon as it does.
+/// arrives; when it is one image (`max_pixels` given), one whose header
+/// states more than `max_pixels` is refused as soon as it does.
 pub async fn read_raw(
     body: axum::body::Body,
     limit: usize,
-    max_pixels: u64,
+    max_pixels: Option<u64>,
     upload: &mut Upload,
 ) -> Result<Bytes, ApiError> {
-    let mut check = crate::request::head::HeadCheck::new(max_pixels);
+    let mut check = max_pixels.map(crate::request::head::HeadCheck::new);
     let mut stream = body.into_data_stream();
     let mut got = bytes::BytesMut::new();
     while let Some(chunk) = stream.next().await {
@@ -138,7 +138,9 @@ pub async fn read_raw(
             ));
         }
         upload.charge(chunk.len())?;
-        check.feed(&chunk)?;
+        if let Some(c) = check.as_mut() {
+            c.feed(&chunk)?;
+        }
         got.extend_from_slice(&chunk);
     }
     Ok(got.freeze())

@@ -166,23 +166,9 @@ pub async fn submit(State(st): State<Arc<AppState>>, req: Request) -> Result<Res
     let timeout = st.limits.timeout;
     let read = async {
         tokio::time::timeout(timeout, async {
-            let mut stream = req.into_body().into_data_stream();
-            let mut got = bytes::BytesMut::new();
-            while let Some(chunk) = futures_util::StreamExt::next(&mut stream).await {
-                let chunk = chunk.map_err(|e| ApiError::bad(format!("reading the body: {e}")))?;
-                if got.len() + chunk.len() > limit {
-                    return Err(ApiError::new(
-                        StatusCode::PAYLOAD_TOO_LARGE,
-                        "too_large",
-                        format!(
-                            "the form is over the limit of {limit} bytes (serve --max-body-mib)"
-                        ),
-                    ));
-                }
-                upload.charge(chunk.len())?;
-                got.extend_from_slice(&chunk);
-            }
-            let whole = futures_util::stream::once(async move { Ok::<_, BodyError>(got.freeze()) });
+            let got =
+                super::super::uploads::read_raw(req.into_body(), limit, None, &mut upload).await?;
+            let whole = futures_util::stream::once(async move { Ok::<_, BodyError>(got) });
             read_form(whole, &content_type).await
         })
         .await
@@ -203,18 +189,9 @@ pub async fn submit(State(st): State<Arc<AppState>>, req: Request) -> Result<Res
         Some(text) => Rules::parse(text, "the rules part").map_err(ApiError::bad)?,
     };
     let keys = parse_keys(&form.keys).map_err(frames_error)?;
-    if let Some(problem) = st.history_problem().await {
-        return Err(ApiError::new(
-            StatusCode::SERVICE_UNAVAILABLE,
-            "history_read_only",
-            problem,
-        ));
-    }
-    let db = st.db.clone();
-    let report = tokio::task::spawn_blocking(move || {
-        let h = crate::history::History::open(&db).map_err(|e| ApiError::of_history(&e))?;
+    let report = super::super::params::write_with(&st, move |h| {
         crate::frames::submit(
-            &h,
+            h,
             crate::frames::Submission {
                 inputs: form.inputs,
                 keys,
@@ -225,7 +202,6 @@ pub async fn submit(State(st): State<Arc<AppState>>, req: Request) -> Result<Res
         )
         .map_err(frames_error)
     })
-    .await
-    .map_err(|e| ApiError::internal(e.to_string()))??;
+    .await?;
     super::super::params::json_text(&report)
 }
