@@ -4,10 +4,9 @@
 //! back-off, until the attempts run out.
 
 use super::{Alerts, Format, Webhook};
-use crate::history::{Attempted, DueDelivery, History, HistoryError};
+use crate::history::{Attempted, DueDelivery, HistoryError};
 use hmac::{Hmac, Mac};
 use sha2::Sha256;
-use std::path::Path;
 use std::time::Duration;
 
 /// `sha256=<hex>`: the HMAC-SHA256 of `body` under `secret`, as the
@@ -44,34 +43,22 @@ pub fn body(format: Format, event_id: i64, key: &str, summary: &str, event: &str
     }
 }
 
-async fn blocking<T: Send + 'static>(
-    db: &Path,
-    f: impl FnOnce(&History) -> Result<T, HistoryError> + Send + 'static,
-) -> Result<T, HistoryError> {
-    let db = db.to_owned();
-    tokio::task::spawn_blocking(move || History::open(&db).and_then(|h| f(&h)))
-        .await
-        .map_err(|e| HistoryError::Invalid(format!("the history's thread: {e}")))?
-}
-
 /// Sends every delivery due now, one after another.
 pub(super) async fn due(
-    db: &Path,
+    db: &super::Kept,
     alerts: &Alerts,
     client: &webhook_http::Client,
 ) -> Result<(), HistoryError> {
     // Held past one request's limit, so no other server takes it meanwhile.
     let hold = alerts.timeout + Duration::from_secs(30);
-    let due = blocking(db, move |h| h.claim_due_deliveries(hold, 32)).await?;
+    let due = db.run(move |h| h.claim_due_deliveries(hold, 32)).await?;
     for d in due {
         let outcome = send(alerts, client, &d).await;
         let id = d.id;
         let recorded = match outcome {
             Ok(status) => {
-                blocking(db, move |h| {
-                    h.record_attempt(id, Attempted::Delivered(status))
-                })
-                .await
+                db.run(move |h| h.record_attempt(id, Attempted::Delivered(status)))
+                    .await
             }
             Err((status, error)) => {
                 let n = u32::try_from(d.attempts + 1).unwrap_or(u32::MAX);
@@ -81,7 +68,7 @@ pub(super) async fn due(
                     at.to_rfc3339_opts(chrono::SecondsFormat::Millis, true)
                 });
                 tracing::warn!("alerts: {} to {} (attempt {n}): {error}", d.key, d.webhook);
-                blocking(db, move |h| {
+                db.run(move |h| {
                     h.record_attempt(
                         id,
                         Attempted::Failed {

@@ -268,23 +268,22 @@ pub async fn run(
             return;
         }
     };
+    let kept = Kept {
+        db,
+        open: Default::default(),
+    };
     let mut last_scan: Option<std::time::Instant> = None;
     loop {
         if last_scan.is_none_or(|t| t.elapsed() >= alerts.scan_every) {
             last_scan = Some(std::time::Instant::now());
-            let (db, a) = (db.clone(), alerts.clone());
-            let scanned = tokio::task::spawn_blocking(move || {
-                crate::history::History::open(&db).and_then(|h| scan(&h, &a))
-            })
-            .await;
-            match scanned {
-                Ok(Ok(n)) if n > 0 => tracing::info!("alerts: {n} new events"),
-                Ok(Ok(_)) => {}
-                Ok(Err(e)) => tracing::warn!("alerts: scanning the history: {e}"),
+            let a = alerts.clone();
+            match kept.run(move |h| scan(h, &a)).await {
+                Ok(n) if n > 0 => tracing::info!("alerts: {n} new events"),
+                Ok(_) => {}
                 Err(e) => tracing::warn!("alerts: scanning the history: {e}"),
             }
         }
-        if let Err(e) = deliver::due(&db, &alerts, &client).await {
+        if let Err(e) = deliver::due(&kept, &alerts, &client).await {
             tracing::warn!("alerts: delivering: {e}");
         }
         tokio::select! {
@@ -294,5 +293,38 @@ pub async fn run(
         if *stop.borrow() {
             return;
         }
+    }
+}
+
+/// The history alerts work on, opened once and kept between the scans and
+/// the four looks a second for due deliveries (a PostgreSQL history would
+/// otherwise be connected to each time), and opened again after an error.
+struct Kept {
+    db: std::path::PathBuf,
+    open: std::sync::Arc<std::sync::Mutex<Option<crate::history::History>>>,
+}
+
+impl Kept {
+    async fn run<T: Send + 'static>(
+        &self,
+        f: impl FnOnce(&crate::history::History) -> Result<T, crate::history::HistoryError>
+            + Send
+            + 'static,
+    ) -> Result<T, crate::history::HistoryError> {
+        let (db, open) = (self.db.clone(), self.open.clone());
+        tokio::task::spawn_blocking(move || {
+            let mut slot = open.lock().unwrap_or_else(|p| p.into_inner());
+            let h = match slot.take() {
+                Some(h) => h,
+                None => crate::history::History::open(&db)?,
+            };
+            let out = f(&h);
+            if out.is_ok() {
+                *slot = Some(h);
+            }
+            out
+        })
+        .await
+        .map_err(|e| crate::history::HistoryError::Invalid(format!("the history's thread: {e}")))?
     }
 }
