@@ -58,7 +58,7 @@ pub async fn write<T: Send + 'static>(
     .await
 }
 
-/// [`write`] for work whose errors say more than the history's (they are
+/// [`write()`] for work whose errors say more than the history's (they are
 /// answered as `f` makes them).
 pub async fn write_with<T: Send + 'static>(
     st: &AppState,
