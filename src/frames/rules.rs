@@ -18,6 +18,12 @@ pub enum Untriaged {
     Warn,
 }
 
+/// The most `[[tests]]` rules a file may hold: each frame is matched
+/// against them in turn.
+pub const MAX_RULES: usize = 256;
+
+pub use crate::history::MAX_PATTERN_CHARS;
+
 /// The rules file.
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -97,7 +103,19 @@ impl Rules {
     }
 
     fn check(&self) -> Result<(), String> {
+        if self.tests.len() > MAX_RULES {
+            return Err(format!(
+                "{} [[tests]] rules: at most {MAX_RULES}",
+                self.tests.len()
+            ));
+        }
         for (i, rule) in self.tests.iter().enumerate() {
+            let chars = rule.pattern.chars().count();
+            if chars > MAX_PATTERN_CHARS {
+                return Err(format!(
+                    "tests[{i}]: a pattern of {chars} characters: at most {MAX_PATTERN_CHARS}"
+                ));
+            }
             let at = format!("tests[{i}] ({:?})", rule.pattern);
             if rule.pattern.is_empty() {
                 return Err(format!("{at}: an empty pattern"));
@@ -154,22 +172,63 @@ fn one_frame(c: &Check) -> bool {
 }
 
 /// Whether `name` matches `pattern` (`*`: any run of characters but `/`;
-/// `**`: any run at all).
+/// `**`: any run at all), in time linear in each: the pattern is run as a
+/// set of positions over the name's characters, never by backtracking (a
+/// pattern of many `**` against a long name took minutes that way).
 pub fn matches(pattern: &str, name: &str) -> bool {
-    let p: Vec<char> = pattern.chars().collect();
-    let n: Vec<char> = name.chars().collect();
-    glob(&p, &n)
-}
-
-fn glob(p: &[char], n: &[char]) -> bool {
-    match p {
-        [] => n.is_empty(),
-        ['*', '*', rest @ ..] => (0..=n.len()).any(|i| glob(rest, &n[i..])),
-        ['*', rest @ ..] => (0..=n.len())
-            .take_while(|&i| i == 0 || n[i - 1] != '/')
-            .any(|i| glob(rest, &n[i..])),
-        [c, rest @ ..] => n.first() == Some(c) && glob(rest, &n[1..]),
+    #[derive(Clone, Copy, PartialEq)]
+    enum Token {
+        Char(char),
+        /// `*`: any run without `/`.
+        Star,
+        /// `**`: any run.
+        Stars,
     }
+    let mut tokens = Vec::with_capacity(pattern.len());
+    let mut chars = pattern.chars().peekable();
+    while let Some(c) = chars.next() {
+        tokens.push(match c {
+            '*' if chars.peek() == Some(&'*') => {
+                chars.next();
+                Token::Stars
+            }
+            '*' => Token::Star,
+            c => Token::Char(c),
+        });
+    }
+    // `at[i]`: the first `i` tokens have matched the name so far. A star
+    // matches nothing too, so a position before one reaches past it.
+    let close = |at: &mut Vec<bool>| {
+        for i in 0..tokens.len() {
+            if at[i] && !matches!(tokens[i], Token::Char(_)) {
+                at[i + 1] = true;
+            }
+        }
+    };
+    let mut at = vec![false; tokens.len() + 1];
+    at[0] = true;
+    close(&mut at);
+    let mut next = vec![false; tokens.len() + 1];
+    for c in name.chars() {
+        next.iter_mut().for_each(|n| *n = false);
+        for (i, token) in tokens.iter().enumerate() {
+            if !at[i] {
+                continue;
+            }
+            match *token {
+                Token::Char(p) if p == c => next[i + 1] = true,
+                Token::Char(_) => {}
+                Token::Star if c == '/' => {}
+                Token::Star | Token::Stars => next[i] = true,
+            }
+        }
+        close(&mut next);
+        if !next.iter().any(|&n| n) {
+            return false;
+        }
+        std::mem::swap(&mut at, &mut next);
+    }
+    at[tokens.len()]
 }
 
 #[cfg(test)]
@@ -186,6 +245,27 @@ mod tests {
         assert!(matches("sky", "sky"));
         assert!(!matches("sky", "skyline"));
         assert!(matches("**", "a/b/c"));
+        assert!(matches("a**b*c", "a/x/b-c"));
+        assert!(!matches("a**b*c", "a/x/b/c"));
+        assert!(matches("**/*", "a/b"));
+        assert!(!matches("", "a"));
+        assert!(matches("", ""));
+        assert!(matches("é*", "été"));
+    }
+
+    /// The pattern that backtracking took minutes over (ten `**a`s and a
+    /// final `**b`, against a hundred `a`s): matched by positions, it is
+    /// answered at once; by backtracking this test would not end.
+    #[test]
+    fn many_double_stars_against_a_long_name_are_answered() {
+        let pattern = "**a".repeat(10) + "**b";
+        let name = "a".repeat(100);
+        assert!(!matches(&pattern, &name));
+        assert!(matches(&pattern, &(name.clone() + "b")));
+        assert!(!matches(
+            &("*a".repeat(10) + "*b"),
+            &("a/".repeat(50) + "b")
+        ));
     }
 
     #[test]
@@ -210,5 +290,17 @@ mod tests {
             .unwrap_err()
             .contains("min_fps is not a check of a frame"));
         assert!(toml::from_str::<Rules>("[[tests]]\npattern = \"a\"\nbogus = 1").is_err());
+        let long = format!(
+            "[[tests]]\npattern = \"{}\"",
+            "*".repeat(MAX_PATTERN_CHARS + 1)
+        );
+        let e = Rules::parse(&long, "rules.toml").unwrap_err();
+        assert!(
+            e.contains("tests[0]: a pattern of 257 characters: at most 256"),
+            "{e}"
+        );
+        let many = "[[tests]]\npattern = \"a\"\n".repeat(MAX_RULES + 1);
+        let e = Rules::parse(&many, "rules.toml").unwrap_err();
+        assert!(e.contains("257 [[tests]] rules: at most 256"), "{e}");
     }
 }

@@ -9,6 +9,10 @@ use super::backend::{args, Sql};
 use super::{now, History, HistoryError};
 use serde::Serialize;
 
+/// The longest test pattern, in characters, of an ignore rule or a rules
+/// file's `[[tests]]`: matching costs its length times the test name's.
+pub const MAX_PATTERN_CHARS: usize = 256;
+
 /// What people said of a digest of a test.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, serde::Deserialize, utoipa::ToSchema)]
 #[serde(rename_all = "snake_case")]
@@ -296,7 +300,8 @@ impl History {
         Ok(promoted)
     }
 
-    /// Adds a rule that ignores failures of the tests `pattern` matches in
+    /// Adds a rule that ignores failures of the tests `pattern` (at most
+    /// [`MAX_PATTERN_CHARS`] characters) matches in
     /// submissions with every one of `keys` (JSON object text), for
     /// `lasting` from now; returns it.
     pub fn add_ignore_rule(
@@ -306,6 +311,15 @@ impl History {
         lasting: std::time::Duration,
         (who, reason): (&str, &str),
     ) -> Result<IgnoreRule, HistoryError> {
+        // Bounded as a rules file's patterns are: each is matched against
+        // every failing frame.
+        let chars = pattern.chars().count();
+        let most = MAX_PATTERN_CHARS;
+        if pattern.is_empty() || chars > most {
+            return Err(HistoryError::Invalid(format!(
+                "an ignore rule's pattern of {chars} characters: 1 to {most}"
+            )));
+        }
         let expires_at = super::stamps::later(lasting);
         let id = self
             .db()
