@@ -22,6 +22,14 @@
 //! the floor pass in the same submission (`gpu::bench::embedding_stages`),
 //! printed as a table.
 //!
+//! `tone_mapper_record_1080p`: the CPU time of `ToneMapper::record` alone
+//! (AgX, a new exposure each frame, into a `Bgra8UnormSrgb` render
+//! attachment as a swap chain's) with the targets' views kept, a new view
+//! each frame (docs/embedding.md's loop), and a new texture and view each
+//! frame (what a swap chain hands out); each frame is submitted and waited
+//! for outside the timing. It prints what the mapper created over the
+//! frames after the first, and each case's median over the kept views'.
+//!
 //! `kept_renderers`: the server's GPU tone map of six images of different
 //! sizes in turn, all in the 1024×512 size class, with renderers kept for
 //! exact sizes (four kept, so every image makes a new one) and for size
@@ -304,5 +312,101 @@ fn tone_mapper(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, full_plan, readback, kept_renderers, tone_mapper);
+fn tone_mapper_record(c: &mut Criterion) {
+    use std::time::{Duration, Instant};
+    use tonegate::gpu::{OutputPath, ToneMapper, ToneMapperSettings};
+    use tonegate::operators::{Operator, Value};
+    let ctx = GpuContext::new(&AdapterChoice::default()).unwrap_or_else(|e| panic!("{e}"));
+    let (w, h) = (1920, 1080);
+    let img = tonegate::env::BuiltinEnv::Sky.generate(w, h);
+    let input = tonegate::gpu::bench::hdr_input(&ctx, &img).create_view(&Default::default());
+    let format = wgpu::TextureFormat::Bgra8UnormSrgb;
+    let usage = wgpu::TextureUsages::RENDER_ATTACHMENT;
+    let settings = |n: u64| ToneMapperSettings {
+        operator: Operator::named(
+            "agx",
+            &[("exposure", Value::Number(0.5 + 0.01 * (n % 50) as f64))],
+        )
+        .unwrap_or_else(|e| panic!("{e}")),
+        target: format,
+        path: OutputPath::RenderPass,
+        ..Default::default()
+    };
+    let ring: Vec<wgpu::Texture> = (0..3)
+        .map(|_| tonegate::gpu::bench::texture(&ctx, (w, h), format, usage))
+        .collect();
+    let kept: Vec<wgpu::TextureView> = ring
+        .iter()
+        .map(|t| t.create_view(&Default::default()))
+        .collect();
+    let mut group = c.benchmark_group("tone_mapper_record_1080p");
+    group.sample_size(10);
+    let mut medians = Vec::new();
+    for case in ["views_kept", "new_view", "new_texture"] {
+        let mut mapper =
+            ToneMapper::new(&ctx.device, &ctx.queue, settings(0)).unwrap_or_else(|e| panic!("{e}"));
+        mapper.prepare().unwrap_or_else(|e| panic!("{e}"));
+        let mut frame = 0u64;
+        let mut warm = None;
+        let mut times = Vec::new();
+        group.bench_function(case, |b| {
+            b.iter_custom(|iters| {
+                let mut spent = Duration::ZERO;
+                for _ in 0..iters {
+                    mapper
+                        .set_settings(settings(frame))
+                        .unwrap_or_else(|e| panic!("{e}"));
+                    let texture = match case {
+                        "new_texture" => tonegate::gpu::bench::texture(&ctx, (w, h), format, usage),
+                        _ => ring[frame as usize % 3].clone(),
+                    };
+                    let made = texture.create_view(&Default::default());
+                    let view = match case {
+                        "views_kept" => &kept[frame as usize % 3],
+                        _ => &made,
+                    };
+                    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+                    let start = Instant::now();
+                    mapper
+                        .record(&mut encoder, &input, view)
+                        .unwrap_or_else(|e| panic!("{e}"));
+                    let took = start.elapsed();
+                    spent += took;
+                    times.push(took.as_secs_f64() * 1e3);
+                    ctx.queue.submit([encoder.finish()]);
+                    ctx.wait().unwrap_or_else(|e| panic!("{e}"));
+                    if frame == 0 {
+                        warm = Some(mapper.created());
+                    }
+                    frame += 1;
+                }
+                spent
+            })
+        });
+        let created = mapper.created() - warm.unwrap_or_default();
+        let median = tonegate::perf::quantile(&times, 0.5);
+        println!(
+            "tone_mapper_record_1080p {case}: median record {median:.4} ms over {} frames; created after the first: {created:?}",
+            times.len()
+        );
+        medians.push((case, median));
+    }
+    group.finish();
+    let base = medians[0].1;
+    for (case, median) in &medians {
+        println!(
+            "tone_mapper_record_1080p {case}: {:.2}× the kept views' median record",
+            median / base
+        );
+    }
+}
+
+criterion_group!(
+    benches,
+    full_plan,
+    readback,
+    kept_renderers,
+    tone_mapper,
+    tone_mapper_record
+);
 criterion_main!(benches);

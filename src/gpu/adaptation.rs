@@ -40,7 +40,7 @@ pub fn adapted_buffer(ctx: &GpuContext) -> wgpu::Buffer {
 
 /// The uniform of [`Steps`], written per frame.
 pub fn steps_buffer(ctx: &GpuContext) -> wgpu::Buffer {
-    ctx.device.create_buffer(&wgpu::BufferDescriptor {
+    ctx.create_buffer(&wgpu::BufferDescriptor {
         label: Some("tonegate.adaptation.steps"),
         size: std::mem::size_of::<Steps>() as u64,
         usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,

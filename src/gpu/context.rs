@@ -23,13 +23,22 @@ pub struct GpuContext {
     /// are composed with it (`shaders::compose`).
     pub subgroups: bool,
     errors: Arc<Mutex<Vec<GpuError>>>,
+    /// What this context has created on the device (`created`).
+    created: Arc<super::created::Counts>,
     /// Compiled pipelines by (stage, entry, format, override constants): a
     /// context that renders many images (the server's GPU worker, `check`)
     /// compiles each variant once. Bounded by [`PIPELINE_CACHE_LIMIT`].
     /// Each entry is filled outside the map's lock, so threads compile
     /// different variants at once (the stress suite's rows do).
-    pipelines: Mutex<std::collections::HashMap<PipelineKey, PipelineSlot>>,
+    pipelines: Arc<Mutex<std::collections::HashMap<PipelineKey, PipelineSlot>>>,
+    /// Render pipelines by target format and override constants (the
+    /// `ToneMapper`'s fullscreen pass), shared like `pipelines`.
+    render_pipelines: Arc<Mutex<std::collections::HashMap<RenderKey, wgpu::RenderPipeline>>>,
 }
+
+/// A render pipeline's target format and override constants (values as f64
+/// bits).
+pub(crate) type RenderKey = (wgpu::TextureFormat, Vec<(String, u64)>);
 
 /// The most bytes per frame pixel any one buffer of a renderer may take:
 /// what [`GpuContext::check_frame`] holds a frame to. The largest today is
@@ -149,7 +158,9 @@ impl GpuContext {
             limits,
             adapter: report(&info, timestamps, Some(probed), chosen),
             errors,
-            pipelines: Mutex::new(Default::default()),
+            created: Arc::default(),
+            pipelines: Arc::default(),
+            render_pipelines: Arc::default(),
         })
     }
 
@@ -177,8 +188,81 @@ impl GpuContext {
             device: device.clone(),
             queue: queue.clone(),
             errors: Arc::default(),
-            pipelines: Mutex::new(Default::default()),
+            created: Arc::default(),
+            pipelines: Arc::default(),
+            render_pipelines: Arc::default(),
         }
+    }
+
+    /// Another context on the same device and queue that shares this one's
+    /// compiled pipelines (compute and render): a second `ToneMapper` for
+    /// another camera compiles nothing the first one has. Its counts of
+    /// what it creates are its own.
+    pub fn sharing_pipelines(&self) -> GpuContext {
+        GpuContext {
+            device: self.device.clone(),
+            queue: self.queue.clone(),
+            adapter: self.adapter.clone(),
+            limits: self.limits.clone(),
+            timestamp_period: self.timestamp_period,
+            float32_filterable: self.float32_filterable,
+            cpu_adapter: self.cpu_adapter,
+            subgroups: self.subgroups,
+            errors: self.errors.clone(),
+            created: Arc::default(),
+            pipelines: self.pipelines.clone(),
+            render_pipelines: self.render_pipelines.clone(),
+        }
+    }
+
+    /// What this context has created on its device so far.
+    pub fn created(&self) -> super::Created {
+        self.created.read()
+    }
+
+    /// A texture, counted.
+    pub fn create_texture(&self, desc: &wgpu::TextureDescriptor) -> wgpu::Texture {
+        self.created.add(super::created::Kind::Texture);
+        self.device.create_texture(desc)
+    }
+
+    /// A buffer, counted.
+    pub fn create_buffer(&self, desc: &wgpu::BufferDescriptor) -> wgpu::Buffer {
+        self.created.add(super::created::Kind::Buffer);
+        self.device.create_buffer(desc)
+    }
+
+    /// A buffer holding `desc.contents` from its creation, counted.
+    pub fn create_buffer_init(&self, desc: &wgpu::util::BufferInitDescriptor) -> wgpu::Buffer {
+        use wgpu::util::DeviceExt;
+        self.created.add(super::created::Kind::Buffer);
+        self.device.create_buffer_init(desc)
+    }
+
+    /// A bind group, counted.
+    pub fn create_bind_group(&self, desc: &wgpu::BindGroupDescriptor) -> wgpu::BindGroup {
+        self.created.add(super::created::Kind::BindGroup);
+        self.device.create_bind_group(desc)
+    }
+
+    /// The render pipeline cached under `key`, or the one `compile` makes,
+    /// counted, then kept.
+    pub(crate) fn cached_render_pipeline(
+        &self,
+        key: RenderKey,
+        compile: impl FnOnce() -> wgpu::RenderPipeline,
+    ) -> wgpu::RenderPipeline {
+        let mut cache = self
+            .render_pipelines
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner());
+        cache
+            .entry(key)
+            .or_insert_with(|| {
+                self.created.add(super::created::Kind::Pipeline);
+                compile()
+            })
+            .clone()
     }
 
     /// What decides the configuration in effect on this device.
@@ -244,15 +328,26 @@ impl GpuContext {
             }
             cache.entry(key).or_default().clone()
         };
-        slot.get_or_init(compile).clone()
+        slot.get_or_init(|| {
+            self.created.add(super::created::Kind::Pipeline);
+            compile()
+        })
+        .clone()
     }
 
-    /// How many compiled pipelines the context keeps now.
+    /// How many compiled pipelines the context keeps now, compute and
+    /// render.
     pub(crate) fn cached_pipelines(&self) -> usize {
+        let render = self
+            .render_pipelines
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
+            .len();
         self.pipelines
             .lock()
             .unwrap_or_else(|poisoned| poisoned.into_inner())
             .len()
+            + render
     }
 
     /// Refuses frames larger than one texture can hold.

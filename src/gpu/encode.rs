@@ -192,8 +192,8 @@ pub fn encode_to_storage(
 
 /// The render pipeline that draws `encode` into a render attachment of
 /// `target_format` (a fullscreen triangle; `to_attachment` in
-/// shaders/encode.wgsl), and its constants. Blending off: the codes are
-/// written as they are.
+/// shaders/encode.wgsl), compiled once per format and constants in the
+/// context's cache. Blending off: the codes are written as they are.
 pub fn encode_render_pipeline(
     ctx: &GpuContext,
     encoding: Encoding,
@@ -202,43 +202,52 @@ pub fn encode_render_pipeline(
 ) -> wgpu::RenderPipeline {
     let texel = Texel::of(target_format).expect("a target format");
     let constants = target_constants(encoding, levels, texel);
-    let module = ctx
-        .device
-        .create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("tonegate.encode.to_attachment"),
-            source: wgpu::ShaderSource::Wgsl(
-                super::shaders::compose("encode", HdrFormat::Rgba32Float, ctx.subgroups).into(),
-            ),
-        });
-    ctx.device
-        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("tonegate.encode.to_attachment"),
-            layout: None,
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("fullscreen"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: None,
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some("to_attachment"),
-                compilation_options: wgpu::PipelineCompilationOptions {
-                    constants: &constants,
-                    zero_initialize_workgroup_memory: false,
+    let key = (
+        target_format,
+        constants
+            .iter()
+            .map(|(k, v)| ((*k).to_owned(), v.to_bits()))
+            .collect(),
+    );
+    ctx.cached_render_pipeline(key, || {
+        let module = ctx
+            .device
+            .create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("tonegate.encode.to_attachment"),
+                source: wgpu::ShaderSource::Wgsl(
+                    super::shaders::compose("encode", HdrFormat::Rgba32Float, ctx.subgroups).into(),
+                ),
+            });
+        ctx.device
+            .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("tonegate.encode.to_attachment"),
+                layout: None,
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some("fullscreen"),
+                    compilation_options: Default::default(),
+                    buffers: &[],
                 },
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: target_format,
-                    blend: None,
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
-            }),
-            multiview_mask: None,
-            cache: None,
-        })
+                primitive: wgpu::PrimitiveState::default(),
+                depth_stencil: None,
+                multisample: wgpu::MultisampleState::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some("to_attachment"),
+                    compilation_options: wgpu::PipelineCompilationOptions {
+                        constants: &constants,
+                        zero_initialize_workgroup_memory: false,
+                    },
+                    targets: &[Some(wgpu::ColorTargetState {
+                        format: target_format,
+                        blend: None,
+                        write_mask: wgpu::ColorWrites::ALL,
+                    })],
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+    })
 }
 
 /// The bind group of [`encode_render_pipeline`]'s pass.

@@ -120,7 +120,7 @@ impl<'c> GpuFlip<'c> {
             storage,
         );
         let scratch = |label: &str, bytes_per_pixel: u64, extra: wgpu::BufferUsages| {
-            ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            ctx.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
                 size: (n * bytes_per_pixel).max(16),
                 usage: storage | extra,

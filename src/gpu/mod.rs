@@ -8,6 +8,7 @@ pub mod capability;
 pub mod compare;
 pub mod config;
 pub mod context;
+mod created;
 pub mod flip;
 mod input;
 pub mod listing;
@@ -27,6 +28,7 @@ pub use config::{
     AdapterTraits, EnvFilter, Execution, GpuConfig, HdrFormat, ReductionMethod, TaaFault, F16_MAX,
 };
 pub use context::GpuContext;
+pub use created::Created;
 pub use input::GpuInput;
 pub use luminance_stats::GpuStats;
 pub use pool::{size_class, RendererPool};

@@ -59,7 +59,7 @@ impl Environment {
                     });
                 }
                 ctx.check_size(env.width, env.height)?;
-                let texture = ctx.device.create_texture(&wgpu::TextureDescriptor {
+                let texture = ctx.create_texture(&wgpu::TextureDescriptor {
                     label: Some("tonegate.sphere.environment"),
                     size: wgpu::Extent3d {
                         width: env.width,

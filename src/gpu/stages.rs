@@ -86,7 +86,7 @@ pub fn texture(
     height: u32,
     format: wgpu::TextureFormat,
 ) -> wgpu::Texture {
-    ctx.device.create_texture(&wgpu::TextureDescriptor {
+    ctx.create_texture(&wgpu::TextureDescriptor {
         label: Some(label),
         size: wgpu::Extent3d {
             width,
@@ -121,7 +121,7 @@ pub fn bind_buffers(
             resource: buffer.as_entire_binding(),
         })
         .collect();
-    ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+    ctx.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some(label),
         layout: &pipeline.get_bind_group_layout(0),
         entries: &entries,
@@ -135,18 +135,16 @@ pub fn buffer_with(
     contents: &[u8],
     usage: wgpu::BufferUsages,
 ) -> wgpu::Buffer {
-    use wgpu::util::DeviceExt;
-    ctx.device
-        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some(label),
-            contents,
-            usage,
-        })
+    ctx.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents,
+        usage,
+    })
 }
 
 /// A buffer the host maps to read what the GPU copied into it.
 pub fn read_buffer(ctx: &GpuContext, label: &str, size: u64) -> wgpu::Buffer {
-    ctx.device.create_buffer(&wgpu::BufferDescriptor {
+    ctx.create_buffer(&wgpu::BufferDescriptor {
         label: Some(label),
         size,
         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
@@ -203,7 +201,7 @@ pub fn upload(
 }
 
 pub fn storage_buffer(ctx: &GpuContext, label: &str, size: u64) -> wgpu::Buffer {
-    ctx.device.create_buffer(&wgpu::BufferDescriptor {
+    ctx.create_buffer(&wgpu::BufferDescriptor {
         label: Some(label),
         size: size.max(16),
         usage: wgpu::BufferUsages::STORAGE
@@ -219,7 +217,7 @@ pub fn storage_buffer(ctx: &GpuContext, label: &str, size: u64) -> wgpu::Buffer 
 /// cannot prove the first lane active), which cost tonemap ~1 ms per
 /// 1080p frame for two scalars.
 pub fn shared_buffer(ctx: &GpuContext, label: &str, size: u64) -> wgpu::Buffer {
-    ctx.device.create_buffer(&wgpu::BufferDescriptor {
+    ctx.create_buffer(&wgpu::BufferDescriptor {
         label: Some(label),
         // Uniform bindings are read in 16-byte rows.
         size: size.max(16).div_ceil(16) * 16,
@@ -232,7 +230,7 @@ pub fn shared_buffer(ctx: &GpuContext, label: &str, size: u64) -> wgpu::Buffer {
 }
 
 pub fn uniform_buffer(ctx: &GpuContext, label: &str, bytes: &[u8]) -> wgpu::Buffer {
-    let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+    let buffer = ctx.create_buffer(&wgpu::BufferDescriptor {
         label: Some(label),
         size: (bytes.len() as u64).max(16),
         usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
@@ -301,7 +299,7 @@ pub fn bind_group_for(
             },
         })
         .collect();
-    ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+    ctx.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some(label),
         layout,
         entries: &entries,
@@ -352,7 +350,7 @@ impl Dispatch {
     /// Binds `extent` (the renderer's [`Extent`] uniform) as group 1: only
     /// for entry points that read it, since layouts are derived per entry.
     pub fn sized(mut self, ctx: &GpuContext, extent: &wgpu::Buffer) -> Dispatch {
-        self.extent = Some(ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        self.extent = Some(ctx.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("tonegate.extent"),
             layout: &self.pipeline.get_bind_group_layout(1),
             entries: &[wgpu::BindGroupEntry {
@@ -386,7 +384,7 @@ pub struct Extent {
 /// The uniform buffer of an [`Extent`], rewritten when a kept renderer takes
 /// an image of another size.
 pub fn extent_buffer(ctx: &GpuContext, extent: Extent) -> wgpu::Buffer {
-    let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+    let buffer = ctx.create_buffer(&wgpu::BufferDescriptor {
         label: Some("tonegate.extent"),
         size: std::mem::size_of::<Extent>() as u64,
         usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,

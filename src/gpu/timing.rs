@@ -31,7 +31,7 @@ impl Queries {
                 ty: wgpu::QueryType::Timestamp,
                 count: n * TIMING_SLOTS,
             }),
-            resolve: ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            resolve: ctx.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("tonegate.timestamps.resolve"),
                 size: stride * TIMING_SLOTS as u64,
                 usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,

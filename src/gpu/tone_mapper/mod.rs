@@ -18,6 +18,7 @@ mod settings;
 mod taa;
 mod target;
 mod timing;
+mod uniforms;
 mod wire;
 
 pub use settings::ToneMapperSettings;
@@ -29,59 +30,70 @@ pub use timing::MapperTimings;
 
 use super::adaptation::{adapted_buffer, steps_buffer, Steps};
 use super::config::ReductionMethod;
-use super::stages::{shared_buffer, Dispatch, ImageView};
+use super::stages::{shared_buffer, uniform_buffer, Dispatch, ImageView};
 use super::tonemap::OperatorShader;
 use super::{GpuContext, GpuStats};
 use crate::scene::Encoding;
 use settings::check_settings;
-use std::collections::HashMap;
 use target::storable;
 
-/// What one pair of views was wired for.
+/// What one input was wired for: its view, the image's size in it and,
+/// with TAA, the motion vectors' view. The target is no part of it: every
+/// target (a swap chain's new texture each frame among them) is written
+/// from the same intermediates.
 #[derive(Clone, PartialEq)]
-struct BoundKey {
+struct WiredKey {
     input: wgpu::TextureView,
     size: (u32, u32),
-    output: wgpu::TextureView,
-    origin: (u32, u32),
-    compute: bool,
     /// The motion vectors' view, with TAA.
     motion: Option<wgpu::TextureView>,
 }
 
-/// The fullscreen triangle into a render attachment.
-struct Draw {
-    pipeline: wgpu::RenderPipeline,
-    bind_group: wgpu::BindGroup,
+/// Where one record writes, checked: the view, where the image goes in it
+/// and by which path.
+struct Sink<'v> {
+    view: &'v wgpu::TextureView,
+    origin: (u32, u32),
+    compute: bool,
 }
 
-/// The pairs of views a mapper keeps the resources of: a swap chain's
-/// three targets and one more.
-const KEPT_PAIRS: usize = 4;
+/// The inputs a mapper keeps the resources of.
+const KEPT_INPUTS: usize = 4;
 
-/// The resources of one pair of views: kept for the [`KEPT_PAIRS`] pairs
-/// used last.
+/// The storage targets an input keeps the last dispatch into: a swap
+/// chain's three and one more. A view not among them costs two bind
+/// groups, nothing else.
+const KEPT_TARGETS: usize = 4;
+
+/// The resources of one input: kept for the [`KEPT_INPUTS`] used last.
 struct Bound {
-    key: BoundKey,
+    key: WiredKey,
     wired: Wired,
 }
 
-/// A pair's passes: the dispatches (with TAA, one list for each texture
-/// of the history pair the frame reads) and the draw into a render target.
+/// An input's passes up to the display image (with TAA, one list for each
+/// texture of the history pair the frame reads), and what writes that
+/// image into the targets.
 struct Wired {
     even: Vec<Dispatch>,
     odd: Option<Vec<Dispatch>>,
     /// Each stage's name and how many of the dispatches are its own, in
-    /// order (`target` for the write into a storage target).
+    /// order.
     stages: Vec<(&'static str, usize)>,
-    draw: Option<Draw>,
+    /// The display image the target is written from.
+    display: wgpu::Texture,
+    /// The image's extent uniform.
+    extent: wgpu::Buffer,
     /// The TAA history the dispatches read and write.
     history: Option<super::taa::TaaResources>,
+    /// The fullscreen triangle into a render attachment: its pipeline and
+    /// its bind group (the display image, the origin uniform), made when
+    /// first drawn.
+    draw: Option<(wgpu::RenderPipeline, wgpu::BindGroup)>,
+    /// The compute path's last dispatch into each storage target written
+    /// lately, the newest last.
+    stores: Vec<(wgpu::TextureView, Dispatch)>,
 }
-
-/// The render pipelines a mapper compiled: by target format and the
-/// encoding's constants.
-type RenderKey = (wgpu::TextureFormat, Vec<(String, u64)>);
 
 /// Tone-maps a caller's HDR texture into a caller's target on the caller's
 /// device.
@@ -106,12 +118,17 @@ pub struct ToneMapper {
     reduction: ReductionMethod,
     shader: OperatorShader,
     stats: wgpu::Buffer,
-    /// The pairs wired, the one used last at the end.
+    /// The operator's uniform words for its current parameters.
+    config: Vec<f32>,
+    /// The inputs wired, the one used last at the end.
     bound: Vec<Bound>,
-    render: HashMap<RenderKey, wgpu::RenderPipeline>,
+    /// Where the image goes in the target, written per record.
+    origin: wgpu::Buffer,
+    /// Each record's uniform values, copied in by its own encoder.
+    ring: uniforms::UniformRing,
     /// What the frames are adapted to, carried between records.
     adapted: wgpu::Buffer,
-    /// The adaptation's step, written before each record.
+    /// The adaptation's step, copied in by each record.
     steps: wgpu::Buffer,
     /// Seconds between frames, for the adaptation's step.
     frame_seconds: f64,
@@ -137,7 +154,14 @@ impl ToneMapper {
         settings: ToneMapperSettings,
     ) -> Result<ToneMapper, ToneMapperError> {
         check_settings(&settings, device.features())?;
-        let ctx = GpuContext::from_device(device, queue);
+        Ok(ToneMapper::on_context(
+            GpuContext::from_device(device, queue),
+            settings,
+        ))
+    }
+
+    /// A mapper on `ctx` with checked `settings`.
+    fn on_context(ctx: GpuContext, settings: ToneMapperSettings) -> ToneMapper {
         // The reduction tonegate's own renderer picks on this adapter.
         let reduction = ReductionMethod::Auto.resolve(ctx.traits());
         let shader = OperatorShader::new(&ctx, &settings.operator, None);
@@ -146,13 +170,15 @@ impl ToneMapper {
             "tonegate.luminance_stats",
             std::mem::size_of::<GpuStats>() as u64,
         );
-        Ok(ToneMapper {
+        ToneMapper {
+            config: OperatorShader::config_of(&settings.operator),
             settings,
             reduction,
             shader,
             stats,
             bound: Vec::new(),
-            render: HashMap::new(),
+            origin: uniform_buffer(&ctx, "tonegate.encode.target_origin", &[0; 16]),
+            ring: uniforms::UniformRing::new(&ctx),
             adapted: adapted_buffer(&ctx),
             steps: steps_buffer(&ctx),
             frame_seconds: DEFAULT_FRAME_SECONDS,
@@ -160,7 +186,7 @@ impl ToneMapper {
             stamps: None,
             history: taa::History::default(),
             ctx,
-        })
+        }
     }
 
     /// What it maps with.
@@ -176,7 +202,7 @@ impl ToneMapper {
     /// mapper's cache.
     pub fn prepare(&mut self) -> Result<(), ToneMapperError> {
         let texture = |format, usage| {
-            self.ctx.device.create_texture(&wgpu::TextureDescriptor {
+            self.ctx.create_texture(&wgpu::TextureDescriptor {
                 label: Some("tonegate.tone_mapper.prepare"),
                 size: wgpu::Extent3d {
                     width: 1,
@@ -210,9 +236,12 @@ impl ToneMapper {
             texture(MOTION_FORMATS[0], wgpu::TextureUsages::TEXTURE_BINDING)
                 .create_view(&Default::default())
         });
-        drop(self.wire(&input, (&view, (0, 0)), compute, motion.as_ref())?);
+        let wired = self.wire(&input, motion.as_ref())?;
+        if compute {
+            drop(self.store_dispatch(&wired, &view));
+        }
         if render {
-            self.render_pipeline();
+            drop(self.draw(&wired.display));
         }
         Ok(())
     }
@@ -228,22 +257,54 @@ impl ToneMapper {
     }
 
     /// How many pipelines the mapper has compiled so far (each operator,
-    /// operator constants, stage and target once): what a caller counts to
-    /// see that a settings change compiled nothing.
+    /// operator constants, stage and target once), with the mappers it
+    /// shares them with: what a caller counts to see that a settings change
+    /// compiled nothing.
     pub fn compiled_pipelines(&self) -> usize {
-        self.ctx.cached_pipelines() + self.render.len()
+        self.ctx.cached_pipelines()
     }
 
-    /// Maps with `settings` from the next [`ToneMapper::record`] on. The
-    /// same operator with other parameters held in its uniform (the
-    /// exposure, a Reinhard key, …) is one uniform write through the
-    /// queue: nothing is compiled and the bindings stay. A parameter that
+    /// What this mapper has created on the device since it was made:
+    /// textures, buffers, bind groups and pipelines. A frame loop reads it
+    /// twice to see what its frames created (docs/embedding.md#what-a-frame-creates):
+    /// once warm, nothing but two bind groups for a storage target it has
+    /// not seen among the last few, and nothing at all into a render
+    /// attachment.
+    pub fn created(&self) -> super::Created {
+        self.ctx.created()
+    }
+
+    /// A second mapper on the same device and queue, with its own
+    /// `settings`, adaptation state and TAA history, sharing this one's
+    /// compiled pipelines: another camera compiles nothing this mapper
+    /// has. (One mapper already gives each record its own settings; a
+    /// second one is for a second adaptation state or history.)
+    pub fn sharing_pipelines(
+        &self,
+        settings: ToneMapperSettings,
+    ) -> Result<ToneMapper, ToneMapperError> {
+        check_settings(&settings, self.ctx.device.features())?;
+        Ok(ToneMapper::on_context(
+            self.ctx.sharing_pipelines(),
+            settings,
+        ))
+    }
+
+    /// Maps with `settings` from the next [`ToneMapper::record`] on; the
+    /// records before keep the settings they were recorded with, even in
+    /// the same submission. The same operator with other parameters held
+    /// in its uniform (the exposure, a Reinhard key, …) compiles nothing
+    /// and keeps the bindings: each record copies its own values into the
+    /// uniform. A parameter that
     /// is one of the operator's shader constants, another operator,
     /// encoding, target or path is new pipelines, compiled once (on the
     /// next `prepare` or `record`) and kept, so switching back compiles
     /// nothing.
     pub fn set_settings(&mut self, settings: ToneMapperSettings) -> Result<(), ToneMapperError> {
         check_settings(&settings, self.ctx.device.features())?;
+        if settings == self.settings {
+            return Ok(());
+        }
         let (op, was) = (&settings.operator, &self.settings.operator);
         let config = OperatorShader::config_of(op);
         let same_shader = op.definition().wgsl() == self.shader.module
@@ -259,17 +320,14 @@ impl ToneMapper {
             && settings.grade == self.settings.grade
             && settings.taa == self.settings.taa
             && (config.len() * 4) as u64 == self.shader.config.size();
-        if same_shader {
-            self.ctx
-                .queue
-                .write_buffer(&self.shader.config, 0, bytemuck::cast_slice(&config));
-        } else {
+        if !same_shader {
             self.shader = OperatorShader::new(&self.ctx, op, None);
             self.bound.clear();
             if settings.taa != self.settings.taa {
                 self.history = taa::History::default();
             }
         }
+        self.config = config;
         self.settings = settings;
         Ok(())
     }
@@ -300,7 +358,7 @@ impl ToneMapper {
         if self.settings.adaptation.is_none() || self.reset {
             return Ok(None);
         }
-        let staging = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        let staging = self.ctx.create_buffer(&wgpu::BufferDescriptor {
             label: Some("tonegate.adaptation.read"),
             size: 16,
             usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
@@ -353,8 +411,11 @@ impl ToneMapper {
     /// format, with `STORAGE_BINDING` for the compute path or
     /// `RENDER_ATTACHMENT` for the render pass, holding the image's size at
     /// its origin. Either being otherwise is an error that says which and
-    /// why, before anything is recorded. Resources for a pair of views are
-    /// kept until another pair is passed.
+    /// why, before anything is recorded. The record maps with the settings
+    /// in effect now, whatever is set before the encoder is submitted.
+    /// Resources are kept by input (the last few) and shared by every
+    /// target: a new target view each frame (a swap chain's) creates no
+    /// texture.
     pub fn record<'a>(
         &mut self,
         encoder: &mut wgpu::CommandEncoder,
@@ -372,7 +433,7 @@ impl ToneMapper {
         motion: Option<MotionVectors>,
         output: TargetView,
     ) -> Result<(), ToneMapperError> {
-        let key = self.key(&input, motion.as_ref(), &output)?;
+        let (key, sink) = self.key(&input, motion.as_ref(), &output)?;
         let size = key.size;
         match self.bound.iter().position(|b| b.key == key) {
             Some(i) => {
@@ -385,13 +446,8 @@ impl ToneMapper {
                     width: key.size.0,
                     height: key.size.1,
                 };
-                let wired = self.wire(
-                    &source,
-                    (&key.output, key.origin),
-                    key.compute,
-                    key.motion.as_ref(),
-                )?;
-                // A history of a new size: the pairs wired to the old one
+                let wired = self.wire(&source, key.motion.as_ref())?;
+                // A history of a new size: the inputs wired to the old one
                 // go with it, and the frame starts a new history.
                 let old = self.history.resources.as_ref().map(|r| &r.uniforms);
                 if wired.history.as_ref().map(|r| &r.uniforms) != old {
@@ -401,20 +457,35 @@ impl ToneMapper {
                         ..taa::History::default()
                     };
                 }
-                if self.bound.len() == KEPT_PAIRS {
+                if self.bound.len() == KEPT_INPUTS {
                     self.bound.remove(0);
                 }
                 self.bound.push(Bound { key, wired });
             }
         }
+        // This record's values, copied in by its own encoder.
+        let ctx = &self.ctx;
+        let words: &[f32] = &self.config;
+        self.ring.stage(
+            ctx,
+            encoder,
+            &self.shader.config,
+            bytemuck::cast_slice(words),
+        );
+        let origin = [sink.origin.0, sink.origin.1, 0, 0];
+        self.ring
+            .stage(ctx, encoder, &self.origin, bytemuck::cast_slice(&origin));
         if let Some(adaptation) = &self.settings.adaptation {
             let steps = Steps::new(adaptation, self.frame_seconds, self.reset);
-            self.ctx
-                .queue
-                .write_buffer(&self.steps, 0, bytemuck::bytes_of(&steps));
+            self.ring
+                .stage(ctx, encoder, &self.steps, bytemuck::bytes_of(&steps));
             self.reset = false;
         }
-        let odd = self.step_history(motion.as_ref(), size);
+        let odd = self.step_history(encoder, motion.as_ref(), size);
+        let store = sink.compute.then(|| self.store_for(sink.view));
+        if !sink.compute {
+            self.draw_for_last();
+        }
         let bound = self.bound.last().expect("bound above");
         let dispatches = match &bound.wired.odd {
             Some(d) if odd => d,
@@ -424,7 +495,8 @@ impl ToneMapper {
             // Timed: each stage in a pass of its own.
             Some(stamps) => {
                 let mut at = 0;
-                for (i, (name, n)) in bound.wired.stages.iter().enumerate() {
+                let mut i = 0;
+                for (name, n) in &bound.wired.stages {
                     let label = format!("tonegate.{name}");
                     let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                         label: Some(&label),
@@ -434,6 +506,14 @@ impl ToneMapper {
                         d.record(&mut pass);
                     }
                     at += n;
+                    i += 1;
+                }
+                if let Some(store) = &store {
+                    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: Some("tonegate.target"),
+                        timestamp_writes: Some(stamps.compute(i)),
+                    });
+                    store.record(&mut pass);
                 }
             }
             None => {
@@ -444,15 +524,18 @@ impl ToneMapper {
                 for d in dispatches {
                     d.record(&mut pass);
                 }
+                if let Some(store) = &store {
+                    store.record(&mut pass);
+                }
             }
         }
-        if let Some(draw) = &bound.wired.draw {
-            let (x, y) = bound.key.origin;
-            let (w, h) = bound.key.size;
+        if let (false, Some((pipeline, bind_group))) = (sink.compute, &bound.wired.draw) {
+            let (x, y) = sink.origin;
+            let (w, h) = size;
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("tonegate.tone_mapper.to_attachment"),
                 color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &bound.key.output,
+                    view: sink.view,
                     depth_slice: None,
                     resolve_target: None,
                     ops: wgpu::Operations {
@@ -467,13 +550,17 @@ impl ToneMapper {
             });
             pass.set_viewport(x as f32, y as f32, w as f32, h as f32, 0.0, 1.0);
             pass.set_scissor_rect(x, y, w, h);
-            pass.set_pipeline(&draw.pipeline);
-            pass.set_bind_group(0, &draw.bind_group, &[]);
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, bind_group, &[]);
             pass.draw(0..3, 0..1);
         }
-        let rendered = bound.wired.draw.is_some();
-        let names = bound.wired.stages.iter().map(|(name, _)| *name).collect();
+        let rendered = !sink.compute;
         if let Some(stamps) = &mut self.stamps {
+            let mut names: Vec<&'static str> =
+                bound.wired.stages.iter().map(|(name, _)| *name).collect();
+            if store.is_some() {
+                names.push("target");
+            }
             stamps.resolve(encoder, names, rendered);
         }
         Ok(())

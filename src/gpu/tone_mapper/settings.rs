@@ -6,8 +6,10 @@ use crate::operators::Operator;
 use crate::scene::{Adaptation, Bloom, Encoding, Grade, Taa};
 
 /// How a [`super::ToneMapper`] maps: the operator with its parameters, the display
-/// encoding, the target's format and the path into it.
-#[derive(Clone, Debug)]
+/// encoding, the target's format and the path into it. A value: two
+/// settings are equal when they map alike, and [`super::ToneMapper::set_settings`]
+/// with equal settings does nothing.
+#[derive(Clone, Debug, PartialEq)]
 pub struct ToneMapperSettings {
     /// The operator (`Operator::named("agx", &[])`, or a caller's own after
     /// `operators::register`).

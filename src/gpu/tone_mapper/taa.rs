@@ -108,7 +108,7 @@ impl ToneMapper {
         let (w, h) = (texture.width(), texture.height());
         // Rgba32Float, the history's format in the mapper's configuration.
         let row = (w * 16).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
-        let staging = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        let staging = self.ctx.create_buffer(&wgpu::BufferDescriptor {
             label: Some("tonegate.taa.history.read"),
             size: u64::from(row * h),
             usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
@@ -198,10 +198,12 @@ impl ToneMapper {
         Ok(Some(motion.view.clone()))
     }
 
-    /// Writes this frame's TAA uniforms; true when the frame reads the
-    /// second texture of the history pair. Nothing without TAA.
+    /// Copies this frame's TAA uniforms in by `encoder`; true when the
+    /// frame reads the second texture of the history pair. Nothing without
+    /// TAA.
     pub(super) fn step_history(
         &mut self,
+        encoder: &mut wgpu::CommandEncoder,
         motion: Option<&MotionVectors>,
         size: (u32, u32),
     ) -> bool {
@@ -210,9 +212,12 @@ impl ToneMapper {
         };
         let [sx, sy] = motion.scale(size);
         let u = TaaUniforms::motion(!self.history.reset, [sx as f32, sy as f32]);
-        self.ctx
-            .queue
-            .write_buffer(&resources.uniforms, 0, bytemuck::bytes_of(&u));
+        self.ring.stage(
+            &self.ctx,
+            encoder,
+            &resources.uniforms,
+            bytemuck::bytes_of(&u),
+        );
         self.history.reset = false;
         let odd = self.history.odd;
         self.history.odd = !odd;

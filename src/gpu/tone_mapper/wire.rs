@@ -1,15 +1,16 @@
-//! How a [`ToneMapper`] checks a pair of views and wires its passes
-//! between them: the statistics, the adaptation, the curve, and the target
-//! written by a compute pass or a fullscreen triangle.
+//! How a [`ToneMapper`] checks a pair of views and wires its passes: from
+//! an input to its display image (the statistics, the adaptation, the
+//! curve, bloom and grade), kept by input; then that image written into
+//! each target by a compute pass or a fullscreen triangle.
 
 use super::target::{check_texture, level_size, TextureRole, ToneMapperError, INPUT_FORMATS};
-use super::{BoundKey, Draw, MotionVectors, SourceView, TargetView, ToneMapper, Wired};
-use crate::gpu::adaptation::AdaptationResources;
-use crate::gpu::encode::{
-    encode_render_bind_group, encode_render_pipeline, encode_to_storage, Texel,
+use super::{
+    MotionVectors, Sink, SourceView, TargetView, ToneMapper, Wired, WiredKey, KEPT_TARGETS,
 };
+use crate::gpu::adaptation::AdaptationResources;
+use crate::gpu::encode::{encode_render_bind_group, encode_render_pipeline, encode_to_storage};
 use crate::gpu::renderer::extent_of;
-use crate::gpu::stages::{extent_buffer, uniform_buffer, ImageView};
+use crate::gpu::stages::{extent_buffer, Dispatch, ImageView};
 use crate::gpu::wiring::Wiring;
 use crate::gpu::GpuInput;
 use crate::gpu::{GpuConfig, GpuError};
@@ -17,13 +18,14 @@ use crate::plan::{AdaptationStage, Input, PlanError, Stage, StagePlan};
 use crate::reference::Pipeline;
 
 impl ToneMapper {
-    /// The pair's key, or why the mapper cannot use it.
-    pub(super) fn key(
+    /// The input's key and the record's sink, or why the mapper cannot
+    /// use the pair.
+    pub(super) fn key<'v>(
         &self,
         input: &SourceView,
         motion: Option<&MotionVectors>,
-        output: &TargetView,
-    ) -> Result<BoundKey, ToneMapperError> {
+        output: &TargetView<'v>,
+    ) -> Result<(WiredKey, Sink<'v>), ToneMapperError> {
         use wgpu::TextureUsages as U;
         let (itex, otex) = (input.view.texture(), output.view.texture());
         if !INPUT_FORMATS.contains(&itex.format()) {
@@ -84,34 +86,70 @@ impl ToneMapper {
         self.ctx
             .check_frame(size.0, size.1)
             .map_err(ToneMapperError::Limits)?;
-        Ok(BoundKey {
+        let key = WiredKey {
             input: input.view.clone(),
             size,
-            output: output.view.clone(),
+            motion,
+        };
+        let sink = Sink {
+            view: output.view,
             origin,
             compute,
-            motion,
-        })
+        };
+        Ok((key, sink))
     }
 
-    /// The render pipeline into the settings' target, compiled once.
-    pub(super) fn render_pipeline(&mut self) -> wgpu::RenderPipeline {
+    /// The compute path's last dispatch from `wired`'s display image into
+    /// the storage target `view`: its pipeline from the context's cache,
+    /// two bind groups of its own.
+    pub(super) fn store_dispatch(&self, wired: &Wired, view: &wgpu::TextureView) -> Dispatch {
         let s = &self.settings;
-        let levels = s.operator.display_levels();
-        let texel = Texel::of(s.target).expect("checked by check_settings");
-        let constants = crate::gpu::encode::target_constants(s.encoding, levels, texel);
-        let key = (
+        encode_to_storage(
+            &self.ctx,
+            GpuConfig::default().hdr_format,
+            s.encoding,
+            s.operator.display_levels(),
+            &wired.display,
+            view,
             s.target,
-            constants
-                .iter()
-                .map(|(k, v)| ((*k).to_owned(), v.to_bits()))
-                .collect(),
-        );
-        let ctx = &self.ctx;
-        self.render
-            .entry(key)
-            .or_insert_with(|| encode_render_pipeline(ctx, s.encoding, levels, s.target))
-            .clone()
+            &self.origin,
+            &wired.extent,
+        )
+    }
+
+    /// The dispatch into storage target `view` from the input used last:
+    /// kept for the last [`KEPT_TARGETS`] views, made for another.
+    pub(super) fn store_for(&mut self, view: &wgpu::TextureView) -> Dispatch {
+        let wired = &self.bound.last().expect("an input is bound").wired;
+        if let Some(i) = wired.stores.iter().position(|(v, _)| v == view) {
+            return wired.stores[i].1.clone();
+        }
+        let store = self.store_dispatch(wired, view);
+        let stores = &mut self.bound.last_mut().expect("bound").wired.stores;
+        if stores.len() == KEPT_TARGETS {
+            stores.remove(0);
+        }
+        stores.push((view.clone(), store.clone()));
+        store
+    }
+
+    /// The render pipeline into the settings' target (compiled once, in
+    /// the context's cache) and its bind group reading `display`.
+    pub(super) fn draw(&self, display: &wgpu::Texture) -> (wgpu::RenderPipeline, wgpu::BindGroup) {
+        let s = &self.settings;
+        let pipeline =
+            encode_render_pipeline(&self.ctx, s.encoding, s.operator.display_levels(), s.target);
+        let bind_group = encode_render_bind_group(&self.ctx, &pipeline, display, &self.origin);
+        (pipeline, bind_group)
+    }
+
+    /// The input used last gets its draw into a render attachment, once.
+    pub(super) fn draw_for_last(&mut self) {
+        let wired = &self.bound.last().expect("an input is bound").wired;
+        if wired.draw.is_none() {
+            let draw = self.draw(&wired.display);
+            self.bound.last_mut().expect("bound").wired.draw = Some(draw);
+        }
     }
 
     /// The plan the settings make: `StagePlan::build`'s for a flat image
@@ -133,17 +171,15 @@ impl ToneMapper {
         }
     }
 
-    /// The work from `input` to `output` at `origin`: the plan's stages up
+    /// The work from `input` to its display image: the plan's stages up
     /// to `encode`, wired by tonegate's own renderer's code
     /// (`Wiring::staged`), reading the caller's views and the mapper's own
-    /// statistics, operator uniform, adapted state and TAA history; then
-    /// the target written from the display image by a last dispatch
-    /// (`compute`) or a draw.
+    /// statistics, operator uniform, adapted state and TAA history. What
+    /// writes the image into a target is made per target
+    /// ([`ToneMapper::store_for`], [`ToneMapper::draw_for_last`]).
     pub(super) fn wire(
         &mut self,
         input: &ImageView,
-        (output, origin): (&wgpu::TextureView, (u32, u32)),
-        compute: bool,
         motion: Option<&wgpu::TextureView>,
     ) -> Result<Wired, ToneMapperError> {
         let plan = self.plan();
@@ -209,51 +245,16 @@ impl ToneMapper {
             .ok_or(ToneMapperError::Internal(GpuError::Plan(PlanError::order(
                 "encode", "tonemap",
             ))))?;
-        let origin_words = [origin.0, origin.1, 0, 0];
-        let origin = uniform_buffer(
-            &self.ctx,
-            "tonegate.encode.target_origin",
-            bytemuck::cast_slice(&origin_words),
-        );
         let history = wiring.taa.clone();
-        let odd = parity.then_some(odd);
-        if compute {
-            let last = encode_to_storage(
-                &self.ctx,
-                config.hdr_format,
-                s.encoding,
-                s.operator.display_levels(),
-                &display,
-                output,
-                s.target,
-                &origin,
-                &extent,
-            );
-            let odd = odd.map(|mut o| {
-                o.push(last.clone());
-                o
-            });
-            even.push(last);
-            stages.push(("target", 1));
-            return Ok(Wired {
-                even,
-                odd,
-                stages,
-                draw: None,
-                history,
-            });
-        }
-        let pipeline = self.render_pipeline();
-        let bind_group = encode_render_bind_group(&self.ctx, &pipeline, &display, &origin);
         Ok(Wired {
             even,
-            odd,
+            odd: parity.then_some(odd),
             stages,
-            draw: Some(Draw {
-                pipeline,
-                bind_group,
-            }),
+            display,
+            extent,
             history,
+            draw: None,
+            stores: Vec::new(),
         })
     }
 }

@@ -6,6 +6,7 @@
 //! scRGB ones, and the same bits by the compute and the render-pass path.
 
 mod api;
+mod frame_loop;
 mod taa;
 mod targets;
 
