@@ -119,6 +119,7 @@ mod grade;
 mod grade_stats;
 mod inspect;
 mod luminance_stats;
+mod passes;
 mod probe;
 pub mod sphere;
 mod taa;

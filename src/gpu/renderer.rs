@@ -2,7 +2,7 @@
 //! dispatched and timed. `new` is the sequence of steps below; what each
 //! stage reads and writes is wired in `wiring` (and `fused`).
 
-use super::config::{Execution, GpuConfig};
+use super::config::GpuConfig;
 use super::readback::{GpuFrame, Ring, Sources, Ticket, FRAMES_IN_FLIGHT};
 use super::sphere::FrameUniforms;
 use super::stages::{extent_buffer, storage_buffer, upload, Extent};
@@ -121,20 +121,7 @@ impl<'a> GpuRenderer<'a> {
             GpuInput::Sphere { camera, .. } => Some(camera),
             GpuInput::Flat(_) | GpuInput::View(_) => None,
         };
-        let mut passes = Vec::new();
-        for stage in plan.stages() {
-            let fused = match config.execution {
-                Execution::Fused => super::fused::wire(&mut wiring, stage)?,
-                Execution::Staged => None,
-            };
-            let pass = match fused {
-                Some(pass) => pass,
-                None => wiring.staged(stage)?,
-            };
-            if !pass.dispatches.is_empty() {
-                passes.push(pass);
-            }
-        }
+        let passes = super::passes::wire_plan(&mut wiring, &plan, config.execution, None)?;
         // A plan without `encode` (an HDR or linear output) still names
         // its display image, which `encode` would otherwise have read.
         if !plan.contains("encode") {

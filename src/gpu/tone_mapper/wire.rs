@@ -222,14 +222,17 @@ impl ToneMapper {
         wiring.taa = self.history.resources.clone();
         // One list of dispatches for each texture of the TAA history pair
         // a frame may read.
+        let passes = crate::gpu::passes::wire_plan(
+            &mut wiring,
+            &plan,
+            crate::gpu::Execution::Staged,
+            Some(Stage::Encode.name()),
+        )
+        .map_err(internal)?;
         let (mut even, mut odd, mut parity) = (Vec::new(), Vec::new(), false);
         let mut stages = Vec::new();
-        for stage in plan.stages() {
-            if matches!(stage, Stage::Encode) {
-                break;
-            }
-            let pass = wiring.staged(stage).map_err(internal)?;
-            stages.push((stage.name(), pass.dispatches.len()));
+        for pass in passes {
+            stages.push((pass.name, pass.dispatches.len()));
             match pass.odd {
                 Some(o) => {
                     odd.extend(o);
