@@ -168,7 +168,7 @@ impl Alerts {
     /// A webhook's `secret_file` is read relative to the alerts file.
     pub fn load(path: &Path) -> Result<Alerts, String> {
         let at = |e: String| format!("{}: {e}", path.display());
-        let text = std::fs::read_to_string(path)
+        let text = crate::io::read_small_text(path)
             .map_err(|e| format!("reading {}: {e}", path.display()))?;
         let f: File = toml::from_str(&text).map_err(|e| at(e.message().to_owned()))?;
         let url_ok = |u: &str| u.starts_with("http://") || u.starts_with("https://");
@@ -200,7 +200,7 @@ impl Alerts {
                 return Err(at(format!("{here}: url {:?} is not an http(s) URL", w.url)));
             }
             let secret_path = path.parent().unwrap_or(Path::new(".")).join(&w.secret_file);
-            let secret = std::fs::read(&secret_path).map_err(|e| {
+            let secret = crate::io::read_small(&secret_path).map_err(|e| {
                 at(format!(
                     "{here}: secret_file {}: {e}",
                     secret_path.display()
@@ -249,7 +249,9 @@ impl Alerts {
 }
 
 /// Scans and delivers until the server stops: the history is scanned
-/// every `scan_every`, and due deliveries are sent every quarter second.
+/// every `scan_every`, and due deliveries are claimed every quarter second
+/// and sent in tasks of their own, a few at a time per webhook, so that a
+/// receiver that never answers delays no other webhook.
 pub async fn run(
     db: std::path::PathBuf,
     alerts: Alerts,
@@ -273,6 +275,8 @@ pub async fn run(
         open: Default::default(),
     };
     let mut last_scan: Option<std::time::Instant> = None;
+    let in_flight = deliver::InFlight::default();
+    let mut tasks = tokio::task::JoinSet::new();
     loop {
         if last_scan.is_none_or(|t| t.elapsed() >= alerts.scan_every) {
             last_scan = Some(std::time::Instant::now());
@@ -283,14 +287,19 @@ pub async fn run(
                 Err(e) => tracing::warn!("alerts: scanning the history: {e}"),
             }
         }
-        if let Err(e) = deliver::due(&kept, &alerts, &client).await {
+        if let Err(e) = deliver::due(&kept, &alerts, &client, &in_flight, &mut tasks).await {
             tracing::warn!("alerts: delivering: {e}");
         }
+        // Finished deliveries leave the set; their outcomes are recorded.
+        while tasks.try_join_next().is_some() {}
         tokio::select! {
             _ = tokio::time::sleep(Duration::from_millis(250)) => {}
             _ = stop.changed() => return,
         }
         if *stop.borrow() {
+            // Deliveries in flight end with the server; their claims run
+            // out and they are sent again, by this server or another.
+            tasks.abort_all();
             return;
         }
     }
@@ -299,6 +308,7 @@ pub async fn run(
 /// The history alerts work on, opened once and kept between the scans and
 /// the four looks a second for due deliveries (a PostgreSQL history would
 /// otherwise be connected to each time), and opened again after an error.
+#[derive(Clone)]
 struct Kept {
     db: std::path::PathBuf,
     open: std::sync::Arc<std::sync::Mutex<Option<crate::history::History>>>,
