@@ -33,7 +33,7 @@ pub fn submit(a: Remote, inputs: Vec<Input>) -> Result<SubmissionReport> {
     let token_file = a
         .token_file
         .ok_or_else(|| Error::Invalid("--server needs --token-file (the submit token)".into()))?;
-    let token = std::fs::read_to_string(token_file)
+    let token = tonegate::io::read_small_text(token_file)
         .map_err(|e| file_error(token_file, e))?
         .trim()
         .to_owned();
@@ -53,7 +53,12 @@ pub fn submit(a: Remote, inputs: Vec<Input>) -> Result<SubmissionReport> {
             }
             .into());
         }
-        let bytes = std::fs::read(path).map_err(|e| file_error(path, e))?;
+        let mut bytes = Vec::new();
+        std::io::Read::read_to_end(
+            &mut tonegate::io::open_regular(path).map_err(|e| file_error(path, e))?,
+            &mut bytes,
+        )
+        .map_err(|e| file_error(path, e))?;
         let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("png");
         let name = format!("{}.{ext}", input.test);
         form = form.part(
@@ -65,7 +70,7 @@ pub fn submit(a: Remote, inputs: Vec<Input>) -> Result<SubmissionReport> {
         form = form.text("key", k.clone());
     }
     if let Some(rules) = a.rules {
-        let text = std::fs::read_to_string(rules).map_err(|e| file_error(rules, e))?;
+        let text = tonegate::io::read_small_text(rules).map_err(|e| file_error(rules, e))?;
         form = form.text("rules", text);
     }
     let url = format!("{}/api/v1/frames/submissions", server.trim_end_matches('/'));

@@ -57,6 +57,9 @@ pub enum FramesError {
     Empty { folder: String },
     #[error("key {0:?}: keys are name=value, the name of letters, digits, '_', '-' and '.'")]
     Key(String),
+    /// More keys, or a longer name or value, than a submission may carry.
+    #[error("{what}: at most {most}")]
+    KeyBounds { what: String, most: usize },
     #[error(transparent)]
     History(#[from] HistoryError),
 }
@@ -192,22 +195,58 @@ fn test_name(folder: &Path, path: &Path) -> Result<String, FramesError> {
     Ok(parts.join("/"))
 }
 
-/// `name=value` pairs, as `--key` gives them.
+/// The most keys a submission carries.
+pub const MAX_KEYS: usize = 32;
+/// The longest key name, in bytes.
+pub const MAX_KEY_NAME: usize = 64;
+/// The longest key value, in bytes: keys name a device, a backend, a
+/// branch or a commit, and go into every report, alert and listing.
+pub const MAX_KEY_VALUE: usize = 256;
+
+/// `name=value` pairs, as `--key` gives them: at most [`MAX_KEYS`], each
+/// name at most [`MAX_KEY_NAME`] bytes and each value [`MAX_KEY_VALUE`].
 pub fn parse_keys(pairs: &[String]) -> Result<BTreeMap<String, String>, FramesError> {
+    if pairs.len() > MAX_KEYS {
+        return Err(FramesError::KeyBounds {
+            what: format!("{} keys", pairs.len()),
+            most: MAX_KEYS,
+        });
+    }
     let mut keys = BTreeMap::new();
     for pair in pairs {
+        let shown = || clip(pair, 48);
         let Some((k, v)) = pair.split_once('=') else {
-            return Err(FramesError::Key(pair.clone()));
+            return Err(FramesError::Key(shown()));
         };
+        if k.len() > MAX_KEY_NAME {
+            return Err(FramesError::KeyBounds {
+                what: format!("key {}: a name of {} bytes", shown(), k.len()),
+                most: MAX_KEY_NAME,
+            });
+        }
+        if v.len() > MAX_KEY_VALUE {
+            return Err(FramesError::KeyBounds {
+                what: format!("key {k}: a value of {} bytes", v.len()),
+                most: MAX_KEY_VALUE,
+            });
+        }
         let plain = |c: char| c.is_ascii_alphanumeric() || "_-.".contains(c);
         if k.is_empty()
             || !k.chars().all(plain)
             || keys.insert(k.to_owned(), v.to_owned()).is_some()
         {
-            return Err(FramesError::Key(pair.clone()));
+            return Err(FramesError::Key(shown()));
         }
     }
     Ok(keys)
+}
+
+/// `text`'s first `most` characters, and `…` when there were more.
+fn clip(text: &str, most: usize) -> String {
+    match text.char_indices().nth(most) {
+        Some((at, _)) => format!("{}…", &text[..at]),
+        None => text.to_owned(),
+    }
 }
 
 /// One file read (its size checked first) and hashed; decoded unless its
@@ -237,7 +276,7 @@ fn read(mut input: Input) -> Result<Read, FramesError> {
                     max: MAX_FILE_BYTES,
                 });
             }
-            std::fs::read(&path).map_err(|e| FramesError::File {
+            read_regular(&path).map_err(|e| FramesError::File {
                 file: file.clone(),
                 detail: e.to_string(),
             })?
@@ -394,4 +433,13 @@ pub fn submit(history: &History, s: Submission) -> Result<SubmissionReport, Fram
     }
     report.submission = stored.id;
     Ok(report)
+}
+
+/// A file of a submitted folder, read only if it is still a regular file
+/// when opened (a FIFO put in its place is refused, not waited on).
+fn read_regular(path: &std::path::Path) -> std::io::Result<Vec<u8>> {
+    use std::io::Read;
+    let mut bytes = Vec::new();
+    crate::io::open_regular(path)?.read_to_end(&mut bytes)?;
+    Ok(bytes)
 }

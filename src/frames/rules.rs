@@ -89,7 +89,7 @@ impl Rules {
     /// Reads and checks a rules file; every error names the file, and the
     /// rule and key it is about.
     pub fn load(path: &Path) -> Result<Rules, String> {
-        let text = std::fs::read_to_string(path)
+        let text = crate::io::read_small_text(path)
             .map_err(|e| format!("reading {}: {e}", path.display()))?;
         Rules::parse(&text, &path.display().to_string())
     }

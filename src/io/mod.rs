@@ -126,6 +126,38 @@ pub fn open_regular(path: &Path) -> std::io::Result<File> {
     }
 }
 
+/// The most bytes [`read_small`] reads: rules, alerts, token and secret
+/// files are a few kilobytes.
+pub const MAX_SMALL_FILE_BYTES: u64 = 1 << 20;
+
+/// Reads a small file named by a flag or a setting (rules, alerts, tokens,
+/// secrets): a regular file only ([`open_regular`]: a FIFO is refused at
+/// once rather than waited on), of at most [`MAX_SMALL_FILE_BYTES`].
+pub fn read_small(path: &Path) -> std::io::Result<Vec<u8>> {
+    use std::io::Read;
+    let mut bytes = Vec::new();
+    open_regular(path)?
+        .take(MAX_SMALL_FILE_BYTES + 1)
+        .read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > MAX_SMALL_FILE_BYTES {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("larger than {MAX_SMALL_FILE_BYTES} bytes, which such a file never is"),
+        ));
+    }
+    Ok(bytes)
+}
+
+/// [`read_small`] of a UTF-8 text.
+pub fn read_small_text(path: &Path) -> std::io::Result<String> {
+    String::from_utf8(read_small(path)?).map_err(|e| {
+        std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("not UTF-8 text (byte {})", e.utf8_error().valid_up_to()),
+        )
+    })
+}
+
 /// Loads an HDR image file and applies the validation policy.
 pub fn load_hdr(path: &Path, opts: &LoadOptions) -> Result<(HdrImage, LoadReport), HdrIoError> {
     let file = path.display().to_string();

@@ -450,7 +450,7 @@ pub fn load_or_make_token(path: &std::path::Path) -> Result<String, crate::Error
         path: path.to_owned(),
         source: e,
     };
-    match std::fs::read_to_string(path) {
+    match crate::io::read_small_text(path) {
         Ok(s) if !s.trim().is_empty() => return Ok(s.trim().to_owned()),
         Ok(_) => {
             return Err(crate::Error::Invalid(format!(

@@ -719,9 +719,11 @@ fn options_that_trade_accuracy_pass_at_their_own_bounds_and_a_fault_still_fails(
     }
 }
 
-/// A FIFO named as a scene, a suite, an image or the goldens' manifest is
-/// refused at once with exit 2 and the path, where opening it blocked until
-/// a writer came (`plan` and `check --suite` waited until killed).
+/// A FIFO named as a scene, a suite, an image, the goldens' manifest, a
+/// frames rules file, a token file or an alerts file is refused at once
+/// with exit 2 and the path, where opening it blocked until a writer came
+/// (`plan`, `check --suite`, `frames submit --rules` and `serve --alerts`
+/// waited until killed).
 #[test]
 fn a_fifo_in_place_of_a_file_is_refused_at_once() {
     let dir = tempfile::tempdir().unwrap();
@@ -746,12 +748,58 @@ fn a_fifo_in_place_of_a_file_is_refused_at_once() {
         .success());
     let out = dir.path().join("out.png");
     let suite = golden.join("suite.toml");
-    let runs: [&[&str]; 5] = [
+    // A folder of frames, and a history, for the commands that read a
+    // rules or token file beside them.
+    let frames = dir.path().join("frames");
+    std::fs::create_dir(&frames).unwrap();
+    std::fs::copy(
+        repo().join("golden/grid-static/000.png"),
+        frames.join("grid.png"),
+    )
+    .unwrap();
+    let db = dir.path().join("h.sqlite");
+    let runs: [&[&str]; 9] = [
         &["plan", s(&fifo)],
         &["check", "--no-history", "--cpu", "--suite", s(&fifo)],
         &["tonemap", s(&fifo), "-o", s(&out)],
         &["compare", s(&fifo_png), "golden/grid-static/000.png"],
         &["golden", "verify", "--suite", s(&suite), "grid-static"],
+        &[
+            "frames",
+            "submit",
+            s(&frames),
+            "--db",
+            s(&db),
+            "--rules",
+            s(&fifo),
+        ],
+        &[
+            "frames",
+            "submit",
+            s(&frames),
+            "--server",
+            "http://127.0.0.1:9",
+            "--token-file",
+            s(&fifo),
+        ],
+        &[
+            "serve",
+            "--bind",
+            "127.0.0.1:0",
+            "--db",
+            s(&db),
+            "--alerts",
+            s(&fifo),
+        ],
+        &[
+            "serve",
+            "--bind",
+            "127.0.0.1:0",
+            "--db",
+            s(&db),
+            "--token-file",
+            s(&fifo),
+        ],
     ];
     for args in runs {
         let mut child = Command::new(env!("CARGO_BIN_EXE_tonegate"))
