@@ -356,6 +356,42 @@ async fn hostile_submissions_are_refused_by_the_part_they_are_about_and_store_no
         body["detail"].as_str().unwrap().contains("no equals sign"),
         "{body}"
     );
+    // Keys and rules beyond their bounds, refused as they arrive, the
+    // detail quoting no more than a clip of what was sent.
+    let many: Vec<String> = (0..33).map(|i| format!("k{i}=v")).collect();
+    let many: Vec<&str> = many.iter().map(String::as_str).collect();
+    let long_value = format!("device={}", "x".repeat(300));
+    let long_name = format!("{}=1", "n".repeat(5000));
+    let big_rules = format!("# {}\n", "r".repeat(2 << 20));
+    let bounded: Vec<(&str, reqwest::multipart::Form, &str)> = vec![
+        ("33 keys", form(&fine, &many), "more than 32 `key` parts"),
+        (
+            "a long value",
+            form(&fine, &[long_value.as_str()]),
+            "key device: a value of 300 bytes: at most 256",
+        ),
+        (
+            "a long part",
+            form(&fine, &[long_name.as_str()]),
+            "a `key` part is longer than 321 bytes",
+        ),
+        (
+            "big rules",
+            form(&fine, &[]).text("rules", big_rules),
+            "the `rules` part is longer than 1048576 bytes",
+        ),
+    ];
+    for (name, f, says) in bounded {
+        let (st, body) = post_form(&s.client, &s.base, Some(SUBMIT), f, None).await;
+        assert_eq!(st, StatusCode::BAD_REQUEST, "{name}: {body}");
+        let detail = body["detail"].as_str().unwrap_or("");
+        assert!(detail.contains(says), "{name}: {body}");
+        assert!(
+            detail.len() < 400,
+            "{name}: a detail of {} bytes",
+            detail.len()
+        );
+    }
     let rules = form(&fine, &[]).text("rules", "[[tests]]\npattern = \"*\"\nmin_psnr = 3\n");
     let (st, body) = post_form(&s.client, &s.base, Some(SUBMIT), rules, None).await;
     assert_eq!(st, StatusCode::BAD_REQUEST);

@@ -99,22 +99,23 @@ where
                     super::super::error::clip(&name)
                 )))
             }
-            ("key", None) => form.keys.push(
-                field
-                    .text()
-                    .await
-                    .map_err(|e| crate::request::tonemap::multipart_error(&e))?,
-            ),
+            ("key", None) => {
+                // Refused as they come, before a 40 MB value or the
+                // 20,000th key is read whole.
+                let most = crate::frames::MAX_KEYS;
+                if form.keys.len() == most {
+                    return Err(ApiError::bad(format!("more than {most} `key` parts")));
+                }
+                let longest = crate::frames::MAX_KEY_NAME + 1 + crate::frames::MAX_KEY_VALUE;
+                let text = bounded_text(field, longest, "a `key` part").await?;
+                form.keys.push(text);
+            }
             ("rules", None) => {
                 if form.rules.is_some() {
                     return Err(ApiError::bad("two `rules` parts"));
                 }
-                form.rules = Some(
-                    field
-                        .text()
-                        .await
-                        .map_err(|e| crate::request::tonemap::multipart_error(&e))?,
-                );
+                let most = crate::io::MAX_SMALL_FILE_BYTES as usize;
+                form.rules = Some(bounded_text(field, most, "the `rules` part").await?);
             }
             (other, None) => {
                 return Err(ApiError::bad(format!(
@@ -204,4 +205,25 @@ pub async fn submit(State(st): State<Arc<AppState>>, req: Request) -> Result<Res
     })
     .await?;
     super::super::params::json_text(&report)
+}
+
+/// A text part of at most `most` bytes, read a chunk at a time and refused
+/// as soon as it is longer.
+async fn bounded_text(
+    mut field: multer::Field<'_>,
+    most: usize,
+    what: &str,
+) -> Result<String, ApiError> {
+    let mut bytes = Vec::new();
+    while let Some(chunk) = field
+        .chunk()
+        .await
+        .map_err(|e| crate::request::tonemap::multipart_error(&e))?
+    {
+        if bytes.len() + chunk.len() > most {
+            return Err(ApiError::bad(format!("{what} is longer than {most} bytes")));
+        }
+        bytes.extend_from_slice(&chunk);
+    }
+    String::from_utf8(bytes).map_err(|_| ApiError::bad(format!("{what} is not UTF-8 text")))
 }
