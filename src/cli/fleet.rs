@@ -206,7 +206,7 @@ pub struct FleetArgs {
 
 pub fn fleet(a: FleetArgs) -> Result<ExitCode> {
     a.db.set_retry(10);
-    let h = History::open_read_only(&a.db.db)?;
+    let h = a.db.open_existing()?;
     let runners = h.runners(a.all)?;
     let jobs = h.jobs(None, a.limit)?;
     let counts = h.job_counts()?;

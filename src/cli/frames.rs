@@ -293,7 +293,7 @@ fn ignore(a: IgnoreArgs) -> Result<ExitCode> {
 
 fn log(a: LogArgs) -> Result<ExitCode> {
     a.db.set_retry(10);
-    let history = History::open_read_only(&a.db.db)?;
+    let history = a.db.open_existing()?;
     let entries = history.triage_log(a.test.as_deref())?;
     match &a.json {
         Some(path) => write_json(path, "the triage log", &entries)?,

@@ -278,10 +278,7 @@ pub fn history(a: HistoryArgs) -> Result<ExitCode> {
         None => {}
     }
     if !a.db.is_url() && !a.db.db.exists() {
-        return Err(invalid(format!(
-            "no history at {} (run `tonegate check` first, or pass --db)",
-            a.db.shown()
-        )));
+        a.db.open_existing()?;
     }
     // Refused in the API's words (it answered 400 where this printed "no
     // values" and exited 0).

@@ -257,8 +257,9 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
 /// Where the history lives.
 #[derive(Args, Clone)]
 pub struct DbArgs {
-    /// The history database: a SQLite file (created when absent), or a
-    /// PostgreSQL database shared by a fleet (postgres://user@host/db).
+    /// The history database: a SQLite file (created when absent by the
+    /// commands that write to it), or a PostgreSQL database shared by a
+    /// fleet (postgres://user@host/db).
     #[arg(long, env = "TONEGATE_DB", default_value = ".tonegate/history.sqlite")]
     pub db: PathBuf,
     /// Seconds to keep retrying a PostgreSQL history that is down or
@@ -287,6 +288,18 @@ impl DbArgs {
     /// The history as the console shows it: a PostgreSQL address without its password.
     pub fn shown(&self) -> String {
         tonegate::history::redacted(&self.db.to_string_lossy())
+    }
+
+    /// The history opened to read, refused with the path when a SQLite
+    /// file is not there: a command that only reads does not create one.
+    pub fn open_existing(&self) -> Result<tonegate::history::History> {
+        if !self.is_url() && !self.db.exists() {
+            return Err(invalid(format!(
+                "no history at {} (run `tonegate check` or `tonegate frames submit` first, or pass --db)",
+                self.shown()
+            )));
+        }
+        Ok(tonegate::history::History::open_read_only(&self.db)?)
     }
 }
 

@@ -388,3 +388,27 @@ fn an_injected_fault_is_a_level_shift_of_the_same_series() {
     assert_eq!(marked.len(), 1, "{marked:?}");
     assert!((marked[0] - 16).abs() <= 2, "{marked:?}");
 }
+
+/// The commands that only read a history name the missing SQLite file and
+/// exit 2, creating nothing: `history`, `fleet` and `frames log` alike
+/// (the last two answered "unable to open database file").
+#[test]
+fn reading_commands_name_a_history_that_is_not_there() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("new.sqlite");
+    let db = db.to_str().unwrap();
+    for args in [
+        &["history", "--db", db][..],
+        &["fleet", "--db", db],
+        &["frames", "log", "--db", db],
+    ] {
+        let o = crate::common::tonegate(args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(
+            err.contains(&format!("no history at {db}")),
+            "{args:?}: {err}"
+        );
+        assert!(!dir.path().join("new.sqlite").exists(), "{args:?} made one");
+    }
+}
