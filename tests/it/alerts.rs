@@ -334,6 +334,39 @@ async fn each_event_is_delivered_once_signed_with_its_commit_range_through_refus
     }
     // Four events to /json, the gate_red one to /slack too.
     assert_eq!(per.len(), 5, "{:?}", per.keys());
+    // docs/alerts.md's receiver, as the page has it, run on a body and
+    // header received here with the secret file as written (a newline at
+    // its end): valid; and on a body one byte longer: not.
+    let doc = std::fs::read_to_string(common::repo().join("docs/alerts.md")).unwrap();
+    let python = doc
+        .split("```python\n")
+        .nth(1)
+        .and_then(|rest| rest.split("```").next())
+        .expect("a python block in docs/alerts.md");
+    let first = &got[0];
+    let body_file = dir.path().join("body.bin");
+    for (body, expected) in [
+        (first.body.clone(), "True"),
+        ([&first.body[..], b" "].concat(), "False"),
+    ] {
+        std::fs::write(&body_file, &body).unwrap();
+        let program = format!(
+            "{python}\nimport sys\nprint(valid(sys.argv[1], open(sys.argv[2], 'rb').read(), sys.argv[3]))\n"
+        );
+        let o = std::process::Command::new("python3")
+            .args(["-c", &program])
+            .arg(dir.path().join("hook.secret"))
+            .arg(&body_file)
+            .arg(&first.signature)
+            .output()
+            .expect("python3");
+        assert_eq!(
+            String::from_utf8_lossy(&o.stdout).trim(),
+            expected,
+            "{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
     for ((event, path), all) in &per {
         let accepted = all.iter().filter(|g| g.accepted).count();
         assert_eq!((all.len(), accepted), (3, 1), "event {event} to {path}");
