@@ -29,6 +29,10 @@ pub struct CheckArgs {
     /// Write JUnit XML here.
     #[arg(long)]
     pub junit: Option<PathBuf>,
+    /// No progress on stderr (a bar on a terminal; elsewhere, as in a CI
+    /// log, a line per scene and every few seconds).
+    #[arg(long)]
+    pub quiet: bool,
     /// Write the full report as JSON here ("-" for stdout; the table then goes to stderr).
     #[arg(long)]
     pub json: Option<PathBuf>,
@@ -109,6 +113,22 @@ pub fn check(a: CheckArgs) -> Result<ExitCode> {
             )));
         }
     }
+    // A suite that is not there is no run: said with what to do, and
+    // nothing is written to a history.
+    if !a.suite.exists() {
+        let default = a.suite == std::path::Path::new("golden/suite.toml");
+        return Err(invalid(if default {
+            format!(
+                "no suite at {} in {}: run from the repository's root, or pass --suite FILE",
+                a.suite.display(),
+                std::env::current_dir()
+                    .map(|d| d.display().to_string())
+                    .unwrap_or_else(|_| "the current folder".into())
+            )
+        } else {
+            format!("--suite {}: no such file", a.suite.display())
+        }));
+    }
     if a.cpu && a.metrics == tonegate::gate::MetricsOn::Gpu {
         return Err(invalid(
             "--metrics gpu needs an adapter, and --cpu renders with the CPU reference and none: \
@@ -139,7 +159,7 @@ pub fn check(a: CheckArgs) -> Result<ExitCode> {
         scenes: a.scenes.clone(),
         metrics: a.metrics,
     };
-    let outcome = tonegate::gate::run(&opts, &Bar::new());
+    let outcome = tonegate::gate::run(&opts, &Bar::quiet_if(a.quiet));
     if tonegate::gpu::validation::requested() && !a.cpu {
         let (errors, warnings) = tonegate::gpu::validation::seen();
         eprintln!(

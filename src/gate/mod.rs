@@ -404,12 +404,13 @@ fn run_inner(
         _ => Vec::new(),
     };
     let stress = suite.stress.then(|| {
-        crate::stress::run(
+        crate::stress::run_told(
             &crate::stress::cases::all(true),
             ctx.as_ref().map(|(c, _)| c),
             ctx.as_ref()
                 .map(|(_, config)| config.reduction)
                 .unwrap_or_default(),
+            progress,
         )
     });
     if let Some(st) = &stress {

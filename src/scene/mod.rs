@@ -32,7 +32,7 @@ use crate::check::{CheckSpec, Judging, TestKind};
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
     /// The file could not be read.
-    #[error("{path}: cannot read scene file: {source}")]
+    #[error("{path}: cannot read it: {source}")]
     Read {
         path: PathBuf,
         source: std::io::Error,

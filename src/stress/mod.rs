@@ -271,7 +271,17 @@ pub(crate) fn load(case: &Case, width_limit: u32) -> Result<(HdrImage, String), 
 /// passes its own, so `check --reduction tree` holds the tree to the same
 /// bounds on every case).
 pub fn run(cases: &[Case], ctx: Option<&GpuContext>, reduction: ReductionMethod) -> StressReport {
-    let mut reports = run_reductions(cases, ctx, &[reduction]);
+    run_told(cases, ctx, reduction, &crate::progress::Silent)
+}
+
+/// [`run`], telling `progress` of each row.
+pub fn run_told(
+    cases: &[Case],
+    ctx: Option<&GpuContext>,
+    reduction: ReductionMethod,
+    progress: &dyn crate::progress::Progress,
+) -> StressReport {
+    let mut reports = runner::run_jobs_told(cases, ctx, &[reduction], default_jobs(), progress);
     reports.pop().unwrap_or_else(|| StressReport {
         adapter: ctx.map(|c| c.adapter.name.clone()),
         bound: BOUND,

@@ -37,6 +37,17 @@ pub fn run_jobs(
     reductions: &[ReductionMethod],
     jobs: usize,
 ) -> Vec<StressReport> {
+    run_jobs_told(cases, ctx, reductions, jobs, &crate::progress::Silent)
+}
+
+/// [`run_jobs`], telling `progress` of each row as it ends.
+pub fn run_jobs_told(
+    cases: &[Case],
+    ctx: Option<&GpuContext>,
+    reductions: &[ReductionMethod],
+    jobs: usize,
+    progress: &dyn crate::progress::Progress,
+) -> Vec<StressReport> {
     use std::sync::atomic::{AtomicUsize, Ordering};
     use std::sync::{Arc, Condvar, Mutex};
     type Loaded = Arc<Result<(HdrImage, String), String>>;
@@ -65,6 +76,7 @@ pub fn run_jobs(
     let big = (Mutex::new(0usize), Condvar::new());
     let next = AtomicUsize::new(0);
     let done: Vec<Mutex<Option<Done>>> = order.iter().map(|_| Mutex::new(None)).collect();
+    progress.start("stress", order.len() as u64, "rows");
     let work = || loop {
         let i = next.fetch_add(1, Ordering::Relaxed);
         let Some(&(c, p)) = order.get(i) else { break };
@@ -93,6 +105,7 @@ pub fn run_jobs(
         let load_s = load_started.elapsed().as_secs_f64();
         let (name, pipeline) = &pipelines[p];
         let mut row_done = row_of(case, name, pipeline, &input, ctx, reductions);
+        progress.advance(1);
         row_done.cpu_s += load_s;
         drop(input);
         if is_big {
@@ -107,6 +120,7 @@ pub fn run_jobs(
         }
         work();
     });
+    progress.finish();
     // Back into the table's order: case by case, pipelines in turn.
     let mut by_place: Vec<Option<Done>> =
         (0..cases.len() * pipelines.len()).map(|_| None).collect();

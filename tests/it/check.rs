@@ -998,3 +998,23 @@ fn the_report_says_where_the_time_went() {
     assert!(phases <= v("total_s") + slack, "{phases} > total: {p}");
     assert!(text(&o).contains("time: "), "{}", text(&o));
 }
+
+/// `check` run outside the repository, with the default suite: exit 2,
+/// the missing suite named with what to do, and no history made there
+/// (it said "cannot read scene file" and recorded an errored run in a new
+/// `.tonegate/history.sqlite`).
+#[test]
+fn check_away_from_the_repository_says_where_the_suite_is_expected_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_tonegate"))
+        .arg("check")
+        .current_dir(dir.path())
+        .env_remove("TONEGATE_DB")
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    let t = text(&o);
+    assert!(t.contains("no suite at golden/suite.toml"), "{t}");
+    assert!(t.contains("--suite"), "{t}");
+    assert!(!dir.path().join(".tonegate").exists(), "a history was made");
+}
