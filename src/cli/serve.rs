@@ -106,6 +106,19 @@ pub fn serve(a: ServeArgs) -> Result<ExitCode> {
         ));
     }
     a.db.set_retry(2);
+    // The history's folder first: the token file goes beside it, and a
+    // folder that cannot be made is the history's problem, said as such.
+    if !a.db.is_url() {
+        if let Some(dir) = a.db.db.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|e| {
+                Error::Invalid(format!(
+                    "--db {}: cannot create its folder {}: {e}",
+                    a.db.shown(),
+                    dir.display()
+                ))
+            })?;
+        }
+    }
     // Beside a SQLite history; a PostgreSQL one has no folder.
     let token_file = a.token_file.clone().unwrap_or_else(|| {
         let dir = if a.db.is_url() {
@@ -115,10 +128,20 @@ pub fn serve(a: ServeArgs) -> Result<ExitCode> {
         };
         dir.join("token")
     });
-    let token = tonegate::server::load_or_make_token(&token_file)?;
+    // Each token file, and whether it was created now (said on stderr, so
+    // that whoever started the server knows where to find it).
+    let token_in = |f: &std::path::Path| -> Result<String> {
+        let existed = f.exists();
+        let t = tonegate::server::load_or_make_token(f)?;
+        if !existed {
+            eprintln!("created the token file {} (mode 0600)", f.display());
+        }
+        Ok(t)
+    };
+    let token = token_in(&token_file)?;
     let scoped_token = |file: &Option<PathBuf>| -> Result<Option<String>> {
         let Some(f) = file else { return Ok(None) };
-        let t = tonegate::server::load_or_make_token(f)?;
+        let t = token_in(f)?;
         if t == token {
             return Err(Error::Invalid(format!(
                 "{}: the same token as --token-file's; a scoped token must be its own",
@@ -176,8 +199,15 @@ pub fn serve(a: ServeArgs) -> Result<ExitCode> {
         scoped,
         alerts,
     };
+    // Colour only on a terminal, and never under NO_COLOR (no-color.org):
+    // a redirected log gets plain text.
+    let colour = {
+        use std::io::IsTerminal;
+        std::io::stderr().is_terminal() && std::env::var_os("NO_COLOR").is_none_or(|v| v.is_empty())
+    };
     let _ = tracing_subscriber::fmt()
         .with_writer(std::io::stderr)
+        .with_ansi(colour)
         .with_max_level(tracing::Level::INFO)
         .try_init();
     let rt = tokio::runtime::Builder::new_multi_thread()
