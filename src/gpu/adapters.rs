@@ -352,8 +352,7 @@ fn choose_among(pick: &AdapterPick, found: &[Candidate]) -> Result<(usize, Strin
             ),
         },
         AdapterPick::Hardware => {
-            let i = best_hardware.ok_or_else(|| GpuError::AdapterNotFound {
-                wanted: "hardware".into(),
+            let i = best_hardware.ok_or_else(|| GpuError::NoHardwareAdapter {
                 available: names(),
             })?;
             (
@@ -450,7 +449,9 @@ pub(crate) fn select(choice: &AdapterChoice) -> Result<(wgpu::Adapter, String), 
     );
     if matches!(
         picked,
-        Err(GpuError::AdapterNotFound { .. } | GpuError::NoAdapter)
+        Err(GpuError::AdapterNotFound { .. }
+            | GpuError::NoHardwareAdapter { .. }
+            | GpuError::NoAdapter)
     ) && wants_vulkan
         && add_extra_vulkan_drivers()
     {

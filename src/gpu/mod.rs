@@ -61,6 +61,9 @@ pub enum GpuError {
     /// `--adapter NAME` matched nothing.
     #[error("no adapter matches {wanted:?}; available: {available}")]
     AdapterNotFound { wanted: String, available: String },
+    /// `--adapter hardware` on a machine whose adapters are all software.
+    #[error("--adapter hardware: no hardware adapter was found, only software ones ({available}); drop --adapter to use the software rasterizer, or install the GPU's driver (`tonegate adapters` lists what there is)")]
+    NoHardwareAdapter { available: String },
     /// The adapter lacks what every stage needs (a GL context without
     /// compute shaders): a property of the adapter, not a tonegate bug.
     #[error("{adapter} cannot run tonegate: it has {reason}")]

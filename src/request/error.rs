@@ -109,7 +109,7 @@ impl ApiError {
     pub fn of_gpu(e: &crate::gpu::GpuError) -> Self {
         use crate::gpu::GpuError as G;
         match e {
-            G::NoAdapter | G::AdapterNotFound { .. } => {
+            G::NoAdapter | G::AdapterNotFound { .. } | G::NoHardwareAdapter { .. } => {
                 Self::unavailable("no_adapter", e.to_string(), 60)
             }
             G::TooLarge { .. } | G::FrameTooLarge { .. } | G::EnvironmentTooLarge { .. } => {

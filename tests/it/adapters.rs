@@ -266,6 +266,32 @@ fn an_unknown_backend_or_adapter_is_refused_with_what_there_is() {
         e.contains("no-such-gpu") && e.contains("llvmpipe") && e.contains("SwiftShader"),
         "the refusal lists the adapters, the extra drivers' included: {e}"
     );
+    // `hardware` where only software adapters are (lavapipe's driver
+    // alone): said as such, not as a name that matched nothing.
+    let o = tonegate()
+        .args([
+            "render",
+            "golden/scenes/grid-static.toml",
+            "--out",
+            out.path().to_str().unwrap(),
+            "--backend",
+            "vulkan",
+            "--adapter",
+            "hardware",
+        ])
+        .env(
+            "VK_ICD_FILENAMES",
+            "/usr/share/vulkan/icd.d/lvp_icd.x86_64.json",
+        )
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        e.contains("no hardware adapter was found") && e.contains("llvmpipe"),
+        "{e}"
+    );
+    assert!(!e.contains("no adapter matches"), "{e}");
 }
 
 /// `bench` times both floors inside every measured frame and gives each
