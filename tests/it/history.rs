@@ -412,3 +412,25 @@ fn reading_commands_name_a_history_that_is_not_there() {
         assert!(!dir.path().join("new.sqlite").exists(), "{args:?} made one");
     }
 }
+
+/// `serve` on a SQLite history whose folder cannot be made stops with exit
+/// 2 naming the history and the folder (it named the token file it would
+/// have put beside it).
+#[test]
+fn serve_names_a_history_whose_folder_cannot_be_made() {
+    let o = crate::common::tonegate(&[
+        "serve",
+        "--bind",
+        "127.0.0.1:0",
+        "--db",
+        "/proc/no-such-folder/h.sqlite",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains(
+            "--db /proc/no-such-folder/h.sqlite: cannot create its folder /proc/no-such-folder"
+        ),
+        "{err}"
+    );
+}
