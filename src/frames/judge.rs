@@ -47,7 +47,8 @@ pub(super) struct On<'a> {
 
 impl On<'_> {
     /// One frame's verdict; a failing one that an ignore rule covers is
-    /// `ignored`, and passes.
+    /// `ignored`, and passes, unless its digest is a negative: what people
+    /// said is wrong stays wrong whatever rule was added since.
     /// `labels`: its test's digests and their labels on the branch;
     /// `image`: the frame decoded, which an untriaged digest needs.
     pub(super) fn judge(
@@ -57,7 +58,10 @@ impl On<'_> {
         image: Option<&Decoded>,
     ) -> Result<FrameVerdict, FramesError> {
         let mut v = judge(self, input, (digest, labels), image)?;
-        if !v.passed || v.warning {
+        let negative = labels
+            .iter()
+            .any(|(d, l)| d == digest && *l == Label::Negative);
+        if (!v.passed || v.warning) && !negative {
             if let Some(r) = self.ignores.covering(&input.test) {
                 v.detail = format!(
                     "ignored until {} by rule {} ({}: {}); {}",

@@ -60,6 +60,14 @@ pub enum FramesError {
     /// More keys, or a longer name or value, than a submission may carry.
     #[error("{what}: at most {most}")]
     KeyBounds { what: String, most: usize },
+    /// An idempotency key used before by a submission of other frames or
+    /// keys: a retry must send what the first attempt sent.
+    #[error("Idempotency-Key {key:?} was used by submission {submission} with other contents: {difference}; a retry sends what the first attempt sent, and new contents take a new key")]
+    KeyReused {
+        key: String,
+        submission: i64,
+        difference: String,
+    },
     #[error(transparent)]
     History(#[from] HistoryError),
 }
@@ -353,20 +361,32 @@ pub struct Submission<'a> {
 /// before anything is stored, so a bad file stores nothing; the images,
 /// the frames and the report are then stored in one transaction.
 pub fn submit(history: &History, s: Submission) -> Result<SubmissionReport, FramesError> {
-    if let Some(done) = s
+    let done = s
         .idempotency_key
         .map(|k| history.submission_by_key(k))
         .transpose()?
-        .flatten()
-    {
-        return report::stored(&done);
-    }
+        .flatten();
     // Files are read and hashed on every core.
     let mut read: Vec<Read> = s
         .inputs
         .into_par_iter()
         .map(read)
         .collect::<Result<_, _>>()?;
+    if let (Some(done), Some(key)) = (done, s.idempotency_key) {
+        let first = report::stored(&done)?;
+        let digests: BTreeMap<&str, &str> = read
+            .iter()
+            .map(|r| (r.input.test.as_str(), r.digest.as_str()))
+            .collect();
+        if let Some(difference) = report::difference(&first, &s.keys, &digests) {
+            return Err(FramesError::KeyReused {
+                key: key.to_owned(),
+                submission: done.id,
+                difference,
+            });
+        }
+        return Ok(first);
+    }
     // The branch's triage, falling back to the main line's.
     let named = s.keys.get("branch").filter(|b| **b != s.rules.main_branch);
     let branch = named.map_or(MAIN, String::as_str).to_owned();

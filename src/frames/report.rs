@@ -169,6 +169,58 @@ impl SubmissionReport {
 }
 
 /// The report a stored submission answered with.
+/// How a submission of `keys` and `digests` (test → digest) differs from
+/// the one `first` reports, in words; None when it is the same.
+pub fn difference(
+    first: &SubmissionReport,
+    keys: &BTreeMap<String, String>,
+    digests: &BTreeMap<&str, &str>,
+) -> Option<String> {
+    if &first.keys != keys {
+        let shown = |k: &BTreeMap<String, String>| {
+            let pairs: Vec<String> = k.iter().map(|(n, v)| format!("{n}={v}")).collect();
+            format!("[{}]", pairs.join(", "))
+        };
+        let (was, now) = (shown(&first.keys), shown(keys));
+        return Some(format!(
+            "its keys were {} and are now {}",
+            clip(&was),
+            clip(&now)
+        ));
+    }
+    let before: BTreeMap<&str, &str> = first
+        .frames
+        .iter()
+        .map(|f| (f.test.as_str(), f.digest.as_str()))
+        .collect();
+    for (test, digest) in digests {
+        match before.get(test) {
+            None => return Some(format!("test {} is new", clip(test))),
+            Some(d) if d != digest => {
+                return Some(format!(
+                    "test {}'s frame was {} and is now {}",
+                    clip(test),
+                    &d[..d.len().min(12)],
+                    &digest[..digest.len().min(12)]
+                ))
+            }
+            Some(_) => {}
+        }
+    }
+    before
+        .keys()
+        .find(|t| !digests.contains_key(*t))
+        .map(|t| format!("test {} is missing", clip(t)))
+}
+
+/// A client's text in an error, cut to 48 characters.
+fn clip(text: &str) -> String {
+    match text.char_indices().nth(48) {
+        Some((at, _)) => format!("{}…", &text[..at]),
+        None => text.to_owned(),
+    }
+}
+
 pub fn stored(s: &StoredSubmission) -> Result<SubmissionReport, FramesError> {
     let mut report: SubmissionReport = serde_json::from_str(&s.report)
         .map_err(|e| HistoryError::Invalid(format!("submission {}'s stored report: {e}", s.id)))?;

@@ -272,6 +272,35 @@ impl History {
         })
     }
 
+    /// Labels each of `digests` (test, digest) `label` on `branch` where
+    /// it is untriaged now, each logged, in one transaction; a digest
+    /// someone has said positive or negative of since (on the branch, or
+    /// on the main line it falls back to) keeps that label: a bulk action
+    /// never overrides a decision, which takes a per-digest one. Returns
+    /// (labelled, kept).
+    pub fn triage_untriaged(
+        &self,
+        branch: &str,
+        digests: &[(&str, &str)],
+        label: Label,
+        (who, why): (&str, &str),
+    ) -> Result<(usize, usize), HistoryError> {
+        let mut counts = (0, 0);
+        self.db().transaction(&mut |tx| {
+            counts = (0, 0);
+            for &(test, digest) in digests {
+                if current_label(tx, branch, test, digest)? == Label::Untriaged {
+                    label_digest(tx, branch, test, digest, label, who, why)?;
+                    counts.0 += 1;
+                } else {
+                    counts.1 += 1;
+                }
+            }
+            Ok(())
+        })?;
+        Ok(counts)
+    }
+
     /// Copies `branch`'s positive and negative labels into the main line
     /// (the branch landed), each logged; returns how many.
     pub fn promote(&self, branch: &str, who: &str, why: &str) -> Result<usize, HistoryError> {
@@ -409,11 +438,20 @@ pub struct IgnoreRule {
     pub id: i64,
     /// The tests it covers (`frames::rules::matches`).
     pub pattern: String,
-    /// The submission keys it needs, as a JSON object.
+    /// The submission keys it needs, as a JSON object's text (served as
+    /// the object itself).
+    #[serde(serialize_with = "as_json_object")]
     pub keys: String,
     pub expires_at: String,
     pub who: String,
     pub reason: String,
+}
+
+/// Writes JSON text as the value it holds (`{}` when it holds none).
+fn as_json_object<S: serde::Serializer>(text: &str, s: S) -> Result<S::Ok, S::Error> {
+    let value: serde_json::Value =
+        serde_json::from_str(text).unwrap_or_else(|_| serde_json::json!({}));
+    value.serialize(s)
 }
 
 /// Sets the label of `digest` of `test` on `branch` and logs it, inside a
@@ -449,4 +487,33 @@ fn label_digest(
         args![&now(), branch, test, digest, label.as_str(), who, why],
     )?;
     Ok(())
+}
+
+/// `digest`'s label for `test` on `branch` now: the branch's own where it
+/// said positive or negative, else the main line's; untriaged when nobody
+/// said anything.
+fn current_label(
+    tx: &dyn Sql,
+    branch: &str,
+    test: &str,
+    digest: &str,
+) -> Result<Label, HistoryError> {
+    let mut own = None;
+    let mut main = None;
+    for r in tx.query(
+        "SELECT branch, label FROM digest_labels
+         WHERE test = $1 AND sha256 = $2 AND (branch = $3 OR branch = $4)",
+        args![test, digest, branch, MAIN],
+    )? {
+        let label = Label::parse(&r.text(1)?)?;
+        if r.text(0)? == branch {
+            own = Some(label);
+        } else {
+            main = Some(label);
+        }
+    }
+    Ok(match own {
+        Some(l) if l != Label::Untriaged => l,
+        _ => main.unwrap_or(Label::Untriaged),
+    })
 }

@@ -271,10 +271,18 @@ fn a_retried_submission_stores_nothing_twice() {
     folder(&dir);
     let first = submit(&db, &dir, &["--idempotency-key", "ci-1234-frames"]);
     assert_eq!(first.code, 1);
-    // The folder changes; the retry answers what the first did.
-    write_frame_png(&dir.join("ui/button.png"), &Frame::Rgb8(frame8(3))).unwrap();
+    // The retry of the same folder answers what the first did.
     let retry = submit(&db, &dir, &["--idempotency-key", "ci-1234-frames"]);
     assert_eq!(retry.report, first.report);
+    // The folder changes: the same key is refused, naming the test.
+    write_frame_png(&dir.join("ui/button.png"), &Frame::Rgb8(frame8(3))).unwrap();
+    let changed = submit(&db, &dir, &["--idempotency-key", "ci-1234-frames"]);
+    assert_eq!(changed.code, 2, "{}", changed.stderr);
+    assert!(
+        changed.stderr.contains("test ui/button's frame was"),
+        "{}",
+        changed.stderr
+    );
     let h = History::open(&db).unwrap();
     assert_eq!(h.digest_labels(MAIN, "ui/button").unwrap().len(), 1);
     // Another key is another submission.

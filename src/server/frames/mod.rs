@@ -277,7 +277,7 @@ pub struct BulkBody {
 /// left untriaged: everything a single change produced), on its branch.
 #[utoipa::path(post, path = "/api/v1/frames/submissions/{id}/triage", tag = "frames", request_body = BulkBody,
     params(("id" = i64, Path, description = "Submission id")), security(("bearer" = [])),
-    responses((status = 200, description = "Labelled", body = Triaged), (status = 400, description = "Bad body", body = ErrorBody),
+    responses((status = 200, description = "Labelled", body = BulkTriaged), (status = 400, description = "Bad body", body = ErrorBody),
         (status = 403, description = "Not a triage token", body = ErrorBody), (status = 404, description = "No such submission", body = ErrorBody)))]
 pub async fn bulk(
     State(st): State<Arc<AppState>>,
@@ -304,20 +304,35 @@ pub async fn bulk(
         for v in &verdicts {
             frames.extend(h.submission_frames(id, Some(v))?);
         }
-        let actions: Vec<(&str, &str, Label)> = frames
+        let digests: Vec<(&str, &str)> = frames
             .iter()
-            .map(|f| (f.test.as_str(), f.digest.as_str(), b.label))
+            .map(|f| (f.test.as_str(), f.digest.as_str()))
             .collect();
-        if !actions.is_empty() {
-            let why = format!("{} (every digest of submission {id})", b.why);
-            h.triage_many(&row.branch, &actions, (&b.who, &why))?;
-        }
-        Ok(Some((actions.len(), row.branch)))
+        let why = format!("{} (every digest of submission {id})", b.why);
+        let (labelled, kept) =
+            h.triage_untriaged(&row.branch, &digests, b.label, (&b.who, &why))?;
+        Ok(Some((labelled, kept, row.branch)))
     })
     .await?;
-    let (labelled, branch) =
+    let (labelled, kept, branch) =
         done.ok_or_else(|| ApiError::not_found(format!("there is no submission {id}")))?;
-    json_text(&Triaged { labelled, branch })
+    json_text(&BulkTriaged {
+        labelled,
+        kept,
+        branch,
+    })
+}
+
+/// What a bulk triage did.
+#[derive(Serialize, ToSchema)]
+pub struct BulkTriaged {
+    /// Digests labelled: those untriaged when the action ran.
+    pub labelled: usize,
+    /// Digests left as they were: someone had said positive or negative
+    /// of them since the submission (a bulk action never overrides that).
+    pub kept: usize,
+    /// The submission's branch (`""`: the main line).
+    pub branch: String,
 }
 
 /// `POST /frames/promote`.

@@ -32,6 +32,11 @@ fn frames_error(e: FramesError) -> ApiError {
         FramesError::Image(i) => {
             ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, "bad_image", i.to_string())
         }
+        e @ FramesError::KeyReused { .. } => ApiError::new(
+            StatusCode::CONFLICT,
+            "idempotency_key_reused",
+            e.to_string(),
+        ),
         other => ApiError::bad(other.to_string()),
     }
 }
