@@ -34,6 +34,16 @@ impl<'de> DeserializeSeed<'de> for ParamSeed {
     }
 }
 
+/// A value refused with its message, wherever it stands.
+struct Refuse(String);
+
+impl<'de> DeserializeSeed<'de> for Refuse {
+    type Value = std::convert::Infallible;
+    fn deserialize<D: serde::Deserializer<'de>>(self, _: D) -> Result<Self::Value, D::Error> {
+        Err(serde::de::Error::custom(self.0))
+    }
+}
+
 struct RawVisitor;
 
 impl Visitor<'_> for RawVisitor {
@@ -86,10 +96,13 @@ impl<'de> Visitor<'de> for OperatorVisitor {
                 let mut known: Vec<&str> =
                     super::all_params().iter().map(|(p, _)| p.name).collect();
                 known.insert(0, "kind");
-                return Err(A::Error::custom(format!(
-                    "unknown field `{key}`, expected one of {}",
+                // Refused from its value, so that the error points at the
+                // key's own line, not at the table's header.
+                let message = format!(
+                    "unknown field `{key}` in [operator] (a key after a table header belongs to that table: a key of the scene itself, such as fps, goes above its first [table]), expected one of {}",
                     known.join(", ")
-                )));
+                );
+                match map.next_value_seed(Refuse(message))? {}
             }
             let (raw, v) = map.next_value_seed(ParamSeed { name: key.clone() })?;
             given.push((key, raw, v));

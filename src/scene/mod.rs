@@ -269,7 +269,13 @@ impl Scene {
             }
         }
         let mut after = None;
-        for step in &self.light {
+        // The i-th step's keys are the i-th of their names in the text.
+        let at_step = |key: &str, i: usize| match nth_line_of(text, key, i) {
+            Some(l) => format!("line {l}, key `{key}`"),
+            None => format!("key `{key}`"),
+        };
+        for (i, step) in self.light.iter().enumerate() {
+            let at = |key: &str| at_step(key, i);
             if step.from_frame >= self.frames {
                 return Err(format!(
                     "{}: from_frame {} is past the sequence's last frame {}",
@@ -442,5 +448,29 @@ fn line_of(text: &str, key: &str) -> Option<usize> {
     }
     None
 }
+/// The line (1-based) of the `n`-th (from 0) `key = …` in `text`, on a
+/// line of its own or inside an inline table: where the `n`-th step of an
+/// array of tables (`[[light]]`) sets it.
+fn nth_line_of(text: &str, key: &str, n: usize) -> Option<usize> {
+    let mut seen = 0;
+    for (i, l) in text.lines().enumerate() {
+        let code = l.split('#').next().unwrap_or("");
+        let mut rest = code;
+        while let Some(at) = rest.find(key) {
+            let before = rest[..at].chars().next_back();
+            let after = rest[at + key.len()..].trim_start();
+            let whole = before.is_none_or(|c| !(c.is_ascii_alphanumeric() || c == '_'));
+            if whole && after.starts_with('=') {
+                if seen == n {
+                    return Some(i + 1);
+                }
+                seen += 1;
+            }
+            rest = &rest[at + key.len()..];
+        }
+    }
+    None
+}
+
 #[cfg(test)]
 mod tests;

@@ -308,6 +308,21 @@ fn adaptation_light_steps_and_fps_parse_with_defaults_and_bad_ones_name_their_ke
         let e = parse(&bad).unwrap_err().to_string();
         assert!(e.contains(says) && e.contains("line"), "{says}: {e}");
     }
+    // A step out of order is named at its own line, not the first step's.
+    let late = format!("{text}[[light]]\nfrom_frame = 1\nscale = 2.0\n");
+    let second = late
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| l.starts_with("from_frame"))
+        .last()
+        .unwrap()
+        .0
+        + 1;
+    let e = parse(&late).unwrap_err().to_string();
+    assert!(
+        e.contains(&format!("line {second}, key `from_frame`")),
+        "{e}"
+    );
     // The curve's check needs a curve.
     let e = parse(&format!(
         "{MINIMAL}\n[[checks]]\nmax_adaptation_error = 1e-4\n"
@@ -329,4 +344,19 @@ fn a_scene_without_adaptation_or_light_hashes_as_before_they_existed() {
     let s = parse(MINIMAL).unwrap();
     let json = serde_json::to_string(&s).unwrap();
     assert!(!json.contains("adaptation") && !json.contains("light") && !json.contains("fps"));
+}
+
+/// An unknown key inside `[operator]` is named at its own line, not at the
+/// table's header; one of the scene's own keys put there by mistake is
+/// told where it goes.
+#[test]
+fn an_unknown_operator_key_is_named_at_its_line() {
+    let text = format!("{MINIMAL}\n[operator]\nkind = \"agx\"\nbogus = 3\n");
+    let line = text.lines().position(|l| l.starts_with("bogus")).unwrap() + 1;
+    let e = parse(&text).unwrap_err().to_string();
+    assert!(e.contains(&format!("line {line}")), "{e}");
+    assert!(e.contains("unknown field `bogus`"), "{e}");
+    let misplaced = format!("{MINIMAL}\n[operator]\nkind = \"agx\"\nfps = 24.0\n");
+    let e = parse(&misplaced).unwrap_err().to_string();
+    assert!(e.contains("goes above its first [table]"), "{e}");
 }
