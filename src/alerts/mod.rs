@@ -170,23 +170,40 @@ impl Alerts {
         let at = |e: String| format!("{}: {e}", path.display());
         let text = crate::io::read_small_text(path)
             .map_err(|e| format!("reading {}: {e}", path.display()))?;
-        let f: File = toml::from_str(&text).map_err(|e| at(e.message().to_owned()))?;
+        let f: File = toml::from_str(&text).map_err(|e| at(crate::io::toml_error(&text, &e)))?;
+        // A key's line, for the checks after parsing: `key = …` at the top
+        // level or in `[retry]`, and the `n`-th `[[webhook]]` table.
+        let key_line = |key: &str| -> String {
+            text.lines()
+                .position(|l| {
+                    l.trim_start()
+                        .strip_prefix(key)
+                        .is_some_and(|r| r.trim_start().starts_with('='))
+                })
+                .map_or(String::new(), |i| format!("line {}: ", i + 1))
+        };
+        let webhook_line = |n: usize| -> String {
+            crate::io::nth_line_starting(&text, "[[webhook]]", n)
+                .map_or(String::new(), |l| format!("line {l}: "))
+        };
         let url_ok = |u: &str| u.starts_with("http://") || u.starts_with("https://");
         if !url_ok(&f.public_url) {
             return Err(at(format!(
-                "public_url {:?}: an http:// or https:// address",
+                "{}public_url {:?}: an http:// or https:// address",
+                key_line("public_url"),
                 f.public_url
             )));
         }
         if !(1..=30).contains(&f.retry.most_attempts) {
             return Err(at(format!(
-                "retry.most_attempts = {}: from 1 to 30",
+                "{}retry.most_attempts = {}: from 1 to 30",
+                key_line("most_attempts"),
                 f.retry.most_attempts
             )));
         }
         let mut webhooks: Vec<Webhook> = Vec::new();
         for (i, w) in f.webhook.into_iter().enumerate() {
-            let here = format!("webhook[{i}] ({:?})", w.name);
+            let here = format!("{}webhook[{i}] ({:?})", webhook_line(i), w.name);
             let plain = |c: char| c.is_ascii_alphanumeric() || "_-.".contains(c);
             if w.name.is_empty() || w.name.len() > 64 || !w.name.chars().all(plain) {
                 return Err(at(format!(
@@ -227,11 +244,13 @@ impl Alerts {
         }
         Ok(Alerts {
             public_url: f.public_url.trim_end_matches('/').to_owned(),
-            scan_every: seconds(f.scan_seconds, "scan_seconds", 0.1, 86400.0).map_err(at)?,
-            timeout: seconds(f.timeout_seconds, "timeout_seconds", 0.1, 300.0).map_err(at)?,
+            scan_every: seconds(f.scan_seconds, "scan_seconds", 0.1, 86400.0)
+                .map_err(|e| at(key_line("scan_seconds") + &e))?,
+            timeout: seconds(f.timeout_seconds, "timeout_seconds", 0.1, 300.0)
+                .map_err(|e| at(key_line("timeout_seconds") + &e))?,
             retry: Retry {
                 first: seconds(f.retry.first_seconds, "retry.first_seconds", 0.01, 3600.0)
-                    .map_err(at)?,
+                    .map_err(|e| at(key_line("first_seconds") + &e))?,
                 most_attempts: f.retry.most_attempts,
             },
             webhooks,
@@ -336,5 +355,45 @@ impl Kept {
         })
         .await
         .map_err(|e| crate::history::HistoryError::Invalid(format!("the history's thread: {e}")))?
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Alerts;
+
+    /// Every error of an alerts file names its line: TOML's own, a value
+    /// out of range and a webhook's problem alike.
+    #[test]
+    fn an_alerts_files_errors_name_their_line() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("s.secret"), "0123456789abcdef0123\n").unwrap();
+        let file = dir.path().join("alerts.toml");
+        let hook = "[[webhook]]\nname = \"team\"\nurl = \"http://127.0.0.1:9/h\"\nsecret_file = \"s.secret\"\n";
+        let cases = [
+            (
+                format!("public_url = \"http://x\"\nscan_seconds = 0.2\nbogus = 1\n{hook}"),
+                "line 3",
+                "bogus",
+            ),
+            (
+                format!("public_url = \"http://x\"\ntimeout_seconds = 1000\n{hook}"),
+                "line 2",
+                "timeout_seconds",
+            ),
+            (
+                format!(
+                    "public_url = \"http://x\"\n{hook}{}",
+                    hook.replace("http://127.0.0.1:9/h", "ftp://h")
+                ),
+                "line 6",
+                "webhook[1]",
+            ),
+        ];
+        for (text, line, says) in cases {
+            std::fs::write(&file, &text).unwrap();
+            let e = Alerts::load(&file).unwrap_err();
+            assert!(e.contains(line) && e.contains(says), "{says}: {e}");
+        }
     }
 }

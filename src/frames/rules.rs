@@ -97,53 +97,65 @@ impl Rules {
     /// Parses and checks a rules file's text; `name` says where it came
     /// from in errors.
     pub fn parse(text: &str, name: &str) -> Result<Rules, String> {
-        let rules: Rules = toml::from_str(text).map_err(|e| format!("{name}: {}", e.message()))?;
-        rules.check().map_err(|e| format!("{name}: {e}"))?;
+        let rules: Rules = toml::from_str(text)
+            .map_err(|e| format!("{name}: {}", crate::io::toml_error(text, &e)))?;
+        rules.check().map_err(|(i, e)| {
+            match i.and_then(|i| crate::io::nth_line_starting(text, "[[tests]]", i)) {
+                Some(line) => format!("{name}: line {line}: {e}"),
+                None => format!("{name}: {e}"),
+            }
+        })?;
         Ok(rules)
     }
 
-    fn check(&self) -> Result<(), String> {
+    /// Each rule checked; an error says which rule (its index) and why.
+    fn check(&self) -> Result<(), (Option<usize>, String)> {
         if self.tests.len() > MAX_RULES {
-            return Err(format!(
-                "{} [[tests]] rules: at most {MAX_RULES}",
-                self.tests.len()
+            return Err((
+                None,
+                format!("{} [[tests]] rules: at most {MAX_RULES}", self.tests.len()),
             ));
         }
         for (i, rule) in self.tests.iter().enumerate() {
-            let chars = rule.pattern.chars().count();
-            if chars > MAX_PATTERN_CHARS {
+            Rules::check_rule(i, rule).map_err(|e| (Some(i), e))?;
+        }
+        Ok(())
+    }
+
+    fn check_rule(i: usize, rule: &TestRule) -> Result<(), String> {
+        let chars = rule.pattern.chars().count();
+        if chars > MAX_PATTERN_CHARS {
+            return Err(format!(
+                "tests[{i}]: a pattern of {chars} characters: at most {MAX_PATTERN_CHARS}"
+            ));
+        }
+        let at = format!("tests[{i}] ({:?})", rule.pattern);
+        if rule.pattern.is_empty() {
+            return Err(format!("{at}: an empty pattern"));
+        }
+        for c in &rule.checks {
+            if !one_frame(c) {
                 return Err(format!(
-                    "tests[{i}]: a pattern of {chars} characters: at most {MAX_PATTERN_CHARS}"
+                    "{at}: {} is not a check of a frame against another",
+                    c.rule().kind
                 ));
             }
-            let at = format!("tests[{i}] ({:?})", rule.pattern);
-            if rule.pattern.is_empty() {
-                return Err(format!("{at}: an empty pattern"));
+            let bound = c.rule().bound;
+            if !bound.is_finite() || bound < 0.0 {
+                return Err(format!(
+                    "{at}: {} must be a finite number >= 0",
+                    c.rule().kind
+                ));
             }
-            for c in &rule.checks {
-                if !one_frame(c) {
-                    return Err(format!(
-                        "{at}: {} is not a check of a frame against another",
-                        c.rule().kind
-                    ));
-                }
-                let bound = c.rule().bound;
-                if !bound.is_finite() || bound < 0.0 {
-                    return Err(format!(
-                        "{at}: {} must be a finite number >= 0",
-                        c.rule().kind
-                    ));
-                }
-            }
-            let h = &rule.hdr;
-            for (key, v) in [
-                ("max_hdr_flip_mean", h.max_hdr_flip_mean),
-                ("min_pu21_psnr", h.min_pu21_psnr),
-                ("max_delta_e_itp_mean", h.max_delta_e_itp_mean),
-            ] {
-                if v.is_some_and(|v| !v.is_finite() || v < 0.0) {
-                    return Err(format!("{at}: hdr.{key} must be a finite number >= 0"));
-                }
+        }
+        let h = &rule.hdr;
+        for (key, v) in [
+            ("max_hdr_flip_mean", h.max_hdr_flip_mean),
+            ("min_pu21_psnr", h.min_pu21_psnr),
+            ("max_delta_e_itp_mean", h.max_delta_e_itp_mean),
+        ] {
+            if v.is_some_and(|v| !v.is_finite() || v < 0.0) {
+                return Err(format!("{at}: hdr.{key} must be a finite number >= 0"));
             }
         }
         Ok(())
@@ -288,6 +300,7 @@ mod tests {
         assert!(fps
             .check()
             .unwrap_err()
+            .1
             .contains("min_fps is not a check of a frame"));
         assert!(toml::from_str::<Rules>("[[tests]]\npattern = \"a\"\nbogus = 1").is_err());
         let long = format!(
@@ -299,6 +312,15 @@ mod tests {
             e.contains("tests[0]: a pattern of 257 characters: at most 256"),
             "{e}"
         );
+        // Every error names its line: the rule's, or TOML's own.
+        let e = Rules::parse(
+            "[[tests]]\npattern = \"a\"\n\n[[tests]]\npattern = \"\"\n",
+            "rules.toml",
+        )
+        .unwrap_err();
+        assert!(e.starts_with("rules.toml: line 4: tests[1]"), "{e}");
+        let e = Rules::parse("untriaged = \"warn\"\nmain_branch = 3\n", "rules.toml").unwrap_err();
+        assert!(e.starts_with("rules.toml: line 2:"), "{e}");
         let many = "[[tests]]\npattern = \"a\"\n".repeat(MAX_RULES + 1);
         let e = Rules::parse(&many, "rules.toml").unwrap_err();
         assert!(e.contains("257 [[tests]] rules: at most 256"), "{e}");

@@ -148,6 +148,35 @@ pub fn read_small(path: &Path) -> std::io::Result<Vec<u8>> {
     Ok(bytes)
 }
 
+/// A TOML error of a small file as `line N: message` (its line from the
+/// error's span), the form every file's errors take.
+pub fn toml_error(text: &str, e: &toml::de::Error) -> String {
+    match e.span() {
+        Some(span) => format!("line {}: {}", line_at(text, span.start), e.message()),
+        None => e.message().to_owned(),
+    }
+}
+
+/// The line (1-based) of byte `offset` of `text`.
+pub fn line_at(text: &str, offset: usize) -> usize {
+    text.as_bytes()[..offset.min(text.len())]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
+}
+
+/// The line (1-based) of the `n`-th (from 0) line of `text` that starts,
+/// after blanks, with `start` (`[[webhook]]`, `pattern`): where the `n`-th
+/// entry of an array of tables begins.
+pub fn nth_line_starting(text: &str, start: &str, n: usize) -> Option<usize> {
+    text.lines()
+        .enumerate()
+        .filter(|(_, l)| l.trim_start().starts_with(start))
+        .nth(n)
+        .map(|(i, _)| i + 1)
+}
+
 /// [`read_small`] of a UTF-8 text.
 pub fn read_small_text(path: &Path) -> std::io::Result<String> {
     String::from_utf8(read_small(path)?).map_err(|e| {
