@@ -65,10 +65,10 @@ fn bless(suite: &Path, names: &[String]) -> Result<ExitCode> {
     tonegate::golden::bless(&root, &scenes, &Bar::new())?;
     let frames: u32 = scenes.iter().map(|s| s.frames).sum();
     println!(
-        "blessed {} scenes, {frames} frames into {} (beside the suite file); it holds {:.1} MB",
+        "blessed {} scenes, {frames} frames into {} (beside the suite file); it holds {}",
         scenes.len(),
         root.display(),
-        tonegate::golden::directory_bytes(&root) as f64 / 1e6
+        size_words(tonegate::golden::directory_bytes(&root))
     );
     Ok(ExitCode::SUCCESS)
 }
@@ -89,5 +89,14 @@ fn verify(suite: &Path, names: &[String]) -> Result<ExitCode> {
             println!("{p}");
         }
         Ok(ExitCode::from(1))
+    }
+}
+
+/// A size in the unit that shows it: bytes, kB or MB (SI).
+fn size_words(bytes: u64) -> String {
+    match bytes {
+        b if b < 1_000 => format!("{b} bytes"),
+        b if b < 1_000_000 => format!("{:.1} kB", b as f64 / 1e3),
+        b => format!("{:.1} MB", b as f64 / 1e6),
     }
 }

@@ -178,7 +178,7 @@ pub fn render(r: &CheckReport) -> String {
         r.adapter.name,
         r.adapter.backend,
         r.adapter.driver_info,
-        r.renderer
+        renderer_words(&r.renderer)
     );
     let _ = writeln!(out, "adapter chosen: {}", r.adapter.chosen);
     if let (Some(id), Some(db)) = (r.run_id, &r.db) {
@@ -230,4 +230,30 @@ fn stress_worst(st: &crate::stress::StressReport) -> String {
         ));
     }
     s
+}
+
+/// The renderer's knobs as words (`execution staged, hdr_format
+/// rgba32_float, …`), without the adapter's choice, which has a line of
+/// its own; a fault's value at the precision it was given.
+fn renderer_words(renderer: &serde_json::Value) -> String {
+    let Some(knobs) = renderer.as_object() else {
+        return renderer.to_string();
+    };
+    knobs
+        .iter()
+        .filter(|(k, _)| k.as_str() != "adapter_chosen")
+        .map(|(k, v)| {
+            let v = match v {
+                serde_json::Value::String(s) => s.clone(),
+                // Knobs are f32 on the GPU: shown as the f32 they are.
+                serde_json::Value::Number(n) => match n.as_f64() {
+                    Some(x) if n.is_f64() => format!("{}", x as f32),
+                    _ => n.to_string(),
+                },
+                other => other.to_string(),
+            };
+            format!("{k} {v}")
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
 }

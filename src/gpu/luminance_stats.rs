@@ -29,7 +29,8 @@ pub struct GpuStats {
     /// (shaders/adaptation.wgsl), for an operator that keys on no log
     /// average.
     pub exposure: f32,
-    /// Padding: `tone` is a vec4, 16-byte aligned.
+    /// Padding: `tone` is a vec4, 16-byte aligned (not reported).
+    #[serde(skip)]
     pub _pad: [f32; 2],
     /// The operator's resolved values (`operator_resolve`), read through
     /// [`crate::operators::Operator::gpu_resolved`].
