@@ -48,6 +48,11 @@ pub struct SubmitArgs {
     /// Write JUnit XML, one test case a frame.
     #[arg(long, value_name = "FILE")]
     pub junit: Option<PathBuf>,
+    /// Write a Markdown summary here (the failing frames, their figures
+    /// and the triage page's link): for a CI job's summary
+    /// ($GITHUB_STEP_SUMMARY) or a pull request's comment.
+    #[arg(long, value_name = "FILE")]
+    pub summary: Option<PathBuf>,
     /// Keep the images in this object store (s3://bucket/prefix) instead of
     /// the history's table, each once by its SHA-256.
     #[arg(long, value_name = "s3://BUCKET/PREFIX")]
@@ -232,8 +237,22 @@ fn submit_folder(a: SubmitArgs) -> Result<ExitCode> {
     if let Some(path) = &a.junit {
         write_text(path, &report.junit()?)?;
     }
+    // The submission's page on the server it went to.
+    let triage = a.server.as_ref().map(|server| {
+        format!(
+            "{}/#/frames/{}",
+            server.trim_end_matches('/'),
+            report.submission
+        )
+    });
+    if let Some(path) = &a.summary {
+        write_text(path, &report.markdown(triage.as_deref()))?;
+    }
     if a.json.as_deref() != Some(std::path::Path::new("-")) {
         print!("{}", report.console());
+        if let Some(link) = &triage {
+            println!("triage: {link}");
+        }
     }
     Ok(ExitCode::from(report.exit_code() as u8))
 }
@@ -264,7 +283,8 @@ fn promote(a: PromoteArgs) -> Result<ExitCode> {
     a.db.set_retry(10);
     let history = History::open(&a.db.db)?;
     let n = history.promote(&a.branch, &a.who, &a.why)?;
-    println!("{n} labels of {} promoted to the main line", a.branch);
+    let labels = if n == 1 { "label" } else { "labels" };
+    println!("{n} {labels} of {} promoted to the main line", a.branch);
     Ok(ExitCode::SUCCESS)
 }
 

@@ -117,10 +117,12 @@ impl SubmissionReport {
                 (true, true) => "WARN",
                 (false, _) => "FAIL",
             };
+            // The digest whole: what `frames triage --digest` takes.
             out.push_str(&format!(
-                "{mark} {} ({}): {}\n",
+                "{mark} {} ({}, digest {}): {}\n",
                 f.test,
                 f.status.as_str(),
+                f.digest,
                 f.detail
             ));
         }
@@ -133,6 +135,47 @@ impl SubmissionReport {
             self.untriaged,
             if self.passed { "PASSED" } else { "FAILED" }
         ));
+        out
+    }
+
+    /// A Markdown summary for a CI job's summary page or a pull request's
+    /// comment: the verdict, then a row per frame that did not simply pass
+    /// (its test, status, digest, what was found), and the triage page's
+    /// link when the submission is on a server (`triage`).
+    pub fn markdown(&self, triage: Option<&str>) -> String {
+        let failed = self.frames.iter().filter(|f| !f.passed).count();
+        let mut out = format!(
+            "### tonegate frames: {}\n\nSubmission {}: {} frames, {failed} failed, {} untriaged.\n",
+            if self.passed { "passed" } else { "FAILED" },
+            self.submission,
+            self.frames.len(),
+            self.untriaged,
+        );
+        if let Some(link) = triage {
+            out.push_str(&format!("Triage them at <{link}>.\n"));
+        }
+        let cell = |t: &str| t.replace('|', "\\|").replace('\n', " ");
+        let rows: Vec<&FrameVerdict> = self
+            .frames
+            .iter()
+            .filter(|f| !f.passed || f.warning || f.status == Status::Ignored)
+            .collect();
+        if !rows.is_empty() {
+            out.push_str("\n| test | status | digest | what was found |\n|---|---|---|---|\n");
+            for f in rows {
+                let status = match (f.passed, f.warning) {
+                    (false, _) => format!("**{}** (fails)", f.status.as_str()),
+                    (true, true) => format!("{} (warning)", f.status.as_str()),
+                    _ => f.status.as_str().to_owned(),
+                };
+                out.push_str(&format!(
+                    "| `{}` | {status} | `{}` | {} |\n",
+                    cell(&f.test),
+                    &f.digest[..f.digest.len().min(12)],
+                    cell(&f.detail)
+                ));
+            }
+        }
         out
     }
 

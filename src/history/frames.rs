@@ -317,12 +317,33 @@ impl History {
                  WHERE branch = $1 AND label <> 'untriaged' ORDER BY test, sha256",
                 args![branch],
             )?;
+            if said.is_empty() {
+                let any = tx.query_opt(
+                    "SELECT 1 FROM digest_labels WHERE branch = $1",
+                    args![branch],
+                )?;
+                return Err(HistoryError::Invalid(match any {
+                    Some(_) => format!("branch {branch:?} has no positive or negative to promote"),
+                    None => format!("no branch {branch:?}: nothing was ever triaged on it"),
+                }));
+            }
             let why = format!("promoted from {branch}: {why}");
             for r in said {
                 let (test, sha) = (r.text(0)?, r.text(1)?);
                 let label = Label::parse(&r.text(2)?)?;
-                label_digest(tx, MAIN, &test, &sha, label, who, &why)?;
-                promoted += 1;
+                // A label the main line has already is not said again
+                // (promoting twice logged every label twice).
+                let same = tx
+                    .query_opt(
+                        "SELECT 1 FROM digest_labels
+                         WHERE branch = $1 AND test = $2 AND sha256 = $3 AND label = $4",
+                        args![MAIN, &test, &sha, label.as_str()],
+                    )?
+                    .is_some();
+                if !same {
+                    label_digest(tx, MAIN, &test, &sha, label, who, &why)?;
+                    promoted += 1;
+                }
             }
             Ok(())
         })?;

@@ -415,7 +415,7 @@ fn a_branch_falls_back_to_main_and_its_promotion_reaches_main() {
         &["--branch", "feature-x", "--who", "ada", "--why", "merged"],
     );
     succeeded(&out);
-    assert!(String::from_utf8_lossy(&out.stdout).starts_with("1 labels"));
+    assert!(String::from_utf8_lossy(&out.stdout).starts_with("1 label of"));
     let after = submit(&db, &dir, &[]);
     assert_eq!(after.code, 0, "{}", after.report);
     let log = History::open(&db)
@@ -426,6 +426,28 @@ fn a_branch_falls_back_to_main_and_its_promotion_reaches_main() {
     assert_eq!(
         (last.branch.as_str(), last.why.as_str()),
         ("", "promoted from feature-x: merged")
+    );
+    // Promoting again says nothing the main line has not (the log keeps
+    // its length); a branch nobody triaged on is refused by name.
+    let again = frames_cmd(
+        &db,
+        "promote",
+        &["--branch", "feature-x", "--who", "ada", "--why", "again"],
+    );
+    succeeded(&again);
+    assert!(String::from_utf8_lossy(&again.stdout).starts_with("0 labels of"));
+    let h = History::open(&db).unwrap();
+    assert_eq!(h.triage_log(Some("ui/button")).unwrap().len(), log.len());
+    let none = frames_cmd(
+        &db,
+        "promote",
+        &["--branch", "feature-y", "--who", "ada", "--why", "typo"],
+    );
+    assert_eq!(none.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&none.stderr).contains("no branch \"feature-y\""),
+        "{}",
+        String::from_utf8_lossy(&none.stderr)
     );
 }
 
@@ -484,4 +506,44 @@ fn an_ignore_rule_expires_and_the_frame_fails_again() {
         let out = frames_cmd(&db, "ignore", &args);
         assert_eq!(out.status.code(), Some(2), "--hours {bad}");
     }
+}
+
+/// The console names each failing frame's whole digest (what `frames
+/// triage --digest` takes) and `--summary` writes the Markdown a CI job's
+/// summary shows: the verdict and a row per failing frame with its digest.
+#[test]
+fn the_console_and_the_summary_name_each_failing_frame_by_its_digest() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (db, dir) = (tmp.path().join("h.sqlite"), tmp.path().join("frames"));
+    folder(&dir);
+    let summary = tmp.path().join("summary.md");
+    let out = common::tonegate(&[
+        "frames",
+        "submit",
+        dir.to_str().unwrap(),
+        "--db",
+        db.to_str().unwrap(),
+        "--summary",
+        summary.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(1));
+    let console = String::from_utf8_lossy(&out.stdout);
+    let json = submit(&db, &dir, &[]);
+    let digest = frame(&json.report, "ui/button")["digest"]
+        .as_str()
+        .unwrap()
+        .to_owned();
+    assert!(
+        console.contains(&format!("FAIL ui/button (untriaged, digest {digest})")),
+        "{console}"
+    );
+    let md = std::fs::read_to_string(&summary).unwrap();
+    assert!(md.starts_with("### tonegate frames: FAILED"), "{md}");
+    assert!(
+        md.contains(&format!(
+            "| `ui/button` | **untriaged** (fails) | `{}` |",
+            &digest[..12]
+        )),
+        "{md}"
+    );
 }
