@@ -48,6 +48,12 @@ pub struct SubmitArgs {
     /// Write JUnit XML, one test case a frame.
     #[arg(long, value_name = "FILE")]
     pub junit: Option<PathBuf>,
+    /// MiB of memory that judging the frames may take at once: each
+    /// image's decoding and comparing, from its header, before it is
+    /// decoded; an image needing more is refused (a server has its own,
+    /// `serve --decode-budget-mib`).
+    #[arg(long, default_value_t = 2048)]
+    pub decode_budget_mib: u64,
     /// Write a Markdown summary here (the failing frames, their figures
     /// and the triage page's link): for a CI job's summary
     /// ($GITHUB_STEP_SUMMARY) or a pull request's comment.
@@ -181,6 +187,16 @@ fn submit_folder(a: SubmitArgs) -> Result<ExitCode> {
         }
         tonegate::history::set_artifact_store(Some(url))?;
     }
+    if a.decode_budget_mib == 0 || a.decode_budget_mib > 1 << 20 {
+        return Err(super::invalid(format!(
+            "--decode-budget-mib {}: from 1 to 1048576",
+            a.decode_budget_mib
+        )));
+    }
+    tonegate::frames::budget::set_budget(
+        a.decode_budget_mib << 20,
+        tonegate::frames::budget::DEFAULT_WAIT,
+    );
     let inputs = collect_folder(&a.folder)?;
     let report = match &a.server {
         Some(server) => super::frames_remote::submit(

@@ -62,6 +62,13 @@ pub struct ServeArgs {
     /// charged as their bytes arrive; past it, 503 `busy`.
     #[arg(long, default_value_t = Limits::default().upload_budget >> 20)]
     pub upload_budget_mib: usize,
+    /// MiB of memory that judging submitted frames may take at once, all
+    /// submissions together: each image's decoding and comparing is
+    /// reserved from it by its header before it is decoded; an image
+    /// larger than all of it is refused (413), and a submission that
+    /// waits 30 s for it is answered 503 with Retry-After.
+    #[arg(long, default_value_t = tonegate::frames::budget::DEFAULT_BUDGET_BYTES >> 20)]
+    pub decode_budget_mib: u64,
     /// POST /tonemap: seconds a request may take, upload and waiting included.
     #[arg(long, default_value_t = Limits::default().timeout.as_secs())]
     pub timeout: u64,
@@ -89,6 +96,16 @@ pub fn serve(a: ServeArgs) -> Result<ExitCode> {
             a.max_body_mib
         )));
     }
+    if a.decode_budget_mib == 0 || a.decode_budget_mib > 1 << 20 {
+        return Err(Error::Invalid(format!(
+            "--decode-budget-mib {}: from 1 to 1048576",
+            a.decode_budget_mib
+        )));
+    }
+    tonegate::frames::budget::set_budget(
+        a.decode_budget_mib << 20,
+        tonegate::frames::budget::DEFAULT_WAIT,
+    );
     if a.max_uploads == 0 || a.upload_budget_mib == 0 || a.upload_budget_mib > 65536 {
         return Err(Error::Invalid(format!(
             "--max-uploads and --upload-budget-mib: must be at least 1 (the budget at most 65536), got {} and {}",

@@ -7,6 +7,7 @@
 //! an untriaged one fails or warns as the rules say. People triage digests
 //! (`tonegate frames triage`); every action is logged.
 
+pub mod budget;
 pub mod report;
 pub mod rules;
 
@@ -60,6 +61,18 @@ pub enum FramesError {
     /// More keys, or a longer name or value, than a submission may carry.
     #[error("{what}: at most {most}")]
     KeyBounds { what: String, most: usize },
+    /// An image whose decoding and comparing alone take more than the
+    /// whole memory budget (`budget`).
+    #[error("{what} needs {mib} MiB to decode and judge, more than the {budget_mib} MiB the process gives it: send it smaller, or raise --decode-budget-mib (of serve, or of frames submit)")]
+    OverBudget {
+        what: String,
+        mib: u64,
+        budget_mib: u64,
+    },
+    /// The memory budget stayed full for the wait: other submissions hold
+    /// it; try again.
+    #[error("the frames being judged hold the memory budget: try again in {seconds} s")]
+    Busy { seconds: u64 },
     /// An idempotency key used before by a submission of other frames or
     /// keys: a retry must send what the first attempt sent.
     #[error("Idempotency-Key {key:?} was used by submission {submission} with other contents: {difference}; a retry sends what the first attempt sent, and new contents take a new key")]
@@ -408,13 +421,6 @@ pub fn submit(history: &History, s: Submission) -> Result<SubmissionReport, Fram
             undecided.push(i);
         }
     }
-    read.par_iter_mut()
-        .enumerate()
-        .filter(|(i, _)| undecided.binary_search(i).is_ok())
-        .try_for_each(|(_, r)| {
-            r.image = Some(decode_bytes(&r.bytes, &r.input.file)?);
-            Ok::<(), FramesError>(())
-        })?;
     let ignores = judge::Ignores::of(history.active_ignore_rules()?, &s.keys);
     let on = judge::On {
         history,
@@ -422,10 +428,59 @@ pub fn submit(history: &History, s: Submission) -> Result<SubmissionReport, Fram
         ignores: &ignores,
         compare: s.compare,
     };
-    let mut verdicts = Vec::with_capacity(read.len());
-    for r in &read {
-        verdicts.push(on.judge(&r.input, (&r.digest, &r.labels), r.image.as_ref())?);
+    // The undecided images in groups: each group's memory reserved from
+    // the process's budget at once (from the headers), decoded on every
+    // core, judged, then dropped before the next group's.
+    let costs: Vec<u64> = undecided
+        .iter()
+        .map(|&i| {
+            let r = &read[i];
+            let compared = r
+                .labels
+                .iter()
+                .any(|(_, l)| *l == crate::history::Label::Positive);
+            budget::cost(&r.bytes, compared).unwrap_or(0)
+        })
+        .collect();
+    let width = rayon::current_num_threads().max(1);
+    let mut verdicts: Vec<Option<report::FrameVerdict>> = read.iter().map(|_| None).collect();
+    let mut at = 0;
+    while at < undecided.len() {
+        let mut end = at + 1;
+        let mut sum = costs[at];
+        while end < undecided.len() && end - at < width && sum + costs[end] <= budget::total() {
+            sum += costs[end];
+            end += 1;
+        }
+        let what = match end - at {
+            1 => read[undecided[at]].input.file.clone(),
+            n => format!("{n} images from {}", read[undecided[at]].input.file),
+        };
+        let held = budget::reserve(sum, &what)?;
+        let group = &undecided[at..end];
+        read.par_iter_mut()
+            .enumerate()
+            .filter(|(i, _)| group.binary_search(i).is_ok())
+            .try_for_each(|(_, r)| {
+                r.image = Some(decode_bytes(&r.bytes, &r.input.file)?);
+                Ok::<(), FramesError>(())
+            })?;
+        for &i in group {
+            let r = &mut read[i];
+            verdicts[i] = Some(on.judge(&r.input, (&r.digest, &r.labels), r.image.as_ref())?);
+            r.image = None;
+        }
+        drop(held);
+        at = end;
     }
+    let mut judged = Vec::with_capacity(read.len());
+    for (r, v) in read.iter().zip(verdicts) {
+        judged.push(match v {
+            Some(v) => v,
+            None => on.judge(&r.input, (&r.digest, &r.labels), None)?,
+        });
+    }
+    let verdicts = judged;
     let mut report = SubmissionReport::new(s.keys, shown, verdicts);
     let frames: Vec<NewFrame> = read
         .iter()

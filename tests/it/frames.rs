@@ -547,3 +547,35 @@ fn the_console_and_the_summary_name_each_failing_frame_by_its_digest() {
         "{md}"
     );
 }
+
+/// Judging is bounded by the decode budget, read from each image's header
+/// before it is decoded: a frame that needs more than all of it is refused
+/// by name with the flag that raises it, and nothing is stored; under a
+/// budget that holds it, the same folder is judged.
+#[test]
+fn a_frame_over_the_decode_budget_is_refused_before_it_is_decoded() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (db, dir) = (tmp.path().join("h.sqlite"), tmp.path().join("frames"));
+    std::fs::create_dir_all(&dir).unwrap();
+    // 1024×1024 8-bit: 8 MiB to decode at 8 bytes a pixel.
+    let big: Rgb8Image = Image::from_fn(1024, 1024, |x, y| [(x % 256) as u8, (y % 256) as u8, 7]);
+    write_frame_png(&dir.join("big.png"), &Frame::Rgb8(big)).unwrap();
+    let tight = submit(&db, &dir, &["--decode-budget-mib", "4"]);
+    assert_eq!(tight.code, 2, "{}", tight.stderr);
+    assert!(
+        tight
+            .stderr
+            .contains("big.png needs 8 MiB to decode and judge, more than the 4 MiB")
+            && tight.stderr.contains("--decode-budget-mib"),
+        "{}",
+        tight.stderr
+    );
+    assert!(History::open(&db)
+        .unwrap()
+        .submissions(10)
+        .unwrap()
+        .is_empty());
+    let roomy = submit(&db, &dir, &["--decode-budget-mib", "16"]);
+    assert_eq!(roomy.code, 1, "{}", roomy.stderr);
+    assert_eq!(frame(&roomy.report, "big")["status"], "untriaged");
+}

@@ -306,8 +306,8 @@ async fn hostile_submissions_are_refused_by_the_part_they_are_about_and_store_no
         (
             "lying size",
             vec![("ok.png".into(), good.clone()), ("huge.png".into(), lying)],
-            StatusCode::UNPROCESSABLE_ENTITY,
-            "huge.png",
+            StatusCode::PAYLOAD_TOO_LARGE,
+            "huge.png needs 76294 MiB to decode and judge",
         ),
         (
             "cicp",

@@ -32,6 +32,12 @@ fn frames_error(e: FramesError) -> ApiError {
         FramesError::Image(i) => {
             ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, "bad_image", i.to_string())
         }
+        e @ FramesError::OverBudget { .. } => {
+            ApiError::new(StatusCode::PAYLOAD_TOO_LARGE, "too_large", e.to_string())
+        }
+        FramesError::Busy { seconds } => {
+            ApiError::unavailable("busy", FramesError::Busy { seconds }.to_string(), seconds)
+        }
         e @ FramesError::KeyReused { .. } => ApiError::new(
             StatusCode::CONFLICT,
             "idempotency_key_reused",
