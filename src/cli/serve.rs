@@ -62,6 +62,10 @@ pub struct ServeArgs {
     /// charged as their bytes arrive; past it, 503 `busy`.
     #[arg(long, default_value_t = Limits::default().upload_budget >> 20)]
     pub upload_budget_mib: usize,
+    /// Seconds the answers in progress have to finish after SIGTERM or
+    /// Ctrl-C before their connections are cut and the process exits.
+    #[arg(long, default_value_t = tonegate::server::listen::DEFAULT_SHUTDOWN_GRACE.as_secs())]
+    pub shutdown_grace_s: u64,
     /// MiB of memory that judging submitted frames may take at once, all
     /// submissions together: each image's decoding and comparing is
     /// reserved from it by its header before it is decoded; an image
@@ -211,6 +215,7 @@ pub fn serve(a: ServeArgs) -> Result<ExitCode> {
         conn: tonegate::server::listen::ConnLimits {
             max_connections: a.max_connections,
             header_timeout: std::time::Duration::from_secs(a.header_timeout),
+            shutdown_grace: std::time::Duration::from_secs(a.shutdown_grace_s),
         },
         hold_workers: None,
         scoped,
@@ -234,7 +239,7 @@ pub fn serve(a: ServeArgs) -> Result<ExitCode> {
             what: "starting the async runtime".into(),
             source,
         })?;
-    rt.block_on(async move {
+    let served = rt.block_on(async move {
         let server = Server::bind(opts).await?;
         let addr = server.local_addr().map_err(|source| Error::Service {
             what: "reading the bound address".into(),
@@ -266,7 +271,11 @@ pub fn serve(a: ServeArgs) -> Result<ExitCode> {
                 what: "serving".into(),
                 source,
             })
-    })?;
+    });
+    // Blocking work still running (a judge, a tone map) does not hold the
+    // process past the grace it had: the runtime is left, not waited for.
+    rt.shutdown_timeout(std::time::Duration::from_millis(200));
+    served?;
     Ok(ExitCode::SUCCESS)
 }
 

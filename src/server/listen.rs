@@ -29,6 +29,9 @@ pub struct ConnLimits {
     /// connection opens or its previous answer was written (so it bounds
     /// keep-alive idle time too).
     pub header_timeout: Duration,
+    /// After SIGTERM, how long the answers being worked on have to finish
+    /// before their connections are cut and the server returns.
+    pub shutdown_grace: Duration,
 }
 
 impl Default for ConnLimits {
@@ -36,9 +39,14 @@ impl Default for ConnLimits {
         ConnLimits {
             max_connections: None,
             header_timeout: Duration::from_secs(10),
+            shutdown_grace: DEFAULT_SHUTDOWN_GRACE,
         }
     }
 }
+
+/// The grace answers in progress get at shutdown unless told otherwise:
+/// within the 30 s an orchestrator commonly waits after SIGTERM.
+pub const DEFAULT_SHUTDOWN_GRACE: Duration = Duration::from_secs(10);
 
 /// File descriptors kept free for everything but client sockets: the
 /// history database and its journal, the GPU driver, the suite's files,
@@ -203,7 +211,17 @@ pub async fn serve(
     // Uploads still arriving are cut off (answered 503, connection closed)
     // rather than waited for; answers being worked on finish.
     st.closing.send_replace(true);
-    graceful.shutdown().await;
+    // Bounded: work that outlasts the grace is cut with its connection
+    // (blocking work still running is left to the process's exit).
+    if tokio::time::timeout(limits.shutdown_grace, graceful.shutdown())
+        .await
+        .is_err()
+    {
+        tracing::warn!(
+            "shutdown: answers still in progress after {} s were cut",
+            limits.shutdown_grace.as_secs_f64()
+        );
+    }
     Ok(())
 }
 
