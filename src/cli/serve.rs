@@ -58,6 +58,16 @@ pub struct ServeArgs {
     /// a body is in); past it, 503 `busy`.
     #[arg(long, default_value_t = Limits::default().max_uploads)]
     pub max_uploads: usize,
+    /// Of those, the most one client may have open, and the same share of
+    /// --upload-budget-mib: a client's slow uploads cannot take every place.
+    /// A client is its address, or, behind a --trusted-proxy, the address
+    /// the proxy forwarded for.
+    #[arg(long, default_value_t = Limits::default().max_uploads_per_client)]
+    pub max_uploads_per_client: usize,
+    /// A proxy (load balancer) in front of the server, by address: its
+    /// requests' client is the one its X-Forwarded-For names. Repeatable.
+    #[arg(long, value_name = "IP")]
+    pub trusted_proxy: Vec<std::net::IpAddr>,
     /// POST /tonemap: MiB the bodies being received may hold together,
     /// charged as their bytes arrive; past it, 503 `busy`.
     #[arg(long, default_value_t = Limits::default().upload_budget >> 20)]
@@ -98,6 +108,12 @@ pub fn serve(a: ServeArgs) -> Result<ExitCode> {
         return Err(Error::Invalid(format!(
             "--max-body-mib: must be 1 to 4096, got {}",
             a.max_body_mib
+        )));
+    }
+    if a.max_uploads_per_client == 0 || a.max_uploads_per_client > a.max_uploads {
+        return Err(Error::Invalid(format!(
+            "--max-uploads-per-client {}: from 1 to --max-uploads ({})",
+            a.max_uploads_per_client, a.max_uploads
         )));
     }
     if a.decode_budget_mib == 0 || a.decode_budget_mib > 1 << 20 {
@@ -210,6 +226,8 @@ pub fn serve(a: ServeArgs) -> Result<ExitCode> {
             timeout: std::time::Duration::from_secs(a.timeout),
             max_uploads: a.max_uploads,
             upload_budget: a.upload_budget_mib << 20,
+            max_uploads_per_client: a.max_uploads_per_client,
+            trusted_proxies: a.trusted_proxy.clone(),
             max_queued_jobs: a.max_queued_jobs,
         },
         conn: tonegate::server::listen::ConnLimits {

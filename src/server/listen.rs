@@ -171,8 +171,8 @@ pub async fn serve(
             () = &mut shutdown => break,
             a = listener.accept() => a,
         };
-        let stream = match accepted {
-            Ok((stream, _)) => stream,
+        let (stream, peer) = match accepted {
+            Ok((stream, peer)) => (stream, peer),
             Err(e) if is_out_of_files(&e) => {
                 // Only another process can be holding them (our own sockets
                 // stay under the cap); wait for some to close.
@@ -197,6 +197,9 @@ pub async fn serve(
             st.requests.note_over_capacity();
             continue; // dropped: closed unanswered
         };
+        // Each request knows its connection's peer (uploads are bounded per
+        // client).
+        let service = service.layer(axum::Extension(super::uploads::Peer(peer.ip())));
         let conn =
             builder.serve_connection(TokioIo::new(stream), TowerToHyperService::new(service));
         let conn = graceful.watch(conn);

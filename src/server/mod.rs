@@ -55,6 +55,13 @@ pub struct Limits {
     /// (`uploads`): apart from the queues, which take a body once it is in.
     pub max_uploads: usize,
     pub upload_budget: usize,
+    /// Of those, the uploads one client may have open (and that share of
+    /// the bytes): a client is its peer address, or for a trusted proxy the
+    /// address it forwarded for (`trusted_proxies`).
+    pub max_uploads_per_client: usize,
+    /// Peers whose `X-Forwarded-For` names the client (a load balancer in
+    /// front of the server); any other peer is the client itself.
+    pub trusted_proxies: Vec<std::net::IpAddr>,
     /// A fleet's queue: jobs that may wait before `POST /runs` answers 503.
     pub max_queued_jobs: u64,
 }
@@ -71,6 +78,8 @@ impl Default for Limits {
             timeout: Duration::from_secs(60),
             max_uploads: 256,
             upload_budget: 128 << 20,
+            max_uploads_per_client: 32,
+            trusted_proxies: Vec::new(),
             max_queued_jobs: crate::history::MAX_QUEUED_JOBS,
         }
     }
@@ -382,7 +391,11 @@ impl Server {
                 suite: opts.suite,
                 adapter: opts.adapter,
                 gpu_config: opts.gpu_config,
-                uploads: uploads::Uploads::new(opts.limits.max_uploads, opts.limits.upload_budget),
+                uploads: uploads::Uploads::with_share(
+                    opts.limits.max_uploads,
+                    opts.limits.upload_budget,
+                    opts.limits.max_uploads_per_client,
+                ),
                 limits: opts.limits,
                 gpu,
                 cpu,

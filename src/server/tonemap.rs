@@ -49,6 +49,7 @@ pub async fn tonemap(
 ) -> Result<Response, ApiError> {
     let started = std::time::Instant::now();
     let headers = req.headers().clone();
+    let client = super::uploads::client_of(req.extensions(), &headers, &st.limits.trusted_proxies);
     let mut pairs = query_pairs(q.as_deref()).map_err(ApiError::closing)?;
     let is_multipart = headers
         .get(header::CONTENT_TYPE)
@@ -79,7 +80,7 @@ pub async fn tonemap(
                 return Err(too_large_body(len, limit));
             }
         }
-        Ok((extra, settings, resolved, st.uploads.begin()?))
+        Ok((extra, settings, resolved, st.uploads.begin_for(client)?))
     })()
     .map_err(ApiError::closing)?;
     let queue = if extra.gpu { &st.gpu } else { &st.cpu };

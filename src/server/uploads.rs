@@ -3,20 +3,30 @@
 //! bytes together, each charged as its bytes arrive (a client that sends
 //! slowly holds only what it has sent). A queue place is taken only once a
 //! body is in, so clients that send slowly hold no worker and no place.
+//! One client (a peer address, or the address a trusted proxy forwarded
+//! for) may hold at most a share of either bound, so that its slow uploads
+//! cannot deny the rest (`serve --max-uploads-per-client`).
 
 use super::error::ApiError;
 use axum::body::Bytes;
 use axum::http::StatusCode;
 use futures_util::StreamExt;
+use std::collections::HashMap;
+use std::net::IpAddr;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 /// What the server is receiving now.
 pub struct Uploads {
     most: usize,
     budget: u64,
+    /// The most uploads one client may have open at once; its bytes are
+    /// bounded to the same share of the budget.
+    per_client: usize,
     open: AtomicUsize,
     held: AtomicU64,
+    /// Each client's open uploads and the bytes they hold.
+    clients: Mutex<HashMap<IpAddr, (usize, u64)>>,
     /// Uploads refused for either bound, for `/metrics`.
     pub refused: AtomicU64,
 }
@@ -26,17 +36,56 @@ pub struct Uploads {
 pub struct Upload {
     of: Arc<Uploads>,
     held: u64,
+    client: Option<IpAddr>,
 }
 
 impl Uploads {
     pub fn new(most: usize, budget: usize) -> Arc<Uploads> {
+        Uploads::with_share(most, budget, most)
+    }
+
+    /// [`Uploads::new`] with at most `per_client` uploads, and that share
+    /// of the byte budget, to one client.
+    pub fn with_share(most: usize, budget: usize, per_client: usize) -> Arc<Uploads> {
+        let most = most.max(1);
         Arc::new(Uploads {
-            most: most.max(1),
+            most,
             budget: budget as u64,
+            per_client: per_client.clamp(1, most),
             open: AtomicUsize::new(0),
             held: AtomicU64::new(0),
+            clients: Mutex::new(HashMap::new()),
             refused: AtomicU64::new(0),
         })
+    }
+
+    /// The bytes one client may hold: its share of the budget.
+    fn client_bytes(&self) -> u64 {
+        (self.budget as u128 * self.per_client as u128 / self.most as u128) as u64
+    }
+
+    /// A place for one more body from `client`, or 503 `busy` when the
+    /// client has its share of places, or `max_uploads` are being received.
+    pub fn begin_for(self: &Arc<Self>, client: Option<IpAddr>) -> Result<Upload, ApiError> {
+        if let Some(ip) = client {
+            let mut clients = self.clients.lock().unwrap_or_else(|p| p.into_inner());
+            let entry = clients.entry(ip).or_insert((0, 0));
+            if entry.0 >= self.per_client {
+                self.refused.fetch_add(1, Ordering::Relaxed);
+                return Err(ApiError::unavailable(
+                    "busy",
+                    format!(
+                        "this client has {} uploads in progress, the most one client may                          (serve --max-uploads-per-client); send it when one has ended",
+                        entry.0
+                    ),
+                    1,
+                ));
+            }
+            entry.0 += 1;
+        }
+        let mut upload = self.begin()?;
+        upload.client = client;
+        Ok(upload)
     }
 
     /// Bodies being received now, and the bytes they hold.
@@ -59,6 +108,7 @@ impl Uploads {
             Ok(_) => Ok(Upload {
                 of: self.clone(),
                 held: 0,
+                client: None,
             }),
             Err(n) => {
                 self.refused.fetch_add(1, Ordering::Relaxed);
@@ -81,6 +131,25 @@ impl Upload {
     pub fn charge(&mut self, n: usize) -> Result<(), ApiError> {
         let n = n as u64;
         let budget = self.of.budget;
+        if let Some(ip) = self.client {
+            let share = self.of.client_bytes();
+            let mut clients = self.of.clients.lock().unwrap_or_else(|p| p.into_inner());
+            let entry = clients.entry(ip).or_insert((0, 0));
+            if entry.1 + n > share {
+                self.of.refused.fetch_add(1, Ordering::Relaxed);
+                return Err(ApiError::unavailable(
+                    "busy",
+                    format!(
+                        "this client's uploads in progress hold {:.1} MiB, the most one client may \
+                         ({:.1} MiB: serve --max-uploads-per-client of --max-uploads); send it again",
+                        entry.1 as f64 / 1048576.0,
+                        share as f64 / 1048576.0
+                    ),
+                    1,
+                ));
+            }
+            entry.1 += n;
+        }
         let charged = self
             .of
             .held
@@ -94,6 +163,12 @@ impl Upload {
             }
             Err(h) => {
                 self.of.refused.fetch_add(1, Ordering::Relaxed);
+                if let Some(ip) = self.client {
+                    let mut clients = self.of.clients.lock().unwrap_or_else(|p| p.into_inner());
+                    if let Some(e) = clients.get_mut(&ip) {
+                        e.1 = e.1.saturating_sub(n);
+                    }
+                }
                 Err(ApiError::unavailable(
                     "busy",
                     format!(
@@ -113,7 +188,50 @@ impl Drop for Upload {
     fn drop(&mut self) {
         self.of.held.fetch_sub(self.held, Ordering::AcqRel);
         self.of.open.fetch_sub(1, Ordering::AcqRel);
+        if let Some(ip) = self.client {
+            let mut clients = self.of.clients.lock().unwrap_or_else(|p| p.into_inner());
+            if let Some(e) = clients.get_mut(&ip) {
+                e.0 = e.0.saturating_sub(1);
+                e.1 = e.1.saturating_sub(self.held);
+                if e.0 == 0 {
+                    clients.remove(&ip);
+                }
+            }
+        }
     }
+}
+
+/// The peer address of a request's connection, as the accept loop saw it.
+#[derive(Clone, Copy, Debug)]
+pub struct Peer(pub IpAddr);
+
+/// The client a request comes from: its peer, or, when the peer is one of
+/// `trusted` proxies, the last address of `X-Forwarded-For` that is not
+/// itself a trusted proxy (what the proxy saw). None for a request the
+/// accept loop did not mark (the tests' in-process calls).
+pub fn client_of(
+    extensions: &axum::http::Extensions,
+    headers: &axum::http::HeaderMap,
+    trusted: &[IpAddr],
+) -> Option<IpAddr> {
+    let Peer(peer) = *extensions.get::<Peer>()?;
+    if !trusted.contains(&peer) {
+        return Some(peer);
+    }
+    let forwarded = headers
+        .get_all("x-forwarded-for")
+        .iter()
+        .filter_map(|v| v.to_str().ok())
+        .flat_map(|v| v.split(','))
+        .filter_map(|a| a.trim().parse::<IpAddr>().ok())
+        .collect::<Vec<_>>();
+    Some(
+        forwarded
+            .into_iter()
+            .rev()
+            .find(|a| !trusted.contains(a))
+            .unwrap_or(peer),
+    )
 }
 
 /// A raw body, at most `limit` bytes, each chunk charged to `upload` as it
@@ -176,5 +294,28 @@ mod tests {
         drop((b, c));
         assert_eq!(u.now(), (0, 0));
         assert_eq!(u.refused.load(Ordering::Relaxed), 2);
+    }
+
+    /// One client's uploads take at most its share of the places and of
+    /// the bytes; another client still gets a place.
+    #[test]
+    fn one_client_holds_at_most_its_share() {
+        let u = Uploads::with_share(8, 800, 2);
+        let (a, b): (IpAddr, IpAddr) = ("10.0.0.1".parse().unwrap(), "10.0.0.2".parse().unwrap());
+        let mut first = u.begin_for(Some(a)).unwrap();
+        let _second = u.begin_for(Some(a)).unwrap();
+        let third = u.begin_for(Some(a)).err().expect("a third from one client");
+        assert!(
+            third.detail.contains("--max-uploads-per-client"),
+            "{}",
+            third.detail
+        );
+        let _other = u.begin_for(Some(b)).unwrap();
+        // The share of bytes: 800 × 2 / 8.
+        first.charge(200).unwrap();
+        let over = first.charge(1).unwrap_err();
+        assert!(over.detail.contains("one client may"), "{}", over.detail);
+        drop(first);
+        let _again = u.begin_for(Some(a)).unwrap();
     }
 }

@@ -3,6 +3,8 @@
 //! them to each queue, while a well-behaved client tone-maps one image
 //! after another (c = 1). Every one of its answers is 200, at about its
 //! quiet rate; the uploads' gauges see the slow bodies being received.
+//! And one address's 260 slow uploads take only its share of the places:
+//! a client at another address is still served.
 
 use crate::common;
 use crate::common::server::start;
@@ -10,12 +12,17 @@ use reqwest::StatusCode;
 use std::time::{Duration, Instant};
 use tokio::io::AsyncWriteExt;
 
-/// A connection that declared a 100 kB body and sends a byte of it every
-/// 500 ms until it is aborted.
-fn slow_upload(base: &str, gpu: bool) -> tokio::task::JoinHandle<()> {
-    let addr = base.trim_start_matches("http://").to_owned();
+/// A connection from loopback address `from` (127.0.0.0/8 is all this
+/// machine's) that declared a 100 kB body and sends a byte of it every
+/// 500 ms until it is aborted or its connection is closed.
+fn slow_upload(base: &str, gpu: bool, from: std::net::Ipv4Addr) -> tokio::task::JoinHandle<()> {
+    let addr: std::net::SocketAddr = base.trim_start_matches("http://").parse().unwrap();
     tokio::spawn(async move {
-        let mut s = tokio::net::TcpStream::connect(&addr).await.unwrap();
+        let socket = tokio::net::TcpSocket::new_v4().unwrap();
+        socket
+            .bind(std::net::SocketAddr::new(from.into(), 0))
+            .unwrap();
+        let mut s = socket.connect(addr).await.unwrap();
         let head = format!(
             "POST /api/v1/tonemap?gpu={gpu} HTTP/1.1\r\nHost: x\r\n\
              Content-Type: application/octet-stream\r\nContent-Length: 100000\r\n\r\n"
@@ -57,7 +64,9 @@ async fn slow_uploads_hold_no_queue_place() {
     let mut slow = Vec::new();
     for (n, when) in [(4, "with 4 slow uploads"), (100, "with 100 slow uploads")] {
         while slow.len() < n {
-            slow.push(slow_upload(&s.base, slow.len() % 2 == 0));
+            // From four addresses, each within its share of the places.
+            let from = std::net::Ipv4Addr::new(127, 0, 0, 2 + (slow.len() % 4) as u8);
+            slow.push(slow_upload(&s.base, slow.len() % 2 == 0, from));
         }
         // Until the server is receiving every one of them.
         let deadline = Instant::now() + Duration::from_secs(20);
@@ -150,5 +159,46 @@ async fn an_image_too_large_is_refused_from_its_header_before_its_body_is_in() {
         c.write_all(b"\r\n").await.unwrap();
         let code = status_of(&mut c).await;
         assert_eq!(code, 413, "gpu={gpu} multipart={multipart}");
+    }
+}
+
+/// One address opens 260 slow uploads: it holds its share of the places
+/// (32) and the rest are refused at once, while a tone-map from another
+/// address is answered 200. When the places were not shared out, those
+/// uploads took all 256 and everyone got 503 for as long as they lasted.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn one_address_slow_uploads_leave_places_for_the_others() {
+    let dir = tempfile::tempdir().unwrap();
+    let seeded = common::seed_empty(dir.path());
+    let s = start(&seeded, |_| {}).await;
+    let hdr = common::hdr_bytes(dir.path(), 32, 16);
+    let flood = std::net::Ipv4Addr::new(127, 0, 0, 9);
+    let slow: Vec<_> = (0..260)
+        .map(|i| slow_upload(&s.base, i % 2 == 0, flood))
+        .collect();
+    // Until the server holds the flood's share, and has refused the rest.
+    let deadline = Instant::now() + Duration::from_secs(60);
+    loop {
+        let m = s.get("/metrics").await.text().await.unwrap();
+        let refused = m
+            .lines()
+            .find_map(|l| l.strip_prefix("tonegate_tonemap_uploads_refused_total "))
+            .and_then(|v| v.trim().parse::<u64>().ok())
+            .unwrap_or(0);
+        if m.contains("tonegate_tonemap_uploads 32\n") && refused >= 228 {
+            break;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "the flood's share not reached: {m}"
+        );
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    let r = s.tonemap("gpu=false", hdr.clone()).await;
+    let status = r.status();
+    let body = r.text().await.unwrap_or_default();
+    assert_eq!(status, StatusCode::OK, "another address: {body}");
+    for t in &slow {
+        t.abort();
     }
 }
