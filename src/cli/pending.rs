@@ -68,9 +68,20 @@ pub fn pending(a: PendingArgs) -> Result<ExitCode> {
         println!("no pending images: every stored image is where it belongs");
     }
     for p in &list {
+        let mut of = Vec::new();
+        if !p.runs.is_empty() {
+            of.push(format!("runs {:?}", p.runs));
+        }
+        if !p.submissions.is_empty() {
+            of.push(format!("frames submissions {:?}", p.submissions));
+        }
         println!(
-            "{}.png  {} bytes  for {}  runs {:?}: {}",
-            p.sha256, p.size, p.store, p.runs, p.reason
+            "{}  {} bytes  for {}  {}: {}",
+            p.sha256,
+            p.size,
+            p.store,
+            of.join(", "),
+            p.reason
         );
     }
     Ok(ExitCode::SUCCESS)

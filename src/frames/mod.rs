@@ -492,6 +492,14 @@ pub fn submit(history: &History, s: Submission) -> Result<SubmissionReport, Fram
             verdict: v.status.as_str(),
         })
         .collect();
+    // A retry's first answer stands: nothing is offered to the store for
+    // a key already stored.
+    let refused = match s.idempotency_key.map(|k| history.submission_by_key(k)) {
+        Some(Ok(Some(_))) => Default::default(),
+        _ => history.offer_new_images(&frames)?,
+    };
+    report.pending_images = refused.keys().cloned().collect();
+    report.pending_images.sort();
     let keys = serde_json::to_string(&report.keys).unwrap_or_default();
     let text = serde_json::to_string(&report).unwrap_or_default();
     let stored = history.store_submission(
@@ -501,6 +509,7 @@ pub fn submit(history: &History, s: Submission) -> Result<SubmissionReport, Fram
         report.passed,
         &text,
         &frames,
+        &refused,
     )?;
     if !stored.new {
         // Another process stored the same key first: its answer stands.

@@ -77,6 +77,10 @@ pub struct SubmissionReport {
     pub frames: Vec<FrameVerdict>,
     /// Frames whose digests nobody has triaged.
     pub untriaged: usize,
+    /// The digests of its images the object store did not take, kept in
+    /// the history, pending (`history pending --upload` offers them again).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub pending_images: Vec<String>,
 }
 
 impl SubmissionReport {
@@ -95,6 +99,7 @@ impl SubmissionReport {
                 .filter(|f| f.status == Status::Untriaged)
                 .count(),
             frames,
+            pending_images: Vec::new(),
         }
     }
 

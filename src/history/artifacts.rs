@@ -88,6 +88,8 @@ pub struct PendingImage {
     pub reason: String,
     /// The runs that name it.
     pub runs: Vec<i64>,
+    /// The frames submissions that hold it.
+    pub submissions: Vec<i64>,
 }
 
 /// What `history pending --upload` or `--drop` did.
@@ -222,12 +224,23 @@ impl History {
                 .iter()
                 .map(|r| r.int(0))
                 .collect::<Result<_, _>>()?;
+            let submissions = self
+                .db()
+                .query(
+                    "SELECT DISTINCT submission_id FROM submitted_frames WHERE sha256 = $1
+                     ORDER BY submission_id",
+                    args![&sha256],
+                )?
+                .iter()
+                .map(|r| r.int(0))
+                .collect::<Result<_, _>>()?;
             out.push(PendingImage {
                 sha256,
                 size: r.int(1)?,
                 store: r.opt_text(2)?.unwrap_or_default(),
                 reason: r.text(3)?,
                 runs,
+                submissions,
             });
         }
         Ok(out)

@@ -145,6 +145,61 @@ impl History {
         }
     }
 
+    /// Offers the images of `frames` new to the history to the object
+    /// store, when there is one, and returns those it did not take, each
+    /// with the reason (kept in the history, pending, by
+    /// [`History::store_submission`]). After the first the store did not
+    /// answer (down, past the retry budget), the rest are not offered: they
+    /// are kept pending at once, so an outage costs a submission one retry
+    /// budget, not one per image.
+    pub fn offer_new_images(
+        &self,
+        frames: &[NewFrame],
+    ) -> Result<std::collections::HashMap<String, String>, HistoryError> {
+        let mut refused: std::collections::HashMap<String, String> = Default::default();
+        let Some(o) = super::artifact_store() else {
+            return Ok(refused);
+        };
+        let mut down: Option<String> = None;
+        for f in frames {
+            if refused.contains_key(f.sha256) {
+                continue;
+            }
+            let known = self
+                .db()
+                .query_opt(
+                    "SELECT 1 FROM blobs WHERE sha256 = $1 AND pending IS NULL",
+                    args![f.sha256],
+                )?
+                .is_some();
+            if known {
+                continue;
+            }
+            if let Some(reason) = &down {
+                refused.insert(f.sha256.to_owned(), reason.clone());
+                continue;
+            }
+            if let Err(e) = o.put(f.sha256, f.bytes.to_vec()) {
+                if !matches!(e, HistoryError::Objects { .. }) {
+                    return Err(e);
+                }
+                tracing::warn!("{e}: the image is kept in the history, pending");
+                let reason = super::objects::pending_reason(&e);
+                if matches!(
+                    e,
+                    HistoryError::Objects {
+                        transient: true,
+                        ..
+                    }
+                ) {
+                    down = Some(reason.clone());
+                }
+                refused.insert(f.sha256.to_owned(), reason);
+            }
+        }
+        Ok(refused)
+    }
+
     /// Stores a submission in one transaction: each image once, a row per
     /// frame, the digests new to their test as untriaged, and the report.
     /// Under an idempotency key already used it stores nothing and returns
@@ -157,33 +212,9 @@ impl History {
         passed: bool,
         report: &str,
         frames: &[NewFrame],
+        refused: &std::collections::HashMap<String, String>,
     ) -> Result<StoredSubmission, HistoryError> {
-        // With an object store, the images new to the history go there
-        // first; one it does not take is kept in the table, pending, as a
-        // run's artifacts are.
         let objects = super::artifact_store();
-        let mut refused: std::collections::HashMap<&str, String> = Default::default();
-        if let Some(o) = &objects {
-            for f in frames {
-                let known = self
-                    .db()
-                    .query_opt(
-                        "SELECT 1 FROM blobs WHERE sha256 = $1 AND pending IS NULL",
-                        args![f.sha256],
-                    )?
-                    .is_some();
-                if known || refused.contains_key(f.sha256) {
-                    continue;
-                }
-                if let Err(e) = o.put(f.sha256, f.bytes.to_vec()) {
-                    if !matches!(e, HistoryError::Objects { .. }) {
-                        return Err(e);
-                    }
-                    tracing::warn!("{e}: the image is kept in the history, pending");
-                    refused.insert(f.sha256, super::objects::pending_reason(&e));
-                }
-            }
-        }
         let store = objects.as_ref().map(|o| o.url.clone());
         let mut stored = None;
         self.db().transaction(&mut |tx| {

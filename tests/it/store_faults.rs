@@ -303,3 +303,73 @@ fn a_store_outage_keeps_the_runs_results_and_the_images_wait_in_the_history() {
     // The first run's images, in the store, are untouched.
     assert_eq!(h.artifact_names(run_id).unwrap().len(), listed.len());
 }
+
+/// A frames submission whose store is down is held up once, not once per
+/// image: after the first image the store did not take, the rest are kept
+/// pending at once. Ten new images cost about what one does in attempts
+/// on the store (each of which counts a connection here), the report lists
+/// the ten pending digests, and `history pending` names the submission
+/// that holds each.
+#[test]
+fn a_store_outage_holds_a_frames_submission_up_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("h.sqlite");
+    let db = db.to_str().unwrap();
+    let (endpoint, seen) = listener();
+    let env = store_env(&endpoint);
+    let submit = |frames: &std::path::Path| {
+        let o = command(&env)
+            .args([
+                "frames",
+                "submit",
+                frames.to_str().unwrap(),
+                "--db",
+                db,
+                "--artifacts",
+                STORE,
+                "--json",
+                "-",
+            ])
+            .env("TONEGATE_DB_RETRY_S", "1")
+            .output()
+            .unwrap();
+        assert_eq!(o.status.code(), Some(1), "{}", said(&o));
+        serde_json::from_slice::<serde_json::Value>(&o.stdout).unwrap()
+    };
+    // Images of their own in each folder (`seed`): no digest is shared.
+    let folder = |name: &str, n: u32, seed: u32| {
+        let d = dir.path().join(name);
+        std::fs::create_dir_all(&d).unwrap();
+        for i in 0..n {
+            let img: tonegate::image::Rgb8Image = tonegate::image::Image::from_fn(16, 8, |x, y| {
+                [(x * 9 + i) as u8, y as u8, (i * 20 + seed) as u8]
+            });
+            tonegate::io::write_frame_png(
+                &d.join(format!("{name}{i}.png")),
+                &tonegate::image::Frame::Rgb8(img),
+            )
+            .unwrap();
+        }
+        d
+    };
+    let one = submit(&folder("one", 1, 7));
+    let for_one = seen.load(Ordering::SeqCst);
+    assert!(for_one >= 1, "the store was tried");
+    let ten = submit(&folder("ten", 10, 0));
+    let for_ten = seen.load(Ordering::SeqCst) - for_one;
+    assert_eq!(one["pending_images"].as_array().unwrap().len(), 1, "{one}");
+    assert_eq!(ten["pending_images"].as_array().unwrap().len(), 10, "{ten}");
+    // Retries back off with jitter, so the counts are close, not equal;
+    // one hold-up per image would be ten times as many.
+    assert!(
+        for_ten <= 3 * for_one + 3,
+        "ten images: {for_ten} attempts on the store, one image: {for_one}"
+    );
+    let id = ten["submission"].as_i64().unwrap();
+    let listed = pending(db);
+    let of_ten: Vec<&serde_json::Value> = listed
+        .iter()
+        .filter(|p| p["submissions"] == serde_json::json!([id]))
+        .collect();
+    assert_eq!(of_ten.len(), 10, "{listed:#?}");
+}
