@@ -502,15 +502,15 @@ pub fn submit(history: &History, s: Submission) -> Result<SubmissionReport, Fram
     report.pending_images.sort();
     let keys = serde_json::to_string(&report.keys).unwrap_or_default();
     let text = serde_json::to_string(&report).unwrap_or_default();
-    let stored = history.store_submission(
-        s.idempotency_key,
-        &branch,
-        &keys,
-        report.passed,
-        &text,
-        &frames,
-        &refused,
-    )?;
+    let stored = history.store_submission(&crate::history::NewSubmission {
+        key: s.idempotency_key,
+        branch: &branch,
+        keys: &keys,
+        passed: report.passed,
+        report: &text,
+        frames: &frames,
+        refused: &refused,
+    })?;
     if !stored.new {
         // Another process stored the same key first: its answer stands.
         return report::stored(&stored);

@@ -60,6 +60,20 @@ pub struct NewFrame<'a> {
     pub verdict: &'a str,
 }
 
+/// A submission to store: its idempotency key, branch (`MAIN` for the main
+/// line), keys (a JSON object's text), verdict, report (JSON) and frames,
+/// and the images the object store did not take, each with the reason
+/// (`History::offer_new_images`).
+pub struct NewSubmission<'a> {
+    pub key: Option<&'a str>,
+    pub branch: &'a str,
+    pub keys: &'a str,
+    pub passed: bool,
+    pub report: &'a str,
+    pub frames: &'a [NewFrame<'a>],
+    pub refused: &'a std::collections::HashMap<String, String>,
+}
+
 /// A submission the history holds.
 #[derive(Clone, Debug, PartialEq)]
 pub struct StoredSubmission {
@@ -204,16 +218,16 @@ impl History {
     /// frame, the digests new to their test as untriaged, and the report.
     /// Under an idempotency key already used it stores nothing and returns
     /// the submission stored then (`new` false).
-    pub fn store_submission(
-        &self,
-        key: Option<&str>,
-        branch: &str,
-        keys: &str,
-        passed: bool,
-        report: &str,
-        frames: &[NewFrame],
-        refused: &std::collections::HashMap<String, String>,
-    ) -> Result<StoredSubmission, HistoryError> {
+    pub fn store_submission(&self, s: &NewSubmission) -> Result<StoredSubmission, HistoryError> {
+        let NewSubmission {
+            key,
+            branch,
+            keys,
+            passed,
+            report,
+            frames,
+            refused,
+        } = *s;
         let objects = super::artifact_store();
         let store = objects.as_ref().map(|o| o.url.clone());
         let mut stored = None;

@@ -40,7 +40,8 @@ pub use artifacts::{
 use backend::{args, Backend};
 pub use fleet::{ClaimedJob, Expired, RunnerInfo, RunnerRow, MAX_ATTEMPTS};
 pub use frames::{
-    IgnoreRule, Label, NewFrame, StoredSubmission, TriageEntry, MAIN, MAX_PATTERN_CHARS,
+    IgnoreRule, Label, NewFrame, NewSubmission, StoredSubmission, TriageEntry, MAIN,
+    MAX_PATTERN_CHARS,
 };
 pub use jobs::{valid_label, JobRow, JobSpec, LISTED_SCENES, MAX_QUEUED_JOBS};
 pub use objects::{artifact_store, is_store_url, set_artifact_store, store_last_recovery, Objects};
