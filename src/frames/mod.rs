@@ -188,6 +188,16 @@ fn ordered(a: &Path, b: &Path) -> (String, String) {
     }
 }
 
+/// A character that shows nothing or turns the text around it (Unicode's
+/// format characters: zero-width ones, the bidirectional controls, the
+/// byte-order mark, the soft hyphen): in a test name it can make one test
+/// look like another.
+fn invisible(c: char) -> bool {
+    matches!(c,
+        '\u{00AD}' | '\u{061C}' | '\u{180E}' | '\u{200B}'..='\u{200F}' | '\u{202A}'..='\u{202E}'
+        | '\u{2060}'..='\u{2064}' | '\u{2066}'..='\u{206F}' | '\u{FEFF}' | '\u{FFF9}'..='\u{FFFB}')
+}
+
 /// `path`'s test name: its path from `folder`, `/`-separated, without the
 /// extension.
 fn test_name(folder: &Path, path: &Path) -> Result<String, FramesError> {
@@ -197,6 +207,12 @@ fn test_name(folder: &Path, path: &Path) -> Result<String, FramesError> {
     for c in relative.components() {
         match c {
             std::path::Component::Normal(p) => match p.to_str() {
+                Some(s) if s.chars().any(|c| c.is_control() || invisible(c)) => {
+                    return Err(FramesError::File {
+                        file,
+                        detail: "a control, invisible or direction-changing character (such as U+202E) in the name, which would show another name on the triage page".into(),
+                    })
+                }
                 Some(s) => parts.push(s.to_owned()),
                 None => {
                     return Err(FramesError::File {
@@ -317,8 +333,9 @@ fn read(mut input: Input) -> Result<Read, FramesError> {
 /// of `ui/button`): `/`-separated plain names, no `.` or `..`, no empty
 /// part, no backslash or control character, and an image extension.
 pub fn test_of_upload(name: &str) -> Result<String, FramesError> {
+    // The name quoted short, so that a long one's reason is not cut off.
     let bad = |detail: &str| FramesError::File {
-        file: name.to_owned(),
+        file: clip(name, 48),
         detail: detail.to_owned(),
     };
     let (stem, ext) = name
@@ -339,6 +356,11 @@ pub fn test_of_upload(name: &str) -> Result<String, FramesError> {
         }
         if part.chars().any(|c| c == '\\' || c.is_control()) {
             return Err(bad("a backslash or control character in the name"));
+        }
+        if part.chars().any(invisible) {
+            return Err(bad(
+                "an invisible or direction-changing character (such as U+202E) in the name, which would show another name on the triage page",
+            ));
         }
     }
     Ok(stem.to_owned())

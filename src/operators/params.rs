@@ -219,11 +219,31 @@ impl std::fmt::Display for Value {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             Value::Unset => f.write_str("(measured)"),
-            Value::Number(v) => write!(f, "{v}"),
+            Value::Number(v) => f.write_str(&number_words(*v)),
             Value::Auto => f.write_str("auto"),
             Value::Flag(b) => write!(f, "{b}"),
             Value::Word(w) => f.write_str(w),
         }
+    }
+}
+
+/// A number as an error quotes it: its shortest form, or in exponent form
+/// when that is long (`1e300`, not 301 digits).
+pub fn number_words(x: f64) -> String {
+    let plain = format!("{x}");
+    if plain.len() > 24 {
+        format!("{x:e}")
+    } else {
+        plain
+    }
+}
+
+/// A client's text as an error quotes it: its first 48 characters, and
+/// `…` when there were more.
+fn clipped(text: &str) -> String {
+    match text.char_indices().nth(48) {
+        Some((at, _)) => format!("{}…", &text[..at]),
+        None => text.to_owned(),
     }
 }
 
@@ -252,7 +272,11 @@ impl Param {
                 if r.contains(x) {
                     Ok(v)
                 } else {
-                    Err(format!("{name}: must be {}, got {x}", r.describe()))
+                    Err(format!(
+                        "{name}: must be {}, got {}",
+                        r.describe(),
+                        number_words(x)
+                    ))
                 }
             }
             (Kind::NumberOrAuto(_), Value::Auto) => Ok(v),
@@ -281,9 +305,10 @@ impl Param {
                 Ok(x) => Value::Number(x),
                 Err(_) => {
                     return Err(format!(
-                        "{}: expected {}, got {text:?}",
+                        "{}: expected {}, got {:?}",
                         self.name,
-                        self.expected()
+                        self.expected(),
+                        clipped(text)
                     ))
                 }
             },
@@ -292,8 +317,9 @@ impl Param {
                 "false" | "0" => Value::Flag(false),
                 _ => {
                     return Err(format!(
-                        "{}: expected true or false, got {text:?}",
-                        self.name
+                        "{}: expected true or false, got {:?}",
+                        self.name,
+                        clipped(text)
                     ))
                 }
             },
@@ -301,9 +327,10 @@ impl Param {
                 Some(w) => Value::Word(w),
                 None => {
                     return Err(format!(
-                        "{}: expected {}, got {text:?}",
+                        "{}: expected {}, got {:?}",
                         self.name,
-                        self.expected()
+                        self.expected(),
+                        clipped(text)
                     ))
                 }
             },
@@ -326,9 +353,10 @@ impl Param {
             Kind::NumberOrAuto(_) if t == "auto" => Ok(Value::Auto),
             Kind::Word(_) => self.parse(t),
             _ => Err(format!(
-                "{}: expected {}, got {t:?}",
+                "{}: expected {}, got {:?}",
                 self.name,
-                self.expected()
+                self.expected(),
+                clipped(t)
             )),
         }
     }

@@ -456,15 +456,26 @@ impl Server {
     }
 }
 
-/// Reads the token from `path`, or makes one there (mode 0600) when the file
-/// does not exist; the token is 32 random bytes in hex.
+/// The shortest token a token file may hold: a guessable one is no lock.
+pub const MIN_TOKEN_CHARS: usize = 16;
+
+/// Reads the token from `path` (at least [`MIN_TOKEN_CHARS`] characters),
+/// or makes one there (mode 0600) when the file does not exist; the token
+/// is 32 random bytes in hex.
 pub fn load_or_make_token(path: &std::path::Path) -> Result<String, crate::Error> {
     let err = |e: std::io::Error| crate::Error::File {
         path: path.to_owned(),
         source: e,
     };
     match crate::io::read_small_text(path) {
-        Ok(s) if !s.trim().is_empty() => return Ok(s.trim().to_owned()),
+        Ok(s) if s.trim().chars().count() >= MIN_TOKEN_CHARS => return Ok(s.trim().to_owned()),
+        Ok(s) if !s.trim().is_empty() => {
+            return Err(crate::Error::Invalid(format!(
+                "{}: the token is {} characters; a token is at least {MIN_TOKEN_CHARS} (delete the file and serve makes a random one)",
+                path.display(),
+                s.trim().chars().count()
+            )))
+        }
         Ok(_) => {
             return Err(crate::Error::Invalid(format!(
                 "{}: the token file is empty",

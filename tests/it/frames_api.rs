@@ -333,6 +333,18 @@ async fn hostile_submissions_are_refused_by_the_part_they_are_about_and_store_no
             StatusCode::BAD_REQUEST,
             "notes.txt",
         ),
+        (
+            "right-to-left override",
+            vec![("ui/\u{202E}gnp.evil.png".into(), good.clone())],
+            StatusCode::BAD_REQUEST,
+            "U+202E",
+        ),
+        (
+            "a 10 KB name keeps its reason",
+            vec![(format!("{}/x.txt", "d".repeat(10_000)), good.clone())],
+            StatusCode::BAD_REQUEST,
+            "not an image extension",
+        ),
     ];
     for (name, files, status, says) in cases {
         let (st, body) = post_form(&s.client, &s.base, Some(SUBMIT), form(&files, &[]), None).await;
@@ -342,6 +354,34 @@ async fn hostile_submissions_are_refused_by_the_part_they_are_about_and_store_no
             "{name}: {body}"
         );
     }
+    // A file name that is not UTF-8 (raw bytes in the part's header) is
+    // said as such, not as a part without a name.
+    let boundary = "tonegate-boundary-1";
+    let mut raw =
+        format!("--{boundary}\r\nContent-Disposition: form-data; name=\"file\"; filename=\"")
+            .into_bytes();
+    raw.extend_from_slice(b"ui/\xff\xfe.png");
+    raw.extend_from_slice(b"\"\r\nContent-Type: image/png\r\n\r\n");
+    raw.extend_from_slice(&good);
+    raw.extend_from_slice(format!("\r\n--{boundary}--\r\n").as_bytes());
+    let r = s
+        .client
+        .post(format!("{}/api/v1/frames/submissions", s.base))
+        .bearer_auth(SUBMIT)
+        .header(
+            "content-type",
+            format!("multipart/form-data; boundary={boundary}"),
+        )
+        .body(raw)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), StatusCode::BAD_REQUEST);
+    let body: Value = r.json().await.unwrap();
+    assert!(
+        body["detail"].as_str().unwrap().contains("not UTF-8"),
+        "{body}"
+    );
     // Bad keys and rules, named.
     let (st, body) = post_form(
         &s.client,

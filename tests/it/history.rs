@@ -434,3 +434,28 @@ fn serve_names_a_history_whose_folder_cannot_be_made() {
         "{err}"
     );
 }
+
+/// A token file holding a short token is refused when `serve` starts,
+/// naming the file and the minimum (a 1-byte token was accepted).
+#[test]
+fn serve_refuses_a_short_token() {
+    let dir = tempfile::tempdir().unwrap();
+    let token = dir.path().join("short.token");
+    std::fs::write(&token, "x\n").unwrap();
+    let db = dir.path().join("h.sqlite");
+    let o = crate::common::tonegate(&[
+        "serve",
+        "--bind",
+        "127.0.0.1:0",
+        "--db",
+        db.to_str().unwrap(),
+        "--token-file",
+        token.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("short.token: the token is 1 characters; a token is at least 16"),
+        "{err}"
+    );
+}

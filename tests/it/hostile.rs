@@ -730,6 +730,22 @@ async fn validation_is_the_same_everywhere_and_echoes_are_short() {
         .await;
         assert!(d.starts_with("white"), "{q}: {d}");
     }
+    // A value is quoted short: a huge number in exponent form, a long
+    // word cut to 48 characters (`key=1e300` quoted 301 digits).
+    let long_word = format!("operator=agx&look={}", "p".repeat(5000));
+    for (q, says) in [("key=1e300", "got 1e300"), (long_word.as_str(), "ppp…")] {
+        let d = expect_error(
+            s.tonemap(&format!("gpu=false&{q}"), hdr.clone()).await,
+            StatusCode::BAD_REQUEST,
+            "bad_parameter",
+        )
+        .await;
+        assert!(
+            d.contains(says) && d.len() < 300,
+            "{}: {d}",
+            &q[..20.min(q.len())]
+        );
+    }
     let name = "n".repeat(60_000);
     let r = s
         .client

@@ -101,9 +101,22 @@ where
                     source: Source::Bytes(bytes),
                 });
             }
-            ("file", None) => return Err(ApiError::bad(
-                "a `file` part without a file name: its name is the test's path (ui/button.png)",
-            )),
+            ("file", None) => {
+                // A file name that is there but not UTF-8 is said as such.
+                let named = field
+                    .headers()
+                    .get(header::CONTENT_DISPOSITION)
+                    .is_some_and(|v| {
+                        v.as_bytes()
+                            .windows(9)
+                            .any(|w| w.eq_ignore_ascii_case(b"filename="))
+                    });
+                return Err(ApiError::bad(if named {
+                    "a `file` part whose file name is not UTF-8 text: name it by the test's path (ui/button.png)"
+                } else {
+                    "a `file` part without a file name: its name is the test's path (ui/button.png)"
+                }));
+            }
             (_, Some(_)) => {
                 return Err(ApiError::bad(format!(
                     "a file in the part named {}: images go in parts named \"file\"",
