@@ -51,8 +51,21 @@ fn row(r: &super::backend::Row) -> Result<SubmissionRow, HistoryError> {
 impl History {
     /// The newest `limit` submissions, newest first.
     pub fn submissions(&self, limit: u32) -> Result<Vec<SubmissionRow>, HistoryError> {
+        self.submissions_before(i64::MAX, limit)
+    }
+
+    /// The newest `limit` submissions older than submission `before`,
+    /// newest first: the next page of a listing.
+    pub fn submissions_before(
+        &self,
+        before: i64,
+        limit: u32,
+    ) -> Result<Vec<SubmissionRow>, HistoryError> {
         self.db()
-            .query(&format!("{ROW} ORDER BY s.id DESC LIMIT $1"), args![limit])?
+            .query(
+                &format!("{ROW} WHERE s.id < $1 ORDER BY s.id DESC LIMIT $2"),
+                args![before, limit],
+            )?
             .iter()
             .map(row)
             .collect()

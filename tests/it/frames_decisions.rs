@@ -194,3 +194,32 @@ async fn an_idempotency_key_reused_for_other_contents_is_refused_by_the_differen
         "{body}"
     );
 }
+
+/// The submissions are listed a page at a time: `before` gives those older
+/// than an id, newest first.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn submissions_are_listed_a_page_at_a_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let seeded = common::seed_empty(dir.path());
+    let s = start(&seeded, |o| o.scoped.submit = Some(SUBMIT.into())).await;
+    let files = vec![("ui/a.png".to_string(), png(&frame8(1)))];
+    for _ in 0..5 {
+        submit(&s, &files).await;
+    }
+    let (_, first) = s.json("/api/v1/frames/submissions?limit=2").await;
+    let ids: Vec<i64> = first
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["id"].as_i64().unwrap())
+        .collect();
+    assert_eq!(ids, [5, 4]);
+    let (_, next) = s.json("/api/v1/frames/submissions?limit=2&before=4").await;
+    let ids: Vec<i64> = next
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["id"].as_i64().unwrap())
+        .collect();
+    assert_eq!(ids, [3, 2]);
+}

@@ -74,6 +74,9 @@ fn branch_key(branch: Option<&str>, main: &str) -> String {
 pub struct ListQuery {
     /// Newest submissions returned (default 50, at most 1000).
     limit: Option<u32>,
+    /// Only those older than this submission id: the next page, from the
+    /// last id of the one before.
+    before: Option<i64>,
 }
 
 /// The submissions, newest first.
@@ -87,7 +90,26 @@ pub async fn list(
     st.authorize_read(&headers)?;
     let q: ListQuery = query(q)?;
     let limit = limit(q.limit, 50, 1000)?;
-    json_text(&read(&st, move |h| h.submissions(limit)).await?)
+    let before = q.before.unwrap_or(i64::MAX);
+    let rows = read(&st, move |h| h.submissions_before(before, limit)).await?;
+    // Newest first until the listing's bytes are spent, as the queue's.
+    let (mut listed, mut bytes, mut truncated) = (Vec::with_capacity(rows.len()), 0, false);
+    for r in rows {
+        bytes += serde_json::to_vec(&r).map_or(0, |v| v.len());
+        if bytes > super::fleet::MAX_LISTING_BYTES && !listed.is_empty() {
+            truncated = true;
+            break;
+        }
+        listed.push(r);
+    }
+    let mut answer = json_text(&listed)?;
+    if truncated {
+        answer.headers_mut().insert(
+            "x-tonegate-truncated",
+            axum::http::HeaderValue::from_static("true"),
+        );
+    }
+    Ok(answer)
 }
 
 /// One submission: its row, the report it answered, and its frames as
