@@ -165,6 +165,39 @@ for name, b in report["bench"].items():
     if f:
         print(f"FLIP {f['size']}: GPU {f['gpu_ms']:.2f} ms, nv-flip {f['cpu_ms']:.2f} ms; means {f['gpu_mean']:.6f} / {f['cpu_mean']:.6f}; "
               f"every metric: GPU {f['gpu_all_ms']:.2f} ms, CPU {f['cpu_all_ms']:.2f} ms")
+# The targets for a hardware GPU (docs/adapters.md#targets-on-a-gpu), each
+# with its figure from this run and its ratio to the bound.
+def stage(bench_name, stage_name):
+    b = report["bench"].get(bench_name) or {}
+    for s in b.get("stages", []) if isinstance(b, dict) else []:
+        if s.get("name") == stage_name:
+            return s.get("floor_multiple")
+    return None
+def p50(bench_name, key):
+    b = report["bench"].get(bench_name) or {}
+    return (b.get(key) or {}).get("p50") if isinstance(b, dict) else None
+flip = (report["bench"].get("1920x1080-staged") or {}).get("flip") or {}
+targets = [
+    ("1080p fused frame with readback, ms", p50("1920x1080-fused", "frame_wall_ms_with_readback"), 0.5),
+    ("2160p fused frame with readback, ms", p50("3840x2160-fused", "frame_wall_ms_with_readback"), 2.0),
+    ("check of the built-in suite, s", ((c.get("phases") or {}).get("total_s")), 5.0),
+    ("FLIP at 1080p on the GPU, ms", flip.get("gpu_ms"), 5.0),
+]
+for size in ("1600x900", "1920x1080"):
+    for keys in ("default", "hardware"):
+        targets.append((f"taa at {size} ({keys} filter), x floor", stage(f"{size}-taa-clip-{keys}", "taa"), 3.0))
+    targets.append((f"taa_sobel at {size}, x floor", stage(f"{size}-taa-edge-aware-default", "taa_sobel"), 1.5))
+print()
+print(f"{'target':<44} {'measured':>10} {'bound':>7} {'ratio':>7}")
+for name, value, bound in targets:
+    if isinstance(value, (int, float)):
+        verdict = "met" if value <= bound else "missed"
+        print(f"{name:<44} {value:>10.3f} {bound:>7.2f} {value / bound:>7.2f}  {verdict}")
+    else:
+        print(f"{name:<44} {'?':>10} {bound:>7.2f}")
+print("(POST /tonemap latency, the frames judge with GPU metrics and the embedding are")
+print(" measured by `cargo bench --bench frames` and `--bench gpu_pipeline` in the same call;")
+print(" torch.compile by the peer script, beside them)")
 with open(os.path.join(out, "report.json"), "w") as fh:
     json.dump(report, fh, indent=1)
 print(f"report: {os.path.join(out, 'report.json')}")
