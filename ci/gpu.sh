@@ -195,9 +195,9 @@ for name, value, bound in targets:
         print(f"{name:<44} {value:>10.3f} {bound:>7.2f} {value / bound:>7.2f}  {verdict}")
     else:
         print(f"{name:<44} {'?':>10} {bound:>7.2f}")
-print("(POST /tonemap latency, the frames judge with GPU metrics and the embedding are")
-print(" measured by `cargo bench --bench frames` and `--bench gpu_pipeline` in the same call;")
-print(" torch.compile by the peer script, beside them)")
+print("(not here: the frames judge with the GPU's metrics, `cargo bench --bench frames`;")
+print(" the embedding against the renderer, `cargo bench --bench gpu_pipeline`; run them")
+print(" in the same call, with a peer such as torch.compile, to compare on one machine)")
 with open(os.path.join(out, "report.json"), "w") as fh:
     json.dump(report, fh, indent=1)
 print(f"report: {os.path.join(out, 'report.json')}")
