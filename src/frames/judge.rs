@@ -40,6 +40,8 @@ impl Ignores {
 /// What a submission's frames are judged with.
 pub(super) struct On<'a> {
     pub history: &'a History,
+    /// The submission's keys, which choose among the rules.
+    pub keys: &'a BTreeMap<String, String>,
     pub rules: &'a Rules,
     pub ignores: &'a Ignores,
     pub compare: Option<crate::metrics::CompareBy<'a>>,
@@ -123,7 +125,7 @@ fn judge(
             detail: "an untriaged frame reached judging undecoded (a tonegate bug)".into(),
         });
     };
-    let rule = rules.for_test(&input.test);
+    let rule = rules.for_test(&input.test, on.keys);
     let mut best: Option<Closest> = None;
     let mut problems = Vec::new();
     for (positive, _) in labels.iter().filter(|(_, l)| *l == Label::Positive) {
@@ -162,7 +164,17 @@ fn judge(
             c.failed.join(", ")
         ),
     };
-    let warn = rules.untriaged == Untriaged::Warn;
+    // A new test: nobody ever marked one of its digests either way.
+    let new_test = labels.iter().all(|(_, l)| *l == Label::Untriaged);
+    let (warn, why) = match rules.untriaged {
+        Untriaged::Warn => (true, why),
+        Untriaged::AcceptNew if new_test => (true, format!("{why}; a new test, accepted")),
+        Untriaged::AcceptNew => (
+            false,
+            format!("{why}; its test has marked digests, so this is a change, not a new test"),
+        ),
+        Untriaged::Fail => (false, why),
+    };
     let mut v = verdict(Status::Untriaged, warn, best, why);
     v.warning = warn;
     Ok(v)

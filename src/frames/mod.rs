@@ -446,6 +446,7 @@ pub fn submit(history: &History, s: Submission) -> Result<SubmissionReport, Fram
     let ignores = judge::Ignores::of(history.active_ignore_rules()?, &s.keys);
     let on = judge::On {
         history,
+        keys: &s.keys,
         rules: s.rules,
         ignores: &ignores,
         compare: s.compare,

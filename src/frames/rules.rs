@@ -16,6 +16,10 @@ pub enum Untriaged {
     Fail,
     /// Passes it, with a warning in the report.
     Warn,
+    /// Passes it with a warning when its test is new (no digest of the
+    /// test was ever marked positive or negative), and fails it otherwise:
+    /// new tests come in, changed ones are stopped.
+    AcceptNew,
 }
 
 /// The most `[[tests]]` rules a file may hold: each frame is matched
@@ -60,6 +64,11 @@ pub struct TestRule {
     /// A test name, where `*` stands for any characters but `/` and `**`
     /// for any characters at all.
     pub pattern: String,
+    /// The rule applies only to submissions with every one of these keys
+    /// (`{ backend = "dx12" }`: a looser bound for one backend, written
+    /// before the general rule, since the first that matches applies).
+    #[serde(default)]
+    pub keys: std::collections::BTreeMap<String, String>,
     /// Checks of an 8-bit or PQ PNG against a positive (the checks a
     /// scene's `[[checks]]` has for one frame against its golden).
     #[serde(default)]
@@ -161,9 +170,16 @@ impl Rules {
         Ok(())
     }
 
-    /// The rule for `test`: the first that matches.
-    pub fn for_test(&self, test: &str) -> Option<&TestRule> {
-        self.tests.iter().find(|r| matches(&r.pattern, test))
+    /// The rule for `test` in a submission with `keys`: the first whose
+    /// pattern matches the test and whose keys the submission has.
+    pub fn for_test(
+        &self,
+        test: &str,
+        keys: &std::collections::BTreeMap<String, String>,
+    ) -> Option<&TestRule> {
+        self.tests.iter().find(|r| {
+            matches(&r.pattern, test) && r.keys.iter().all(|(k, v)| keys.get(k) == Some(v))
+        })
     }
 }
 
@@ -265,6 +281,34 @@ mod tests {
         assert!(matches("é*", "été"));
     }
 
+    /// Rules chosen by the submission's keys, first match first: dx12's
+    /// own rule before the general one.
+    #[test]
+    fn a_rule_can_be_chosen_by_the_submissions_keys() {
+        let rules = Rules::parse(
+            "untriaged = \"accept_new\"\n\
+             [[tests]]\npattern = \"**\"\nkeys = { backend = \"dx12\" }\nchecks = [{ max_abs_diff = 8 }]\n\
+             [[tests]]\npattern = \"**\"\nchecks = [{ max_abs_diff = 1 }]\n",
+            "rules.toml",
+        )
+        .unwrap();
+        assert_eq!(rules.untriaged, Untriaged::AcceptNew);
+        let keys =
+            |b: &str| std::collections::BTreeMap::from([("backend".to_owned(), b.to_owned())]);
+        let bound = |b: &str| {
+            rules.for_test("ui/x", &keys(b)).unwrap().checks[0]
+                .rule()
+                .bound
+        };
+        assert_eq!((bound("dx12"), bound("vulkan")), (8.0, 1.0));
+        assert_eq!(
+            rules.for_test("ui/x", &Default::default()).unwrap().checks[0]
+                .rule()
+                .bound,
+            1.0
+        );
+    }
+
     /// The pattern that backtracking took minutes over (ten `**a`s and a
     /// final `**b`, against a hundred `a`s): matched by positions, it is
     /// answered at once; by backtracking this test would not end.
@@ -294,7 +338,8 @@ mod tests {
         .unwrap();
         ok.check().unwrap();
         assert_eq!(ok.untriaged, Untriaged::Warn);
-        assert!(ok.for_test("ui/button").is_some() && ok.for_test("menu").is_none());
+        let none = std::collections::BTreeMap::new();
+        assert!(ok.for_test("ui/button", &none).is_some() && ok.for_test("menu", &none).is_none());
         let fps: Rules =
             toml::from_str("[[tests]]\npattern = \"a\"\nchecks = [{ min_fps = 30.0 }]").unwrap();
         assert!(fps

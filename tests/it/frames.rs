@@ -579,3 +579,51 @@ fn a_frame_over_the_decode_budget_is_refused_before_it_is_decoded() {
     assert_eq!(roomy.code, 1, "{}", roomy.stderr);
     assert_eq!(frame(&roomy.report, "big")["status"], "untriaged");
 }
+
+/// `untriaged = "accept_new"`: a new test passes with a warning, a changed
+/// one fails. A first submission of two tests passes; once one is marked,
+/// a change to it fails while a test seen for the first time still passes.
+#[test]
+fn accept_new_lets_new_tests_in_and_stops_changed_ones() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (db, dir) = (tmp.path().join("h.sqlite"), tmp.path().join("frames"));
+    std::fs::create_dir_all(&dir).unwrap();
+    let rules = tmp.path().join("rules.toml");
+    std::fs::write(&rules, "untriaged = \"accept_new\"\n").unwrap();
+    let rules = rules.to_str().unwrap();
+    write_frame_png(&dir.join("menu.png"), &Frame::Rgb8(frame8(0))).unwrap();
+    write_frame_png(&dir.join("hud.png"), &Frame::Rgb8(frame8(9))).unwrap();
+    let first = submit(&db, &dir, &["--rules", rules]);
+    assert_eq!(first.code, 0, "{}", first.report);
+    assert_eq!(frame(&first.report, "menu")["warning"], true);
+    let digest = frame(&first.report, "menu")["digest"]
+        .as_str()
+        .unwrap()
+        .to_owned();
+    let out = frames_cmd(
+        &db,
+        "triage",
+        &[
+            "--test", "menu", "--digest", &digest, "positive", "--who", "ana", "--why", "ok",
+        ],
+    );
+    succeeded(&out);
+    write_frame_png(&dir.join("menu.png"), &Frame::Rgb8(frame8(4))).unwrap();
+    write_frame_png(&dir.join("radar.png"), &Frame::Rgb8(frame8(21))).unwrap();
+    let second = submit(&db, &dir, &["--rules", rules]);
+    assert_eq!(second.code, 1, "{}", second.report);
+    let menu = frame(&second.report, "menu");
+    assert_eq!(
+        (menu["passed"].clone(), menu["warning"].clone()),
+        (Value::Bool(false), Value::Bool(false))
+    );
+    assert!(
+        menu["detail"]
+            .as_str()
+            .unwrap()
+            .contains("a change, not a new test"),
+        "{menu}"
+    );
+    assert_eq!(frame(&second.report, "radar")["passed"], true);
+    assert_eq!(frame(&second.report, "radar")["warning"], true);
+}
