@@ -32,7 +32,19 @@ struct Adapted {
 override WEIGHTED: bool = false;
 override EXPOSE: bool = false;
 
+// Whether `x` is a finite number, by its exponent bits (a comparison such
+// as x - x == 0 is one a driver's fast math may fold away).
+fn finite(x: f32) -> bool {
+    return (bitcast<u32>(x) & 0x7f800000u) != 0x7f800000u;
+}
+
+// A non-finite measurement (a NaN or infinite pixel made the frame's log
+// average one) never enters the state: the adapted value stays as it was,
+// and a first frame takes ln 1 = 0 (docs/adaptation.md#bad-pixels).
 fn follow(a: f32, m: f32) -> f32 {
+    if (!finite(m)) {
+        return select(a, 0.0, steps.reset != 0u);
+    }
     if (steps.reset != 0u) {
         return m;
     }

@@ -16,7 +16,11 @@ pub struct Adapted {
 /// moved toward the frame's `measured` statistics by the fraction of the
 /// gap `steps` gives (up, down: [`Adaptation::steps`]).
 pub fn adapt(measured: &LuminanceStats, before: Option<&Adapted>, steps: (f64, f64)) -> Adapted {
+    // A non-finite measurement (a NaN or infinite pixel) never enters the
+    // state: the adapted value stays, and a first frame takes ln 1 = 0
+    // (docs/adaptation.md#bad-pixels).
     let step = |a: Option<f64>, m: f64| match a {
+        _ if !m.is_finite() => a.unwrap_or(0.0),
         None => m,
         Some(a) => a + (m - a) * if m > a { steps.0 } else { steps.1 },
     };
@@ -62,6 +66,20 @@ mod tests {
         LuminanceStats {
             log_average: Some(l),
             ..Default::default()
+        }
+    }
+
+    /// An infinite or NaN measurement leaves the state where it was, and a
+    /// first frame's is ln 1.
+    #[test]
+    fn a_non_finite_measurement_never_enters_the_state() {
+        let a = Adaptation::default();
+        let steps = a.steps(1.0 / 60.0);
+        let before = adapt(&stats(0.5), None, steps);
+        for bad in [f64::INFINITY, f64::NAN, 0.0] {
+            let after = adapt(&stats(bad), Some(&before), steps);
+            assert_eq!(after.log_average, before.log_average, "{bad}");
+            assert_eq!(adapt(&stats(bad), None, steps).log_average, 0.0, "{bad}");
         }
     }
 

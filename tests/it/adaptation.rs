@@ -341,3 +341,95 @@ fn the_light_step_scales_the_gpus_sphere_frame_by_one_product() {
     }
     assert!(checked > unlit.pixels.len(), "the frame is not black");
 }
+
+/// One pixel above f16's range (+inf in an `Rgba16Float` input: a sun, a
+/// specular spike) on one frame: the adapted luminance stays what it was
+/// (that frame's measurement never enters the state), and the frames after
+/// it are mapped as before, not black. It used to turn the adapted value
+/// into NaN for good, every later frame all 0.
+#[test]
+fn an_overflowing_pixel_never_blacks_out_the_frames_after_it() {
+    let (device, queue) = own_device("llvmpipe");
+    let img = night_and_ramp();
+    let (w, h) = (img.width, img.height);
+    let half_input = |spike: bool| {
+        let t = texture(
+            &device,
+            (w, h),
+            1,
+            wgpu::TextureFormat::Rgba16Float,
+            wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        );
+        let mut texels: Vec<u16> = img
+            .pixels
+            .iter()
+            .flat_map(|p| [p[0], p[1], p[2], 1.0].map(|c| half::f16::from_f32(c).to_bits()))
+            .collect();
+        if spike {
+            for c in &mut texels[4 * 77..4 * 77 + 3] {
+                *c = half::f16::INFINITY.to_bits();
+            }
+        }
+        queue.write_texture(
+            t.as_image_copy(),
+            bytemuck::cast_slice(&texels),
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(w * 8),
+                rows_per_image: None,
+            },
+            t.size(),
+        );
+        t
+    };
+    let (calm, sun) = (half_input(false), half_input(true));
+    let (calm, sun) = (view(&calm), view(&sun));
+    let output = texture(
+        &device,
+        (w, h),
+        1,
+        wgpu::TextureFormat::Rgba8Unorm,
+        wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::COPY_SRC,
+    );
+    let out = view(&output);
+    for operator in ["agx", "reinhard-global"] {
+        let mut mapper = ToneMapper::new(
+            &device,
+            &queue,
+            ToneMapperSettings {
+                operator: Operator::named(operator, &[]).unwrap(),
+                adaptation: Some(Adaptation::default()),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let mut frame = |input: &wgpu::TextureView| {
+            let mut encoder = device.create_command_encoder(&Default::default());
+            mapper.record(&mut encoder, input, &out).unwrap();
+            queue.submit([encoder.finish()]);
+            mapper.read_adapted_luminance().unwrap().unwrap()
+        };
+        let mut before = 0.0;
+        for _ in 0..5 {
+            before = frame(&calm);
+        }
+        let during = frame(&sun);
+        assert_eq!(
+            during, before,
+            "{operator}: the spike's frame moved the state"
+        );
+        let mut after = 0.0;
+        for _ in 0..3 {
+            after = frame(&calm);
+        }
+        assert!(after.is_finite() && after > 0.0, "{operator}: {after}");
+        let lit = read(&device, &queue, &output, 0)
+            .iter()
+            .filter(|t| matches!(t, Texel::Codes(c) if c.iter().any(|&v| v > 0)))
+            .count();
+        assert!(
+            lit > (w * h / 2) as usize,
+            "{operator}: {lit} lit pixels after the spike"
+        );
+    }
+}
