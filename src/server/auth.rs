@@ -25,7 +25,7 @@ fn same_secret(a: &[u8], b: &[u8]) -> bool {
 
 /// What a token may do. The server's own token (`--token-file`) may do
 /// everything; the scoped tokens one thing each.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Scope {
     /// Start runs and the rest of what only the server's token may do.
     Write,
@@ -118,6 +118,13 @@ impl AppState {
 
     pub fn authorize_write(&self, headers: &HeaderMap) -> Result<(), ApiError> {
         self.authorize(headers, Scope::Write)
+    }
+
+    /// The scope of the request's token when it carries one of the
+    /// server's, else None (anonymous, or a wrong token).
+    pub fn token_of(&self, headers: &HeaderMap) -> Option<Scope> {
+        headers.get(header::AUTHORIZATION)?;
+        self.token_scope(headers, Scope::Write).ok()
     }
 
     /// Whether the request may see results: always, unless reads are private

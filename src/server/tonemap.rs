@@ -49,7 +49,7 @@ pub async fn tonemap(
 ) -> Result<Response, ApiError> {
     let started = std::time::Instant::now();
     let headers = req.headers().clone();
-    let client = super::uploads::client_of(req.extensions(), &headers, &st.limits.trusted_proxies);
+    let client = st.upload_client(req.extensions(), &headers);
     let mut pairs = query_pairs(q.as_deref()).map_err(ApiError::closing)?;
     let is_multipart = headers
         .get(header::CONTENT_TYPE)

@@ -26,7 +26,7 @@ pub struct Uploads {
     open: AtomicUsize,
     held: AtomicU64,
     /// Each client's open uploads and the bytes they hold.
-    clients: Mutex<HashMap<IpAddr, (usize, u64)>>,
+    clients: Mutex<HashMap<Client, (usize, u64)>>,
     /// Uploads refused for either bound, for `/metrics`.
     pub refused: AtomicU64,
 }
@@ -36,7 +36,7 @@ pub struct Uploads {
 pub struct Upload {
     of: Arc<Uploads>,
     held: u64,
-    client: Option<IpAddr>,
+    client: Option<Client>,
 }
 
 impl Uploads {
@@ -66,7 +66,7 @@ impl Uploads {
 
     /// A place for one more body from `client`, or 503 `busy` when the
     /// client has its share of places, or `max_uploads` are being received.
-    pub fn begin_for(self: &Arc<Self>, client: Option<IpAddr>) -> Result<Upload, ApiError> {
+    pub fn begin_for(self: &Arc<Self>, client: Option<Client>) -> Result<Upload, ApiError> {
         if let Some(ip) = client {
             let mut clients = self.clients.lock().unwrap_or_else(|p| p.into_inner());
             let entry = clients.entry(ip).or_insert((0, 0));
@@ -205,6 +205,31 @@ impl Drop for Upload {
 #[derive(Clone, Copy, Debug)]
 pub struct Peer(pub IpAddr);
 
+/// Whose uploads are counted together: a token's holder (a CI job), apart
+/// from whatever shares its address, or else an address.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Client {
+    Token(super::Scope),
+    Address(IpAddr),
+}
+
+impl super::AppState {
+    /// The client a request's upload is counted against: its token's, when
+    /// it carries one of the server's, else its address ([`client_of`]).
+    pub fn upload_client(
+        &self,
+        extensions: &axum::http::Extensions,
+        headers: &axum::http::HeaderMap,
+    ) -> Option<Client> {
+        match self.token_of(headers) {
+            Some(scope) => Some(Client::Token(scope)),
+            None => {
+                client_of(extensions, headers, &self.limits.trusted_proxies).map(Client::Address)
+            }
+        }
+    }
+}
+
 /// The client a request comes from: its peer, or, when the peer is one of
 /// `trusted` proxies, the last address of `X-Forwarded-For` that is not
 /// itself a trusted proxy (what the proxy saw). None for a request the
@@ -301,7 +326,10 @@ mod tests {
     #[test]
     fn one_client_holds_at_most_its_share() {
         let u = Uploads::with_share(8, 800, 2);
-        let (a, b): (IpAddr, IpAddr) = ("10.0.0.1".parse().unwrap(), "10.0.0.2".parse().unwrap());
+        let (a, b) = (
+            Client::Address("10.0.0.1".parse().unwrap()),
+            Client::Address("10.0.0.2".parse().unwrap()),
+        );
         let mut first = u.begin_for(Some(a)).unwrap();
         let _second = u.begin_for(Some(a)).unwrap();
         let third = u.begin_for(Some(a)).err().expect("a third from one client");

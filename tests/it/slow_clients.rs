@@ -164,7 +164,8 @@ async fn an_image_too_large_is_refused_from_its_header_before_its_body_is_in() {
 
 /// One address opens 260 slow uploads: it holds its share of the places
 /// (32) and the rest are refused at once, while a tone-map from another
-/// address is answered 200. When the places were not shared out, those
+/// address is answered 200, and so is one from the same address under a
+/// token (a token's holder is a client of its own). When the places were not shared out, those
 /// uploads took all 256 and everyone got 503 for as long as they lasted.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn one_address_slow_uploads_leave_places_for_the_others() {
@@ -198,6 +199,30 @@ async fn one_address_slow_uploads_leave_places_for_the_others() {
     let status = r.status();
     let body = r.text().await.unwrap_or_default();
     assert_eq!(status, StatusCode::OK, "another address: {body}");
+    // From the flood's own address: anonymous, it is refused (the address
+    // holds its share); with the server's token, it is a client of its own.
+    let same_address = reqwest::Client::builder()
+        .local_address(std::net::IpAddr::from(flood))
+        .build()
+        .unwrap();
+    let from_flood = |token: bool| {
+        let mut r = same_address
+            .post(format!("{}/api/v1/tonemap?gpu=false", s.base))
+            .body(hdr.clone());
+        if token {
+            r = r.bearer_auth(common::server::TOKEN);
+        }
+        r.send()
+    };
+    let anonymous = from_flood(false).await.unwrap();
+    assert_eq!(anonymous.status(), StatusCode::SERVICE_UNAVAILABLE);
+    let with_token = from_flood(true).await.unwrap();
+    assert_eq!(
+        with_token.status(),
+        StatusCode::OK,
+        "{}",
+        with_token.text().await.unwrap_or_default()
+    );
     for t in &slow {
         t.abort();
     }

@@ -173,8 +173,7 @@ where
 pub async fn submit(State(st): State<Arc<AppState>>, req: Request) -> Result<Response, ApiError> {
     let headers = req.headers().clone();
     let limit = st.limits.max_body;
-    let client =
-        super::super::uploads::client_of(req.extensions(), &headers, &st.limits.trusted_proxies);
+    let client = st.upload_client(req.extensions(), &headers);
     let mut upload = (|| {
         st.authorize(&headers, Scope::Submit)?;
         super::super::edge::declared_too_large(&headers, limit)?;
