@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use tonegate::error::Result;
 use tonegate::frames::rules::Rules;
-use tonegate::frames::{collect_folder, parse_keys, submit, Submission};
+use tonegate::frames::{collect_folder_noting, parse_keys, submit, Submission};
 use tonegate::gate::MetricsOn;
 use tonegate::history::{History, Label, MAIN};
 
@@ -197,7 +197,14 @@ fn submit_folder(a: SubmitArgs) -> Result<ExitCode> {
         a.decode_budget_mib << 20,
         tonegate::frames::budget::DEFAULT_WAIT,
     );
-    let inputs = collect_folder(&a.folder)?;
+    let (inputs, skipped) = collect_folder_noting(&a.folder)?;
+    if let Some(first) = skipped.first() {
+        eprintln!(
+            "skipped {} file(s) that are not images (.png, .exr, .hdr, .pfm): {first}{}",
+            skipped.len(),
+            if skipped.len() > 1 { ", …" } else { "" }
+        );
+    }
     let report = match &a.server {
         Some(server) => super::frames_remote::submit(
             super::frames_remote::Remote {

@@ -116,7 +116,14 @@ pub enum Decoded {
 /// `ui/button.png`), in name order. Files of other extensions are left
 /// out; links are not followed.
 pub fn collect_folder(folder: &Path) -> Result<Vec<Input>, FramesError> {
+    Ok(collect_folder_noting(folder)?.0)
+}
+
+/// [`collect_folder`], with the files it left out (not images, or not
+/// regular files), by path, so that a command can say so.
+pub fn collect_folder_noting(folder: &Path) -> Result<(Vec<Input>, Vec<String>), FramesError> {
     let name = folder.display().to_string();
+    let mut skipped = Vec::new();
     let mut found: BTreeMap<String, PathBuf> = BTreeMap::new();
     let mut pending = vec![folder.to_path_buf()];
     let mut files = 0usize;
@@ -144,6 +151,7 @@ pub fn collect_folder(folder: &Path) -> Result<Vec<Input>, FramesError> {
                 .and_then(|e| e.to_str())
                 .map(str::to_ascii_lowercase);
             if !kind.is_file() || !ext.is_some_and(|e| EXTENSIONS.contains(&e.as_str())) {
+                skipped.push(path.display().to_string());
                 continue;
             }
             files += 1;
@@ -169,14 +177,16 @@ pub fn collect_folder(folder: &Path) -> Result<Vec<Input>, FramesError> {
     if found.is_empty() {
         return Err(FramesError::Empty { folder: name });
     }
-    Ok(found
+    skipped.sort();
+    let inputs = found
         .into_iter()
         .map(|(test, path)| Input {
             test,
             file: path.display().to_string(),
             source: Source::Path(path),
         })
-        .collect())
+        .collect();
+    Ok((inputs, skipped))
 }
 
 fn ordered(a: &Path, b: &Path) -> (String, String) {
@@ -366,13 +376,16 @@ pub fn test_of_upload(name: &str) -> Result<String, FramesError> {
     Ok(stem.to_owned())
 }
 
-/// Decodes a submitted image: a PNG (by its signature) as a frame, 8-bit
+/// Decodes a submitted image: a PNG (by its signature or its name) as a frame, 8-bit
 /// or 16-bit with a cICP chunk saying BT.2100 PQ; anything else as EXR,
 /// Radiance or PFM light (NaN and infinities refused). `file` names it in
 /// errors.
 pub fn decode_bytes(bytes: &[u8], file: &str) -> Result<Decoded, FramesError> {
     const PNG: [u8; 8] = [0x89, b'P', b'N', b'G', b'\r', b'\n', 0x1a, b'\n'];
-    Ok(if bytes.starts_with(&PNG) {
+    // A file named .png is read as one, so that a damaged one is reported
+    // by the PNG reader, not as "not an HDR image".
+    let named_png = file.to_ascii_lowercase().ends_with(".png");
+    Ok(if bytes.starts_with(&PNG) || named_png {
         Decoded::Frame(crate::io::decode_frame_png(bytes, file)?)
     } else {
         Decoded::Hdr(crate::io::decode_hdr(bytes, file, &LoadOptions::default())?.0)

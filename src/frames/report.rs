@@ -202,13 +202,18 @@ impl SubmissionReport {
             };
             let mut case = TestCase::new(f.test.clone(), status);
             case.set_classname("tonegate.frames");
+            // A warning passes, and says so where a CI's test view shows it.
+            let warned = if f.warning { "WARNING (passes): " } else { "" };
             case.set_system_out(format!(
-                "{} {} {}: {}",
+                "{warned}{} {} {}: {}",
                 f.file,
                 f.digest,
                 f.status.as_str(),
                 f.detail
             ));
+            if f.warning {
+                case.set_system_err(format!("WARNING: {}: {}", f.test, f.detail));
+            }
             suite.add_test_case(case);
         }
         report.add_test_suite(suite);
@@ -216,7 +221,6 @@ impl SubmissionReport {
     }
 }
 
-/// The report a stored submission answered with.
 /// How a submission of `keys` and `digests` (test → digest) differs from
 /// the one `first` reports, in words; None when it is the same.
 pub fn difference(
@@ -269,6 +273,7 @@ fn clip(text: &str) -> String {
     }
 }
 
+/// The report a stored submission answered with.
 pub fn stored(s: &StoredSubmission) -> Result<SubmissionReport, FramesError> {
     let mut report: SubmissionReport = serde_json::from_str(&s.report)
         .map_err(|e| HistoryError::Invalid(format!("submission {}'s stored report: {e}", s.id)))?;

@@ -627,3 +627,46 @@ fn accept_new_lets_new_tests_in_and_stops_changed_ones() {
     assert_eq!(frame(&second.report, "radar")["passed"], true);
     assert_eq!(frame(&second.report, "radar")["warning"], true);
 }
+
+/// The folder's non-image files are named as skipped; a damaged `.png` is
+/// reported by the PNG reader (it was "not an HDR image … OpenEXR, Radiance,
+/// PFM"); a warning shows in the JUnit the CI reads.
+#[test]
+fn skipped_files_damaged_pngs_and_warnings_are_said() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (db, dir) = (tmp.path().join("h.sqlite"), tmp.path().join("frames"));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("notes.txt"), "not a frame").unwrap();
+    std::fs::write(dir.join("broken.png"), b"GIF89a this is no png at all").unwrap();
+    let bad = submit(&db, &dir, &[]);
+    assert_eq!(bad.code, 2, "{}", bad.stderr);
+    assert!(
+        bad.stderr.contains("skipped 1 file(s) that are not images"),
+        "{}",
+        bad.stderr
+    );
+    assert!(bad.stderr.contains("notes.txt"), "{}", bad.stderr);
+    assert!(bad.stderr.contains("broken.png"), "{}", bad.stderr);
+    assert!(!bad.stderr.contains("not an HDR image"), "{}", bad.stderr);
+    std::fs::remove_file(dir.join("broken.png")).unwrap();
+    write_frame_png(&dir.join("hud.png"), &Frame::Rgb8(frame8(2))).unwrap();
+    let warn = tmp.path().join("warn.toml");
+    std::fs::write(&warn, "untriaged = \"warn\"\n").unwrap();
+    let junit = tmp.path().join("frames.xml");
+    let warned = submit(
+        &db,
+        &dir,
+        &[
+            "--rules",
+            warn.to_str().unwrap(),
+            "--junit",
+            junit.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(warned.code, 0, "{}", warned.stderr);
+    let xml = std::fs::read_to_string(&junit).unwrap();
+    assert!(
+        xml.contains("WARNING (passes)") && xml.contains("<system-err>"),
+        "{xml}"
+    );
+}
