@@ -71,16 +71,8 @@ pub fn total() -> u64 {
 /// refuses the file).
 pub fn cost(bytes: &[u8], compared: bool) -> Option<u64> {
     const PNG: [u8; 8] = [0x89, b'P', b'N', b'G', b'\r', b'\n', 0x1a, b'\n'];
-    let (w, h) = if bytes.starts_with(&PNG) {
-        // IHDR comes first: width and height at bytes 16..24, big-endian.
-        let word = |at: usize| -> Option<u64> {
-            let b: [u8; 4] = bytes.get(at..at + 4)?.try_into().ok()?;
-            Some(u64::from(u32::from_be_bytes(b)))
-        };
-        (word(16)?, word(20)?)
-    } else {
-        crate::io::peek::dimensions(bytes)?
-    };
+    let (w, h) =
+        crate::io::peek::png_dimensions(bytes).or_else(|| crate::io::peek::dimensions(bytes))?;
     let decode = if bytes.starts_with(&PNG) {
         // The IHDR chunk's bit depth is byte 24.
         if bytes.get(24) == Some(&16) {

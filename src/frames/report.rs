@@ -2,6 +2,7 @@
 //! positive it was judged by, as JSON and JUnit, and the exit code CI
 //! reads (0 passed, 1 failed, 2 the submission could not be judged).
 
+use super::names::clip;
 use super::FramesError;
 use crate::history::{HistoryError, StoredSubmission};
 use serde::{Deserialize, Serialize};
@@ -236,8 +237,8 @@ pub fn difference(
         let (was, now) = (shown(&first.keys), shown(keys));
         return Some(format!(
             "its keys were {} and are now {}",
-            clip(&was),
-            clip(&now)
+            clip(&was, 48),
+            clip(&now, 48)
         ));
     }
     let before: BTreeMap<&str, &str> = first
@@ -247,11 +248,11 @@ pub fn difference(
         .collect();
     for (test, digest) in digests {
         match before.get(test) {
-            None => return Some(format!("test {} is new", clip(test))),
+            None => return Some(format!("test {} is new", clip(test, 48))),
             Some(d) if d != digest => {
                 return Some(format!(
                     "test {}'s frame was {} and is now {}",
-                    clip(test),
+                    clip(test, 48),
                     &d[..d.len().min(12)],
                     &digest[..digest.len().min(12)]
                 ))
@@ -262,15 +263,7 @@ pub fn difference(
     before
         .keys()
         .find(|t| !digests.contains_key(*t))
-        .map(|t| format!("test {} is missing", clip(t)))
-}
-
-/// A client's text in an error, cut to 48 characters.
-fn clip(text: &str) -> String {
-    match text.char_indices().nth(48) {
-        Some((at, _)) => format!("{}…", &text[..at]),
-        None => text.to_owned(),
-    }
+        .map(|t| format!("test {} is missing", clip(t, 48)))
 }
 
 /// The report a stored submission answered with.

@@ -30,6 +30,7 @@ mod schema;
 mod sqlite;
 mod stamps;
 mod submissions;
+mod triage;
 
 pub use address::{is_url, redacted, without_host};
 pub use alerts::{AlertAttempt, AlertDelivery, AlertRow, Attempted, DueDelivery, RunBrief};
@@ -39,21 +40,21 @@ pub use artifacts::{
 };
 use backend::{args, Backend};
 pub use fleet::{ClaimedJob, Expired, RunnerInfo, RunnerRow, MAX_ATTEMPTS};
-pub use frames::{
-    IgnoreRule, Label, NewFrame, NewSubmission, StoredSubmission, TriageEntry, MAIN,
-    MAX_PATTERN_CHARS,
-};
+pub use frames::{Label, NewFrame, NewSubmission, StoredSubmission, MAIN, MAX_PATTERN_CHARS};
 pub use jobs::{valid_label, JobRow, JobSpec, LISTED_SCENES, MAX_QUEUED_JOBS};
 pub use objects::{artifact_store, is_store_url, set_artifact_store, store_last_recovery, Objects};
 pub use query::{RunRow, RunsFilter, TradeoffRow, TrendFilter, TrendPoint};
 pub use reconnect::{last_recovery, set_retry_budget};
-pub use record::{CheckRecord, FrameRecord, Regression, SceneRecord, TradeoffRecord};
+pub use record::{
+    CheckRecord, FrameRecord, Regression, RunAdapter, RunMeta, SceneRecord, TradeoffRecord,
+};
 use rusqlite::Connection;
 use schema::MIGRATIONS;
 pub use schema::SCHEMA_VERSION;
 use stamps::{ago, process_start};
 pub use stamps::{git_commit, host_name, now, write_problem};
 pub use submissions::{SubmissionRow, SubmittedFrame};
+pub use triage::{IgnoreRule, TriageEntry};
 
 /// The schema's migrations, oldest first: for tests and tools that build a
 /// history as an older tonegate wrote it.
@@ -219,25 +220,6 @@ stored_as_words!(RunStatus {
     Error => "error",
     Aborted => "aborted",
 });
-
-/// What is known about a run when it starts.
-#[derive(Clone, Debug, Default, Serialize)]
-pub struct RunMeta {
-    pub suite: Option<String>,
-    pub suite_hash: Option<String>,
-    pub git_commit: Option<String>,
-}
-
-/// The adapter a run used, filled in once the device is open.
-#[derive(Clone, Debug, Default, Serialize)]
-pub struct RunAdapter {
-    pub name: String,
-    pub backend: String,
-    pub driver: String,
-    pub driver_info: String,
-    /// The renderer's knobs as JSON (intermediates, reduction, filter, spp).
-    pub config: String,
-}
 
 /// A connection to the PostgreSQL history at `url`.
 #[cfg(feature = "postgres")]

@@ -3,10 +3,29 @@
 
 use super::backend::args;
 use super::{host_name, now, process_start, History, HistoryError};
-use super::{RunAdapter, RunKind, RunMeta, RunStatus};
+use super::{RunKind, RunStatus};
 use crate::metrics::Metrics;
 use crate::perf::TimingSummary;
 use serde::Serialize;
+
+/// What is known about a run when it starts.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct RunMeta {
+    pub suite: Option<String>,
+    pub suite_hash: Option<String>,
+    pub git_commit: Option<String>,
+}
+
+/// The adapter a run used, filled in once the device is open.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct RunAdapter {
+    pub name: String,
+    pub backend: String,
+    pub driver: String,
+    pub driver_info: String,
+    /// The renderer's knobs as JSON (intermediates, reduction, filter, spp).
+    pub config: String,
+}
 
 /// One frame's metrics against its golden.
 #[derive(Clone, Debug)]

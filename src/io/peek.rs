@@ -49,6 +49,20 @@ pub fn dimensions(head: &[u8]) -> Option<(u64, u64)> {
     }
 }
 
+/// The width and height a PNG's header states (IHDR comes first: width
+/// and height at bytes 16..24, big-endian); None for anything else.
+pub fn png_dimensions(head: &[u8]) -> Option<(u64, u64)> {
+    const PNG: [u8; 8] = [0x89, b'P', b'N', b'G', b'\r', b'\n', 0x1a, b'\n'];
+    if !head.starts_with(&PNG) || head.get(12..16) != Some(b"IHDR") {
+        return None;
+    }
+    let word = |at: usize| -> Option<u64> {
+        let b: [u8; 4] = head.get(at..at + 4)?.try_into().ok()?;
+        Some(u64::from(u32::from_be_bytes(b)))
+    };
+    Some((word(16)?, word(20)?))
+}
+
 /// `PF` or `Pf`, whitespace, width, whitespace, height, whitespace.
 fn pfm(head: &[u8]) -> Option<(u64, u64)> {
     let rest = &head[2..];

@@ -107,7 +107,7 @@ pub struct ServeOptions {
     pub alerts: Option<crate::alerts::Alerts>,
 }
 
-pub use auth::{Scope, ScopedTokens};
+pub use auth::{load_or_make_token, Scope, ScopedTokens, MIN_TOKEN_CHARS};
 
 /// The one suite run the server lets go at a time.
 pub enum RunSlot {
@@ -454,53 +454,4 @@ impl Server {
         }
         served
     }
-}
-
-/// The shortest token a token file may hold: a guessable one is no lock.
-pub const MIN_TOKEN_CHARS: usize = 16;
-
-/// Reads the token from `path` (at least [`MIN_TOKEN_CHARS`] characters),
-/// or makes one there (mode 0600) when the file does not exist; the token
-/// is 32 random bytes in hex.
-pub fn load_or_make_token(path: &std::path::Path) -> Result<String, crate::Error> {
-    let err = |e: std::io::Error| crate::Error::File {
-        path: path.to_owned(),
-        source: e,
-    };
-    match crate::io::read_small_text(path) {
-        Ok(s) if s.trim().chars().count() >= MIN_TOKEN_CHARS => return Ok(s.trim().to_owned()),
-        Ok(s) if !s.trim().is_empty() => {
-            return Err(crate::Error::Invalid(format!(
-                "{}: the token is {} characters; a token is at least {MIN_TOKEN_CHARS} (delete the file and serve makes a random one)",
-                path.display(),
-                s.trim().chars().count()
-            )))
-        }
-        Ok(_) => {
-            return Err(crate::Error::Invalid(format!(
-                "{}: the token file is empty",
-                path.display()
-            )))
-        }
-        Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(err(e)),
-        Err(_) => {}
-    }
-    let mut bytes = [0u8; 32];
-    use std::io::Read;
-    std::fs::File::open("/dev/urandom")
-        .and_then(|mut f| f.read_exact(&mut bytes))
-        .map_err(|e| crate::Error::Invalid(format!("reading /dev/urandom for a token: {e}")))?;
-    let token = hex::encode(bytes);
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(err)?;
-    }
-    use std::io::Write;
-    let mut options = std::fs::OpenOptions::new();
-    options.write(true).create_new(true);
-    // Readable by its owner only, where the platform has modes.
-    #[cfg(unix)]
-    std::os::unix::fs::OpenOptionsExt::mode(&mut options, 0o600);
-    let mut f = options.open(path).map_err(err)?;
-    writeln!(f, "{token}").map_err(err)?;
-    Ok(token)
 }

@@ -68,7 +68,7 @@ async fn post_form(
     )
 }
 
-async fn post_json(
+pub(crate) async fn post_json(
     client: &reqwest::Client,
     url: String,
     token: &str,

@@ -12,22 +12,14 @@ use crate::frames_api::{form, png, SUBMIT, TRIAGE};
 use reqwest::StatusCode;
 use serde_json::{json, Value};
 
+/// `frames_api`'s JSON POST, to a path of the server `s`.
 async fn post(
     s: &common::server::Running,
     path: &str,
     token: &str,
     body: Value,
 ) -> (StatusCode, Value) {
-    let r = s
-        .client
-        .post(format!("{}{path}", s.base))
-        .bearer_auth(token)
-        .json(&body)
-        .send()
-        .await
-        .unwrap();
-    let status = r.status();
-    (status, r.json().await.unwrap())
+    crate::frames_api::post_json(&s.client, format!("{}{path}", s.base), token, body).await
 }
 
 async fn submit(s: &common::server::Running, files: &[(String, Vec<u8>)]) -> Value {

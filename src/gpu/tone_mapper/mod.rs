@@ -14,6 +14,7 @@
 //! `Rgba32Float` gives the bytes `tonegate tonemap --gpu` writes on the
 //! same adapter, in every 8-bit target and by either path.
 
+mod record;
 mod settings;
 mod taa;
 mod target;
@@ -28,7 +29,7 @@ pub use target::{
 };
 pub use timing::MapperTimings;
 
-use super::adaptation::{adapted_buffer, steps_buffer, Steps};
+use super::adaptation::{adapted_buffer, steps_buffer};
 use super::config::ReductionMethod;
 use super::stages::{shared_buffer, uniform_buffer, Dispatch, ImageView};
 use super::tonemap::OperatorShader;
@@ -399,170 +400,5 @@ impl ToneMapper {
             .read_buffer(stamps.read_buffer())
             .map_err(ToneMapperError::Readback)?;
         Ok(Some(stamps.timings(&ticks)))
-    }
-
-    /// Records the tone mapping of `input` into `output`: the statistics
-    /// and the curve as one compute pass of `encoder`, and the target
-    /// written in that pass or in a render pass after it; nothing is
-    /// submitted.
-    ///
-    /// `input`: a view of a texture in one of [`INPUT_FORMATS`], with
-    /// `TEXTURE_BINDING`. `output`: a view in the settings' `target`
-    /// format, with `STORAGE_BINDING` for the compute path or
-    /// `RENDER_ATTACHMENT` for the render pass, holding the image's size at
-    /// its origin. Either being otherwise is an error that says which and
-    /// why, before anything is recorded. The record maps with the settings
-    /// in effect now, whatever is set before the encoder is submitted.
-    /// Resources are kept by input (the last few) and shared by every
-    /// target: a new target view each frame (a swap chain's) creates no
-    /// texture.
-    pub fn record<'a>(
-        &mut self,
-        encoder: &mut wgpu::CommandEncoder,
-        input: impl Into<SourceView<'a>>,
-        output: impl Into<TargetView<'a>>,
-    ) -> Result<(), ToneMapperError> {
-        self.record_frame(encoder, input.into(), None, output.into())
-    }
-
-    /// [`ToneMapper::record`] and [`ToneMapper::record_with_motion`].
-    fn record_frame(
-        &mut self,
-        encoder: &mut wgpu::CommandEncoder,
-        input: SourceView,
-        motion: Option<MotionVectors>,
-        output: TargetView,
-    ) -> Result<(), ToneMapperError> {
-        let (key, sink) = self.key(&input, motion.as_ref(), &output)?;
-        let size = key.size;
-        match self.bound.iter().position(|b| b.key == key) {
-            Some(i) => {
-                let b = self.bound.remove(i);
-                self.bound.push(b);
-            }
-            None => {
-                let source = ImageView {
-                    view: key.input.clone(),
-                    width: key.size.0,
-                    height: key.size.1,
-                };
-                let wired = self.wire(&source, key.motion.as_ref())?;
-                // A history of a new size: the inputs wired to the old one
-                // go with it, and the frame starts a new history.
-                let old = self.history.resources.as_ref().map(|r| &r.uniforms);
-                if wired.history.as_ref().map(|r| &r.uniforms) != old {
-                    self.bound.clear();
-                    self.history = taa::History {
-                        resources: wired.history.clone(),
-                        ..taa::History::default()
-                    };
-                }
-                if self.bound.len() == KEPT_INPUTS {
-                    self.bound.remove(0);
-                }
-                self.bound.push(Bound { key, wired });
-            }
-        }
-        // This record's values, copied in by its own encoder.
-        let ctx = &self.ctx;
-        let words: &[f32] = &self.config;
-        self.ring.stage(
-            ctx,
-            encoder,
-            &self.shader.config,
-            bytemuck::cast_slice(words),
-        );
-        let origin = [sink.origin.0, sink.origin.1, 0, 0];
-        self.ring
-            .stage(ctx, encoder, &self.origin, bytemuck::cast_slice(&origin));
-        if let Some(adaptation) = &self.settings.adaptation {
-            let steps = Steps::new(adaptation, self.frame_seconds, self.reset);
-            self.ring
-                .stage(ctx, encoder, &self.steps, bytemuck::bytes_of(&steps));
-            self.reset = false;
-        }
-        let odd = self.step_history(encoder, motion.as_ref(), size);
-        let store = sink.compute.then(|| self.store_for(sink.view));
-        if !sink.compute {
-            self.draw_for_last();
-        }
-        let bound = self.bound.last().expect("bound above");
-        let dispatches = match &bound.wired.odd {
-            Some(d) if odd => d,
-            _ => &bound.wired.even,
-        };
-        match &self.stamps {
-            // Timed: each stage in a pass of its own.
-            Some(stamps) => {
-                let mut at = 0;
-                let mut i = 0;
-                for (name, n) in &bound.wired.stages {
-                    let label = format!("tonegate.{name}");
-                    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                        label: Some(&label),
-                        timestamp_writes: Some(stamps.compute(i)),
-                    });
-                    for d in &dispatches[at..at + n] {
-                        d.record(&mut pass);
-                    }
-                    at += n;
-                    i += 1;
-                }
-                if let Some(store) = &store {
-                    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                        label: Some("tonegate.target"),
-                        timestamp_writes: Some(stamps.compute(i)),
-                    });
-                    store.record(&mut pass);
-                }
-            }
-            None => {
-                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some("tonegate.tone_mapper"),
-                    timestamp_writes: None,
-                });
-                for d in dispatches {
-                    d.record(&mut pass);
-                }
-                if let Some(store) = &store {
-                    store.record(&mut pass);
-                }
-            }
-        }
-        if let (false, Some((pipeline, bind_group))) = (sink.compute, &bound.wired.draw) {
-            let (x, y) = sink.origin;
-            let (w, h) = size;
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("tonegate.tone_mapper.to_attachment"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: sink.view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Load,
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: self.stamps.as_ref().map(timing::Stamps::render),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            pass.set_viewport(x as f32, y as f32, w as f32, h as f32, 0.0, 1.0);
-            pass.set_scissor_rect(x, y, w, h);
-            pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, bind_group, &[]);
-            pass.draw(0..3, 0..1);
-        }
-        let rendered = !sink.compute;
-        if let Some(stamps) = &mut self.stamps {
-            let mut names: Vec<&'static str> =
-                bound.wired.stages.iter().map(|(name, _)| *name).collect();
-            if store.is_some() {
-                names.push("target");
-            }
-            stamps.resolve(encoder, names, rendered);
-        }
-        Ok(())
     }
 }
