@@ -89,53 +89,6 @@ fn frame(seed: u32) -> Rgb8Image {
     })
 }
 
-/// Twelve finished runs of scene `fps-probe`, commits `p01`…`p12`, on one
-/// adapter: about 60 FPS for six runs, then about 20 (a fixed ±1 pattern
-/// around each level, so the series is not flat).
-fn record_fps_series(db: &std::path::Path) {
-    use tonegate::history::{History, RunAdapter, RunKind, RunMeta, RunStatus, SceneRecord};
-    let mut h = History::open(db).unwrap();
-    for run in 1..=12u32 {
-        let level = if run <= 6 { 60.0 } else { 20.0 };
-        let fps = level + [0.0, 1.0, -1.0][run as usize % 3];
-        let id = h
-            .start_run(
-                RunKind::Check,
-                &RunMeta {
-                    suite: Some("fps-probe".into()),
-                    suite_hash: None,
-                    git_commit: Some(format!("p{run:02}")),
-                },
-            )
-            .unwrap();
-        h.set_adapter(
-            id,
-            &RunAdapter {
-                name: "probe adapter".into(),
-                backend: "Vulkan".into(),
-                config: "{}".into(),
-                ..RunAdapter::default()
-            },
-        )
-        .unwrap();
-        h.record_scene(
-            id,
-            &SceneRecord {
-                scene: "fps-probe".into(),
-                test: "moving".into(),
-                passed: true,
-                fps: Some(fps),
-                frames: Vec::new(),
-                timings: Vec::new(),
-                checks: Vec::new(),
-                result_json: "{}".into(),
-            },
-        )
-        .unwrap();
-        h.finish_run(id, RunStatus::Passed, None, None).unwrap();
-    }
-}
-
 fn submit(db: &std::path::Path, dir: &std::path::Path, seed: u32, commit: &str) -> Value {
     std::fs::create_dir_all(dir).unwrap();
     tonegate::io::write_frame_png(&dir.join("hud.png"), &Frame::Rgb8(frame(seed))).unwrap();
@@ -214,7 +167,7 @@ async fn each_event_is_delivered_once_signed_with_its_commit_range_through_refus
             String::from_utf8_lossy(&o.stderr)
         );
     }
-    record_fps_series(&seeded.db);
+    common::runs::record_fps_series(&seeded.db);
     // Frames on the main line: new digests (untriaged), triaged, a
     // passing submission, then a changed HUD.
     let frames = dir.path().join("frames");

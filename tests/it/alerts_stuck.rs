@@ -32,40 +32,6 @@ async fn stuck(State(s): State<Arc<Seen>>) -> StatusCode {
     StatusCode::NO_CONTENT
 }
 
-/// Six finished check runs of one suite and adapter, passing and failing in
-/// turn: three red-after-green events.
-fn record_red_after_green(db: &std::path::Path) {
-    use tonegate::history::{History, RunAdapter, RunKind, RunMeta, RunStatus};
-    let h = History::open(db).unwrap();
-    for run in 1..=6u32 {
-        let id = h
-            .start_run(
-                RunKind::Check,
-                &RunMeta {
-                    suite: Some("stuck-suite".into()),
-                    suite_hash: None,
-                    git_commit: Some(format!("s{run:02}")),
-                },
-            )
-            .unwrap();
-        h.set_adapter(
-            id,
-            &RunAdapter {
-                name: "probe adapter".into(),
-                config: "{}".into(),
-                ..RunAdapter::default()
-            },
-        )
-        .unwrap();
-        let status = if run % 2 == 0 {
-            RunStatus::Failed
-        } else {
-            RunStatus::Passed
-        };
-        h.finish_run(id, status, None, None).unwrap();
-    }
-}
-
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_receiver_that_never_answers_delays_no_other_webhook() {
     let dir = tempfile::tempdir().unwrap();
@@ -100,7 +66,7 @@ async fn a_receiver_that_never_answers_delays_no_other_webhook() {
     let s = common::server::start(&seeded, |o| o.alerts = Some(alerts)).await;
     // The first scan sets where alerts start.
     tokio::time::sleep(Duration::from_millis(600)).await;
-    record_red_after_green(&seeded.db);
+    common::runs::record_red_after_green(&seeded.db);
 
     let deadline = Instant::now() + Duration::from_secs(120);
     while seen.healthy.load(Ordering::SeqCst) < 3 {

@@ -26,6 +26,7 @@ mod docs_examples;
 mod fleet;
 mod frames;
 mod frames_api;
+mod frames_cli;
 mod frames_decisions;
 mod frames_store;
 mod fuzz_regressions;

@@ -6,6 +6,7 @@
 
 pub mod cdp;
 pub mod postgres;
+pub mod runs;
 pub mod seaweed;
 pub mod server;
 
