@@ -1,8 +1,12 @@
-//! Executes a stage plan on the GPU: only the plan's stages are created,
-//! dispatched and timed. `new` is the sequence of steps below; what each
-//! stage reads and writes is wired in `wiring` (and `fused`).
+//! The gate's front end on the executor: a stage plan's resources for
+//! frames of one input, recorded by [`Executor`] with `encode`'s packed
+//! frame as the sink, submitted and read back through the ring
+//! (`readback`), frames in flight. Only the plan's stages are created,
+//! dispatched and timed; what each stage reads and writes is wired in
+//! `wiring` (and `fused`).
 
 use super::config::GpuConfig;
+use super::exec::Executor;
 use super::readback::{GpuFrame, Ring, Sources, Ticket, FRAMES_IN_FLIGHT};
 use super::sphere::FrameUniforms;
 use super::stages::{extent_buffer, storage_buffer, upload, Extent};
@@ -41,9 +45,8 @@ pub struct GpuRenderer<'a> {
     extent: wgpu::Buffer,
     camera: Option<Camera>,
     uniforms: Option<wgpu::Buffer>,
-    /// Per plan stage, its dispatches (one compute pass each), and those of
-    /// odd frames where they alternate (the TAA history).
-    passes: Vec<super::wiring::Pass>,
+    /// The plan's stages, recorded into each frame's encoder.
+    exec: Executor,
     /// The TAA history pair and uniforms, in a TAA plan.
     pub(super) taa: Option<super::taa::TaaResources>,
     /// Whether the next frame is odd (reads the second history texture).
@@ -121,7 +124,7 @@ impl<'a> GpuRenderer<'a> {
             GpuInput::Sphere { camera, .. } => Some(camera),
             GpuInput::Flat(_) | GpuInput::View(_) => None,
         };
-        let passes = super::passes::wire_plan(&mut wiring, &plan, config.execution, None)?;
+        let exec = Executor::wire(&mut wiring, &plan, config.execution, None)?;
         // A plan without `encode` (an HDR or linear output) still names
         // its display image, which `encode` would otherwise have read.
         if !plan.contains("encode") {
@@ -129,7 +132,7 @@ impl<'a> GpuRenderer<'a> {
                 wiring.outputs.push(("display", display));
             }
         }
-        let queries = Queries::new(ctx, passes.len());
+        let queries = Queries::new(ctx, exec.len());
         ctx.take_error()?;
         let frame_bytes = capacity.0 as u64
             * capacity.1 as u64
@@ -160,7 +163,7 @@ impl<'a> GpuRenderer<'a> {
             extent,
             camera,
             uniforms: environment.map(|(_, uniforms)| uniforms),
-            passes,
+            exec,
             taa,
             odd: std::sync::atomic::AtomicBool::new(false),
             adaptation,
@@ -241,7 +244,7 @@ impl<'a> GpuRenderer<'a> {
     }
 
     pub fn stage_names(&self) -> Vec<&'static str> {
-        self.passes.iter().map(|p| p.name).collect()
+        self.exec.stage_names()
     }
 
     /// Sets the sphere rotation for the next frames (no-op for flat input).
@@ -317,23 +320,14 @@ impl<'a> GpuRenderer<'a> {
             .write_buffer(&taa.uniforms, 0, bytemuck::bytes_of(&u));
     }
 
-    /// Records every pass of the plan, timestamps in `slot`.
+    /// Records the plan's frame, timestamps (where the adapter has them)
+    /// in `slot`.
     pub fn encode(&self, encoder: &mut wgpu::CommandEncoder, slot: u32) {
         let odd = self.odd.load(std::sync::atomic::Ordering::Relaxed);
-        for (i, p) in self.passes.iter().enumerate() {
-            let name = p.name;
-            let dispatches = match &p.odd {
-                Some(d) if odd => d,
-                _ => &p.dispatches,
-            };
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some(&format!("tonegate.{name}")),
-                timestamp_writes: self.queries.as_ref().map(|q| q.writes(slot, i)),
-            });
-            for d in dispatches {
-                d.record(&mut pass);
-            }
-        }
+        let stamps = self.queries.as_ref().map(|q| move |i| q.writes(slot, i));
+        let stamps = stamps.as_ref().map(|f| f as super::exec::ComputeStamps);
+        self.exec
+            .record(encoder, odd, None, stamps, "tonegate.frame");
         if let Some(q) = &self.queries {
             q.resolve(encoder, slot);
         }

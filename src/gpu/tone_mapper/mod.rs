@@ -72,15 +72,11 @@ struct Bound {
     wired: Wired,
 }
 
-/// An input's passes up to the display image (with TAA, one list for each
-/// texture of the history pair the frame reads), and what writes that
-/// image into the targets.
+/// An input's passes up to the display image, wired by the executor the
+/// gate's renderer records with, and what writes that image into the
+/// targets.
 struct Wired {
-    even: Vec<Dispatch>,
-    odd: Option<Vec<Dispatch>>,
-    /// Each stage's name and how many of the dispatches are its own, in
-    /// order.
-    stages: Vec<(&'static str, usize)>,
+    exec: super::exec::Executor,
     /// The display image the target is written from.
     display: wgpu::Texture,
     /// The image's extent uniform.

@@ -1,14 +1,15 @@
 //! How a [`ToneMapper`] records one frame: the input's wiring found (or
 //! made) by what it depends on, this record's uniform values copied in by
-//! its own encoder, then the compute pass (each stage in a pass of its own
-//! when timed) and the write into the target by the compute path or a
-//! fullscreen triangle.
+//! its own encoder, then the executor's passes (the gate renderer's, each
+//! stage in a pass of its own when timed) with the write into the target
+//! as their tail on the compute path, or a fullscreen triangle after them.
 
 use super::{
     taa, timing, Bound, MotionVectors, SourceView, TargetView, ToneMapper, ToneMapperError,
     KEPT_INPUTS,
 };
 use crate::gpu::adaptation::Steps;
+use crate::gpu::exec::{self, ComputeStamps, Draw};
 use crate::gpu::stages::ImageView;
 
 impl ToneMapper {
@@ -98,77 +99,33 @@ impl ToneMapper {
             self.draw_for_last();
         }
         let bound = self.bound.last().expect("bound above");
-        let dispatches = match &bound.wired.odd {
-            Some(d) if odd => d,
-            _ => &bound.wired.even,
-        };
-        match &self.stamps {
-            // Timed: each stage in a pass of its own.
-            Some(stamps) => {
-                let mut at = 0;
-                let mut i = 0;
-                for (name, n) in &bound.wired.stages {
-                    let label = format!("tonegate.{name}");
-                    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                        label: Some(&label),
-                        timestamp_writes: Some(stamps.compute(i)),
-                    });
-                    for d in &dispatches[at..at + n] {
-                        d.record(&mut pass);
-                    }
-                    at += n;
-                    i += 1;
-                }
-                if let Some(store) = &store {
-                    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                        label: Some("tonegate.target"),
-                        timestamp_writes: Some(stamps.compute(i)),
-                    });
-                    store.record(&mut pass);
-                }
-            }
-            None => {
-                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some("tonegate.tone_mapper"),
-                    timestamp_writes: None,
-                });
-                for d in dispatches {
-                    d.record(&mut pass);
-                }
-                if let Some(store) = &store {
-                    store.record(&mut pass);
-                }
-            }
-        }
+        let exec = &bound.wired.exec;
+        let compute = self.stamps.as_ref().map(|s| |i| s.compute(i));
+        let compute = compute.as_ref().map(|f| f as ComputeStamps);
+        exec.record(
+            encoder,
+            odd,
+            store.as_ref(),
+            compute,
+            "tonegate.tone_mapper",
+        );
         if let (false, Some((pipeline, bind_group))) = (sink.compute, &bound.wired.draw) {
-            let (x, y) = sink.origin;
-            let (w, h) = size;
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("tonegate.tone_mapper.to_attachment"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: sink.view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Load,
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: self.stamps.as_ref().map(timing::Stamps::render),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            pass.set_viewport(x as f32, y as f32, w as f32, h as f32, 0.0, 1.0);
-            pass.set_scissor_rect(x, y, w, h);
-            pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, bind_group, &[]);
-            pass.draw(0..3, 0..1);
+            let draw = Draw {
+                pipeline,
+                bind_group,
+                view: sink.view,
+                origin: sink.origin,
+                size,
+            };
+            exec::draw(
+                encoder,
+                draw,
+                self.stamps.as_ref().map(timing::Stamps::render),
+            );
         }
         let rendered = !sink.compute;
         if let Some(stamps) = &mut self.stamps {
-            let mut names: Vec<&'static str> =
-                bound.wired.stages.iter().map(|(name, _)| *name).collect();
+            let mut names = exec.stage_names();
             if store.is_some() {
                 names.push("target");
             }

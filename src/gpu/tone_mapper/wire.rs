@@ -9,6 +9,7 @@ use super::{
 };
 use crate::gpu::adaptation::AdaptationResources;
 use crate::gpu::encode::{encode_render_bind_group, encode_render_pipeline, encode_to_storage};
+use crate::gpu::exec::Executor;
 use crate::gpu::renderer::extent_of;
 use crate::gpu::stages::{extent_buffer, Dispatch, ImageView};
 use crate::gpu::wiring::Wiring;
@@ -220,28 +221,13 @@ impl ToneMapper {
         });
         wiring.motion = motion.cloned();
         wiring.taa = self.history.resources.clone();
-        // One list of dispatches for each texture of the TAA history pair
-        // a frame may read.
-        let passes = crate::gpu::passes::wire_plan(
+        let exec = Executor::wire(
             &mut wiring,
             &plan,
             crate::gpu::Execution::Staged,
             Some(Stage::Encode.name()),
         )
         .map_err(internal)?;
-        let (mut even, mut odd, mut parity) = (Vec::new(), Vec::new(), false);
-        let mut stages = Vec::new();
-        for pass in passes {
-            stages.push((pass.name, pass.dispatches.len()));
-            match pass.odd {
-                Some(o) => {
-                    odd.extend(o);
-                    parity = true;
-                }
-                None => odd.extend(pass.dispatches.iter().cloned()),
-            }
-            even.extend(pass.dispatches);
-        }
         let display = wiring
             .display
             .clone()
@@ -250,9 +236,7 @@ impl ToneMapper {
             ))))?;
         let history = wiring.taa.clone();
         Ok(Wired {
-            even,
-            odd: parity.then_some(odd),
-            stages,
+            exec,
             display,
             extent,
             history,
