@@ -7,7 +7,7 @@
 //               CIELab, Hunt, HyAB, compressed and remapped), the feature
 //               difference (edges and points) and the per-pixel FLIP error.
 // Filters clamp at the image's edge. The filter weights and the colour
-// difference's maximum come from the host (src/gpu/flip.rs), computed as
+// difference's maximum come from the host (src/gpu/metrics/flip.rs), computed as
 // FLIP's C++ does. Locked to nv-flip by tests/it/gpu_metrics.rs.
 
 struct Params {

@@ -8,7 +8,7 @@
 override ENCODING: u32 = 0u;
 override GAMMA: f32 = 2.2;
 // PQ: the display the operator maps onto (cd/m²) and BT.709 → BT.2020,
-// row by row (gpu/encode.rs computes them in f64).
+// row by row (gpu/kernels/encode.rs computes them in f64).
 override PQ_BLACK: f32 = 0.0;
 override PQ_PEAK: f32 = 100.0;
 override PQ_M00: f32 = 1.0;
@@ -86,7 +86,7 @@ fn pq_signals(c: vec3<f32>) -> vec3<f32> {
 }
 
 // Pixel `i` of the packed frame: one u32 of RGBA8, or, for PQ, two: R | G
-// << 16 and B | 0xffff << 16 (reference/encode.rs, gpu/readback.rs).
+// << 16 and B | 0xffff << 16 (reference/encode.rs, gpu/run/readback.rs).
 fn store_frame(i: u32, c: vec3<f32>) {
     if (ENCODING == 2u) {
         let q = pq_codes(c);

@@ -1,27 +1,38 @@
-//! The GPU tone mapper on wgpu: one compute pass per stage of the plan, each
-//! timed with GPU timestamps. Stage names match the WGSL files, the CPU
+//! The GPU tone mapper on wgpu, a folder per job: `device` (adapters, the
+//! context, what a device can do), `kernels` (a file per stage), `exec`
+//! (the executor: a plan wired into passes and recorded), the two front
+//! ends on it, `run` (the gate's renderer, frames read back packed) and
+//! `tone_mapper` (an application's target), `metrics` (the pair metrics on
+//! the GPU) and `bench`; beside them the plumbing every folder uses:
+//! `config` (the knobs), `shaders` (the WGSL sources) and `stages` (buffers,
+//! textures and dispatches). Stage names match the WGSL files, the CPU
 //! reference functions and the pipeline labels (`tonegate.<stage>`).
 
-pub mod adapters;
 pub mod bench;
-pub mod capability;
-pub mod compare;
 pub mod config;
-pub mod context;
-mod created;
-pub mod flip;
-mod input;
-pub mod listing;
-pub mod pool;
-pub mod readback;
-pub mod renderer;
+mod device;
+mod exec;
+mod kernels;
+mod metrics;
+mod run;
 pub mod shaders;
 pub mod stages;
-pub mod timing;
 #[deny(missing_docs)]
 pub mod tone_mapper;
-pub mod validation;
-mod wiring;
+
+// Each job's modules under the names they had before the folders: a
+// module's path says which job it belongs to, and a caller's does not
+// change with it.
+use device::created;
+pub use device::{adapters, capability, context, listing, validation};
+use exec::{input, wiring};
+pub use kernels::{adaptation, sphere};
+use kernels::{
+    bloom_blur, bloom_bright, bloom_composite, bloom_downsample, encode, floor, grade, grade_stats,
+    luminance_stats, taa, taa_sobel, tonemap,
+};
+pub use metrics::{compare, flip};
+pub use run::{pool, readback, renderer, timing};
 
 pub use adapters::{choose, AdapterChoice, AdapterPick, AdapterReport, BackendChoice, Candidate};
 pub use config::{
@@ -109,22 +120,3 @@ pub enum GpuError {
     #[error("GPU readback failed: {0}")]
     Readback(String),
 }
-
-pub mod adaptation;
-mod bloom_blur;
-mod bloom_bright;
-mod bloom_composite;
-mod bloom_downsample;
-mod encode;
-mod exec;
-mod floor;
-mod fused;
-mod grade;
-mod grade_stats;
-mod inspect;
-mod luminance_stats;
-mod probe;
-pub mod sphere;
-mod taa;
-mod taa_sobel;
-mod tonemap;
