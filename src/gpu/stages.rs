@@ -1,6 +1,7 @@
 //! What every stage's pass setup shares: pipelines by name, textures, bind groups.
 
 use super::{GpuContext, HdrFormat};
+use crate::gpu::device::pipelines::{PipelineKey, PipelineKind};
 
 /// A compute pipeline for `entry` of shader `stage`, labelled
 /// `tonegate.<stage>` (or `tonegate.<stage>.<entry>` for secondary entries),
@@ -25,17 +26,11 @@ pub fn pipeline_with(
     constants: &[(&str, f64)],
     operator: Option<&'static str>,
 ) -> wgpu::ComputePipeline {
-    let key: super::context::PipelineKey = (
-        stage.to_owned(),
-        entry.to_owned(),
-        format,
-        constants
-            .iter()
-            .map(|(k, v)| ((*k).to_owned(), v.to_bits()))
-            .collect(),
-        // A module is 'static text: its address and length name it.
-        operator.map(|w| (w.as_ptr() as usize, w.len())),
-    );
+    let kind = PipelineKind::Compute {
+        stage: stage.to_owned(),
+        entry: entry.to_owned(),
+    };
+    let key = PipelineKey::new(kind, format, constants, operator);
     ctx.cached_pipeline(key, || {
         let label = if entry == "main" {
             format!("tonegate.{stage}")

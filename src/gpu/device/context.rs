@@ -2,6 +2,7 @@
 //! capture and pipeline cache.
 
 use super::adapters::{AdapterChoice, AdapterReport};
+use super::pipelines::{PipelineCache, PipelineKey};
 use crate::gpu::GpuError;
 use std::sync::{Arc, Mutex};
 
@@ -25,45 +26,23 @@ pub struct GpuContext {
     errors: Arc<Mutex<Vec<GpuError>>>,
     /// What this context has created on the device (`created`).
     created: Arc<super::created::Counts>,
-    /// Compiled pipelines by (stage, entry, format, override constants): a
-    /// context that renders many images (the server's GPU worker, `check`)
-    /// compiles each variant once. Bounded by [`PIPELINE_CACHE_LIMIT`].
-    /// Each entry is filled outside the map's lock, so threads compile
-    /// different variants at once (the stress suite's rows do).
-    pipelines: Arc<Mutex<std::collections::HashMap<PipelineKey, PipelineSlot>>>,
-    /// Render pipelines by target format and override constants (the
-    /// `ToneMapper`'s fullscreen pass), shared like `pipelines`.
-    render_pipelines: Arc<Mutex<std::collections::HashMap<RenderKey, wgpu::RenderPipeline>>>,
+    /// Compiled pipelines by what they are compiled from
+    /// (`pipelines::PipelineKey`): a context that renders many images (the
+    /// server's GPU worker, `check`) compiles each variant once, the
+    /// variants used last kept. Each entry is filled outside the map's
+    /// lock, so threads compile different variants at once (the stress
+    /// suite's rows do).
+    pipelines: Arc<Mutex<PipelineCache<wgpu::ComputePipeline>>>,
+    /// Render pipelines (the `ToneMapper`'s fullscreen pass), kept and
+    /// shared like `pipelines`.
+    render_pipelines: Arc<Mutex<PipelineCache<wgpu::RenderPipeline>>>,
 }
-
-/// A render pipeline's target format and override constants (values as f64
-/// bits).
-pub(crate) type RenderKey = (wgpu::TextureFormat, Vec<(String, u64)>);
 
 /// The most bytes per frame pixel any one buffer of a renderer may take:
 /// what [`GpuContext::check_frame`] holds a frame to. The largest today is
 /// the ping-pong reduction's first level, a 32-byte partial per 2×2 block;
 /// `luminance_stats` asserts at compile time that it stays within this.
 pub(crate) const MAX_BUFFER_BYTES_PER_PIXEL: u64 = 8;
-
-/// A pipeline being compiled or compiled: the first thread to ask for a
-/// variant compiles it, the others asking meanwhile wait for it.
-type PipelineSlot = std::sync::Arc<std::sync::OnceLock<wgpu::ComputePipeline>>;
-
-/// Stage, entry point, format, override constants (values as f64 bits) and
-/// the operator's module, if the stage includes one.
-pub(crate) type PipelineKey = (
-    String,
-    String,
-    crate::gpu::HdrFormat,
-    Vec<(String, u64)>,
-    Option<(usize, usize)>,
-);
-
-/// Distinct pipeline variants a context keeps; beyond it the cache starts
-/// over (override constants include image sizes, so a server seeing many
-/// sizes would otherwise grow without end).
-const PIPELINE_CACHE_LIMIT: usize = 256;
 
 /// What reports say of the adapter behind a device.
 fn report(
@@ -245,24 +224,19 @@ impl GpuContext {
         self.device.create_bind_group(desc)
     }
 
-    /// The render pipeline cached under `key`, or the one `compile` makes,
-    /// counted, then kept.
+    /// The render pipeline cached under `key`, or the one `compile`
+    /// makes, counted, then kept.
     pub(crate) fn cached_render_pipeline(
         &self,
-        key: RenderKey,
+        key: PipelineKey,
         compile: impl FnOnce() -> wgpu::RenderPipeline,
     ) -> wgpu::RenderPipeline {
-        let mut cache = self
-            .render_pipelines
-            .lock()
-            .unwrap_or_else(|poisoned| poisoned.into_inner());
-        cache
-            .entry(key)
-            .or_insert_with(|| {
-                self.created.add(super::created::Kind::Pipeline);
-                compile()
-            })
-            .clone()
+        let slot = lock(&self.render_pipelines).slot(key);
+        slot.get_or_init(|| {
+            self.created.add(super::created::Kind::Pipeline);
+            compile()
+        })
+        .clone()
     }
 
     /// What decides the configuration in effect on this device.
@@ -311,23 +285,15 @@ impl GpuContext {
         self.take_error()
     }
 
-    /// The pipeline cached under `key`, or the one `compile` makes, then
-    /// kept (the cache starts over past [`PIPELINE_CACHE_LIMIT`] variants).
+    /// The compute pipeline cached under `key`, or the one `compile`
+    /// makes, counted, then kept (the variants used last:
+    /// `pipelines::PIPELINE_CACHE_LIMIT`).
     pub(crate) fn cached_pipeline(
         &self,
         key: PipelineKey,
         compile: impl FnOnce() -> wgpu::ComputePipeline,
     ) -> wgpu::ComputePipeline {
-        let slot = {
-            let mut cache = self
-                .pipelines
-                .lock()
-                .unwrap_or_else(|poisoned| poisoned.into_inner());
-            if cache.len() >= PIPELINE_CACHE_LIMIT && !cache.contains_key(&key) {
-                cache.clear();
-            }
-            cache.entry(key).or_default().clone()
-        };
+        let slot = lock(&self.pipelines).slot(key);
         slot.get_or_init(|| {
             self.created.add(super::created::Kind::Pipeline);
             compile()
@@ -338,16 +304,7 @@ impl GpuContext {
     /// How many compiled pipelines the context keeps now, compute and
     /// render.
     pub(crate) fn cached_pipelines(&self) -> usize {
-        let render = self
-            .render_pipelines
-            .lock()
-            .unwrap_or_else(|poisoned| poisoned.into_inner())
-            .len();
-        self.pipelines
-            .lock()
-            .unwrap_or_else(|poisoned| poisoned.into_inner())
-            .len()
-            + render
+        lock(&self.pipelines).len() + lock(&self.render_pipelines).len()
     }
 
     /// Refuses frames larger than one texture can hold.
@@ -428,4 +385,12 @@ impl GpuContext {
         buffer.unmap();
         Ok(out)
     }
+}
+
+/// A cache's lock, whatever a panicking holder left: an entry is a
+/// pipeline or an empty slot, never half of one.
+fn lock<P>(cache: &Mutex<PipelineCache<P>>) -> std::sync::MutexGuard<'_, PipelineCache<P>> {
+    cache
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
 }

@@ -10,5 +10,6 @@ pub mod capability;
 pub mod context;
 pub(in crate::gpu) mod created;
 pub mod listing;
+pub(in crate::gpu) mod pipelines;
 pub(in crate::gpu) mod probe;
 pub mod validation;

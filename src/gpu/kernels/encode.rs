@@ -202,13 +202,11 @@ pub fn encode_render_pipeline(
 ) -> wgpu::RenderPipeline {
     let texel = Texel::of(target_format).expect("a target format");
     let constants = target_constants(encoding, levels, texel);
-    let key = (
-        target_format,
-        constants
-            .iter()
-            .map(|(k, v)| ((*k).to_owned(), v.to_bits()))
-            .collect(),
-    );
+    let kind = crate::gpu::device::pipelines::PipelineKind::Render {
+        target: target_format,
+    };
+    let format = HdrFormat::Rgba32Float;
+    let key = crate::gpu::device::pipelines::PipelineKey::new(kind, format, &constants, None);
     ctx.cached_render_pipeline(key, || {
         let module = ctx
             .device
