@@ -59,6 +59,7 @@ fn follow(op: Operator) -> Vec<(u32, f32, f64, f64)> {
         ToneMapperSettings {
             operator: op.clone(),
             adaptation: Some(adaptation),
+            target: wgpu::TextureFormat::Rgba8Unorm,
             ..Default::default()
         },
     )
@@ -204,6 +205,7 @@ fn a_reset_adapts_at_once_and_a_bad_frame_time_is_refused() {
         &queue,
         ToneMapperSettings {
             adaptation: Some(Adaptation::default()),
+            target: wgpu::TextureFormat::Rgba8Unorm,
             ..Default::default()
         },
     )
@@ -399,6 +401,7 @@ fn an_overflowing_pixel_never_blacks_out_the_frames_after_it() {
             ToneMapperSettings {
                 operator: Operator::named(operator, &[]).unwrap(),
                 adaptation: Some(Adaptation::default()),
+                target: wgpu::TextureFormat::Rgba8Unorm,
                 ..Default::default()
             },
         )

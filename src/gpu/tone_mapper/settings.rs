@@ -42,13 +42,17 @@ pub struct ToneMapperSettings {
 }
 
 impl Default for ToneMapperSettings {
-    /// `reinhard-global` at its defaults, sRGB-encoded into `Rgba8Unorm`:
-    /// what `tonegate tonemap` does with no flags.
+    /// `reinhard-global` at its defaults, sRGB-encoded into
+    /// `Bgra8UnormSrgb`, the format most platforms' swap chains prefer
+    /// (written by a fullscreen triangle: an sRGB format is no storage
+    /// target): the curve and encoding `tonegate tonemap` uses with no
+    /// flags, into a window's frame. A storage or offscreen target sets
+    /// `target` (`Rgba8Unorm`, …).
     fn default() -> ToneMapperSettings {
         ToneMapperSettings {
             operator: Operator::default(),
             encoding: Encoding::Srgb,
-            target: wgpu::TextureFormat::Rgba8Unorm,
+            target: wgpu::TextureFormat::Bgra8UnormSrgb,
             path: OutputPath::Auto,
             adaptation: None,
             bloom: None,

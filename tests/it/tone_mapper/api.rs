@@ -9,7 +9,13 @@ use tonegate::{ToneMapper, ToneMapperError, ToneMapperSettings};
 #[test]
 fn views_and_settings_the_tone_mapper_cannot_use_are_refused_with_the_reason() {
     let (device, queue) = own_device("llvmpipe");
-    let mut mapper = ToneMapper::new(&device, &queue, ToneMapperSettings::default()).unwrap();
+    // Default's target is a swap chain's (Bgra8UnormSrgb); these storage
+    // targets are Rgba8Unorm.
+    let rgba8 = ToneMapperSettings {
+        target: F::Rgba8Unorm,
+        ..ToneMapperSettings::default()
+    };
+    let mut mapper = ToneMapper::new(&device, &queue, rgba8).unwrap();
     let hdr = |size, format| texture(&device, size, 1, format, U::TEXTURE_BINDING | U::COPY_DST);
     let ldr = |size, format| texture(&device, size, 1, format, U::STORAGE_BINDING | U::COPY_SRC);
     let good_in = hdr((64, 32), F::Rgba16Float);
@@ -272,6 +278,7 @@ fn views_and_settings_the_tone_mapper_cannot_use_are_refused_with_the_reason() {
                     )
                     .unwrap(),
                 ),
+                target: wgpu::TextureFormat::Rgba8Unorm,
                 ..Default::default()
             },
             |e| matches!(e, ToneMapperError::Display { table: "bloom", key: "strength", .. }),

@@ -215,3 +215,37 @@ fn a_mapper_sharing_pipelines_compiles_nothing_the_first_has() {
     own.prepare().unwrap();
     assert_eq!(own.created().pipelines as usize, compiled);
 }
+
+/// The default settings map into a swap chain's format: a render
+/// attachment with no storage binding, written by the fullscreen triangle,
+/// with the bytes the compute path writes into `Rgba8Unorm` in RGBA order.
+#[test]
+fn the_default_settings_write_a_swap_chains_format() {
+    let (device, queue) = own_device("llvmpipe");
+    let settings = ToneMapperSettings::default();
+    assert_eq!(settings.target, F::Bgra8UnormSrgb);
+    let img = night_and_ramp();
+    let input = hdr_input(&device, &queue, &img);
+    let size = (img.width, img.height);
+    let frame = |settings: ToneMapperSettings, usage| {
+        let output = texture(&device, size, 1, settings.target, usage);
+        let mut mapper = ToneMapper::new(&device, &queue, settings).unwrap();
+        let mut encoder = device.create_command_encoder(&Default::default());
+        mapper
+            .record(&mut encoder, &view(&input), &view(&output))
+            .unwrap();
+        queue.submit([encoder.finish()]);
+        read(&device, &queue, &output, 0)
+    };
+    let swap = frame(settings.clone(), U::RENDER_ATTACHMENT | U::COPY_SRC);
+    let storage = ToneMapperSettings {
+        target: F::Rgba8Unorm,
+        path: OutputPath::Compute,
+        ..settings
+    };
+    let rgba = frame(storage, U::STORAGE_BINDING | U::COPY_SRC);
+    assert!(
+        swap == rgba,
+        "the default target's codes differ from Rgba8Unorm's"
+    );
+}

@@ -125,6 +125,7 @@ fn embedded_taa_on(adapter: &str) {
             operator: sc.operator.clone(),
             encoding: sc.encoding,
             taa: Some(table.clone()),
+            target: F::Rgba8Unorm,
             ..ToneMapperSettings::default()
         };
         let ring_settings = ToneMapperSettings {
@@ -283,6 +284,7 @@ fn taa_refuses_frames_it_cannot_resolve() {
     let (device, queue) = own_device("llvmpipe");
     let settings = ToneMapperSettings {
         taa: Some(Taa::default()),
+        target: F::Rgba8Unorm,
         ..ToneMapperSettings::default()
     };
     let mut mapper = ToneMapper::new(&device, &queue, settings.clone()).unwrap();
@@ -354,7 +356,7 @@ fn taa_refuses_frames_it_cannot_resolve() {
     let e = mapper
         .set_settings(ToneMapperSettings {
             taa: Some(bad),
-            ..settings
+            ..settings.clone()
         })
         .unwrap_err();
     assert_eq!(
@@ -362,7 +364,11 @@ fn taa_refuses_frames_it_cannot_resolve() {
         "taa.feedback_min: 0.97 exceeds feedback_max 0.88"
     );
     // Without TAA the vectors are not needed, and not refused.
-    let mut plain = ToneMapper::new(&device, &queue, ToneMapperSettings::default()).unwrap();
+    let settings_without_taa = ToneMapperSettings {
+        taa: None,
+        ..settings
+    };
+    let mut plain = ToneMapper::new(&device, &queue, settings_without_taa).unwrap();
     plain.record(&mut encoder, &iv, &ov).unwrap();
     let mv = view(&small);
     plain

@@ -237,6 +237,7 @@ fn a_region_of_a_mip_level_holds_the_gates_frame_and_the_rest_is_kept() {
             ToneMapperSettings {
                 operator: op.clone(),
                 path,
+                target: wgpu::TextureFormat::Rgba8Unorm,
                 ..Default::default()
             },
         )
