@@ -3,7 +3,8 @@
 //! One generic row-major container keeps sizes and indexing in one place; the
 //! aliases say which stage of the pipeline an image belongs to.
 
-use rayon::prelude::*;
+#[cfg(feature = "reference")]
+use crate::par::*;
 
 /// A row-major image, top row first.
 #[derive(Clone, Debug, PartialEq)]
@@ -137,10 +138,13 @@ impl<P: Copy> Image<P> {
     {
         let mut pixels = Vec::with_capacity(self.pixels.len());
         advise_huge_pages(&pixels);
+        #[cfg(feature = "reference")]
         self.pixels
             .par_iter()
             .map(|&p| f(p))
             .collect_into_vec(&mut pixels);
+        #[cfg(not(feature = "reference"))]
+        pixels.extend(self.pixels.iter().map(|&p| f(p)));
         Image {
             width: self.width,
             height: self.height,

@@ -4,7 +4,9 @@
 //! dispatched nor timed. `tonegate plan scene.toml` prints it.
 
 use crate::operators::Operator;
-use crate::scene::{BrightPass, Encoding, Grade, Scene, TaaParams, TaaVariant};
+#[cfg(feature = "reference")]
+use crate::scene::Scene;
+use crate::scene::{BrightPass, Encoding, Grade, TaaParams, TaaVariant};
 use serde::Serialize;
 use std::fmt;
 
@@ -228,6 +230,7 @@ impl StagePlan {
     /// The plan of one scene frame at `spp` samples per pixel: a TAA scene's
     /// 1-spp frames get the TAA stages right after `sphere` (at more samples
     /// the scene is its own accumulation reference, with no TAA).
+    #[cfg(feature = "reference")]
     pub fn for_scene(scene: &Scene, spp: u32) -> StagePlan {
         let mut plan = StagePlan::build(
             Input::Sphere { spp },

@@ -169,6 +169,7 @@ impl GpuConfig {
     /// The accuracy options this configuration has in effect, which bounds
     /// for them apply to (after an f16 promotion to f32 there is no f16 left
     /// to excuse).
+    #[cfg(feature = "reference")]
     pub fn accuracy_options(&self) -> Vec<crate::check::AccuracyOption> {
         use crate::check::AccuracyOption;
         let mut v = Vec::new();

@@ -8,12 +8,15 @@
 //! textures and dispatches). Stage names match the WGSL files, the CPU
 //! reference functions and the pipeline labels (`tonegate.<stage>`).
 
+#[cfg(feature = "gpu")]
 pub mod bench;
 pub mod config;
 mod device;
 mod exec;
 mod kernels;
+#[cfg(feature = "gpu")]
 mod metrics;
+#[cfg(feature = "gpu")]
 mod run;
 pub mod shaders;
 pub mod stages;
@@ -26,12 +29,16 @@ pub mod tone_mapper;
 use device::created;
 pub use device::{adapters, capability, context, listing, validation};
 use exec::{input, wiring};
+#[cfg(feature = "gpu")]
+use kernels::floor;
 pub use kernels::{adaptation, sphere};
 use kernels::{
-    bloom_blur, bloom_bright, bloom_composite, bloom_downsample, encode, floor, grade, grade_stats,
+    bloom_blur, bloom_bright, bloom_composite, bloom_downsample, encode, grade, grade_stats,
     luminance_stats, taa, taa_sobel, tonemap,
 };
+#[cfg(feature = "gpu")]
 pub use metrics::{compare, flip};
+#[cfg(feature = "gpu")]
 pub use run::{pool, readback, renderer, timing};
 
 pub use adapters::{choose, AdapterChoice, AdapterPick, AdapterReport, BackendChoice, Candidate};
@@ -42,8 +49,11 @@ pub use context::GpuContext;
 pub use created::Created;
 pub use input::GpuInput;
 pub use luminance_stats::GpuStats;
+#[cfg(feature = "gpu")]
 pub use pool::{size_class, RendererPool};
+#[cfg(feature = "gpu")]
 pub use readback::{GpuFrame, Ticket, FRAMES_IN_FLIGHT};
+#[cfg(feature = "gpu")]
 pub use renderer::GpuRenderer;
 pub use tone_mapper::{
     MapperTimings, MotionUnits, MotionVectors, OutputPath, SourceView, TargetView, TextureRole,

@@ -404,6 +404,17 @@ pub fn dispatch_2d(
     Dispatch::new(pipeline, bind_group, (groups(width, GROUP_X), height))
 }
 
+/// The extent of a frame of `size` with the bloom's `factor`.
+pub(crate) fn extent_of(size: (u32, u32), bloom_factor: Option<u32>) -> Extent {
+    let low = bloom_factor.map_or(size, |f| {
+        crate::reference::bloom_downsample::downsampled_size(size.0, size.1, f)
+    });
+    Extent {
+        frame: [size.0, size.1],
+        low: [low.0, low.1],
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,7 +1,7 @@
 //! `bloom_blur`: separable Gaussian, horizontal then vertical, clamped edges.
 
 use crate::image::LinearImage;
-use rayon::prelude::*;
+use crate::par::*;
 
 /// Normalised weights w\[k\], k = −radius..=radius, ∝ exp(−k²/(2σ²)).
 pub fn gaussian_weights(radius: u32, sigma: f64) -> Vec<f64> {

@@ -2,8 +2,8 @@
 
 use crate::color::{luminance_with, SMALLEST_NORMAL};
 use crate::image::LinearImage;
+use crate::par::*;
 use crate::scene::BrightPass;
-use rayon::prelude::*;
 
 /// `Scaled` (the modified Reinhard for training simulators): C·(Y/Lmax) where
 /// Y > threshold, else 0 (on the HDR frame; the factor brings the brightest

@@ -1,7 +1,7 @@
 //! `bloom_composite`: bilinear upsample of the blurred bloom, added after tone mapping.
 
 use crate::image::LinearImage;
-use rayon::prelude::*;
+use crate::par::*;
 
 /// Bilinear sample of `low` at the full-resolution pixel (x, y) of a
 /// `width`×`height` frame, texel centres aligned ((x + 0.5)/W = (xl + 0.5)/Wl),

@@ -3,8 +3,8 @@
 
 use crate::color::{luminance_with, GRADE_SATURATION_WEIGHTS};
 use crate::image::LinearImage;
+use crate::par::*;
 use crate::scene::Grade;
-use rayon::prelude::*;
 
 /// Brightness scales; contrast mixes with the grey of the (brightened) mean
 /// luminance; saturation mixes with the pixel's own luminance (weights

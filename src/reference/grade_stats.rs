@@ -2,8 +2,8 @@
 
 use crate::color::luminance;
 use crate::image::LinearImage;
+use crate::par::*;
 use crate::reference::luminance_stats::CompensatedSum;
-use rayon::prelude::*;
 
 /// Mean BT.709 luminance of the frame entering the grade (contrast's grey),
 /// summed row by row in order so it is deterministic.

@@ -2,7 +2,7 @@
 
 use crate::image::LinearImage;
 use crate::operators::StatsNeeds;
-use rayon::prelude::*;
+use crate::par::*;
 
 pub use crate::operators::LuminanceStats;
 

@@ -11,19 +11,23 @@ pub mod encode;
 pub mod grade;
 pub mod grade_stats;
 pub mod luminance_stats;
+#[cfg(feature = "reference")]
 mod scene_frame;
 pub mod sphere;
 pub mod taa;
 pub mod taa_sobel;
 pub mod tonemap;
 
+#[cfg(feature = "reference")]
 pub use scene_frame::{render_carried_frame, render_frame, render_taa_frame, scene_camera};
 
 use crate::image::{Frame, HdrImage, LinearImage, Rgb8Image};
 use crate::operators::Operator;
 use crate::operators::Tone;
 use crate::plan::{BloomSource, PlanError, Stage, StagePlan};
-use crate::scene::{Bloom, Encoding, Grade, Scene};
+#[cfg(feature = "reference")]
+use crate::scene::Scene;
+use crate::scene::{Bloom, Encoding, Grade};
 use luminance_stats::LuminanceStats;
 use serde::Serialize;
 use tonemap::ToneParams;
@@ -42,6 +46,7 @@ pub struct Pipeline<'a> {
 }
 
 impl<'a> Pipeline<'a> {
+    #[cfg(feature = "reference")]
     pub fn of_scene(scene: &'a Scene) -> Self {
         Pipeline {
             operator: &scene.operator,

@@ -2,7 +2,7 @@
 
 use crate::conventions::{bilinear, equirect_uv, jitter, sphere_direction, Camera, Mat3};
 use crate::image::{HdrImage, LinearImage};
-use rayon::prelude::*;
+use crate::par::*;
 
 /// Renders `camera`'s view of `env` rotated by `rotation`, averaging `spp`
 /// Halton(2,3)-jittered samples per pixel in f64 (the accumulation buffer of

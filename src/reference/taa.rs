@@ -37,8 +37,8 @@ use super::taa_sobel::clamped;
 use crate::color::{luminance, SMALLEST_NORMAL};
 use crate::conventions::{reproject, Camera, Mat3};
 use crate::image::{Image, LinearImage};
+use crate::par::*;
 use crate::scene::{BlendSpace, FeedbackRule, HistoryFilter, TaaParams, TaaVariant};
-use rayon::prelude::*;
 
 /// A TAA history: the resolved (unsharpened) colours and, per pixel, how
 /// many frames each has averaged since its history last started.

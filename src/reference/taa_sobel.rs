@@ -12,7 +12,7 @@
 
 use crate::color::{luminance, SMALLEST_NORMAL};
 use crate::image::{Image, LinearImage};
-use rayon::prelude::*;
+use crate::par::*;
 
 /// Luminance at (x, y), the coordinates clamped to the frame.
 pub(crate) fn clamped<P: Copy>(img: &Image<P>, x: i64, y: i64) -> P {

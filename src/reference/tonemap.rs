@@ -4,7 +4,7 @@
 
 use crate::image::LinearImage;
 use crate::operators::Tone;
-use rayon::prelude::*;
+use crate::par::*;
 
 pub use crate::operators::reinhard::{invert3, rgb_to_xyz, DELTA, DELTA_PFS};
 pub use crate::operators::ToneParams;

@@ -1,6 +1,9 @@
+use super::file::line_of;
 use super::*;
 use crate::check::Check;
+use crate::operators::Operator;
 use crate::operators::Value;
+use std::path::Path;
 
 const MINIMAL: &str = r#"
 name = "t"

@@ -343,6 +343,7 @@ impl GpuContext {
 
     /// The largest frame `check_frame` lets through, for checking an image's
     /// header before it is decoded.
+    #[cfg(feature = "reference")]
     pub fn frame_fit(&self) -> crate::io::DeviceFit {
         let bytes = self
             .limits

@@ -62,6 +62,7 @@ impl Executor {
     }
 
     /// How many compute passes a timed frame records before its sink's.
+    #[cfg(feature = "gpu")]
     pub(in crate::gpu) fn len(&self) -> usize {
         self.passes.len()
     }

@@ -23,6 +23,8 @@ pub enum GpuInput<'i> {
     View(&'i ImageView),
 }
 
+// What the gate's renderer asks of its input.
+#[cfg(feature = "gpu")]
 impl GpuInput<'_> {
     /// The output frame's size.
     pub(in crate::gpu) fn size(&self) -> (u32, u32) {

@@ -9,6 +9,7 @@ pub(in crate::gpu) mod bloom_bright;
 pub(in crate::gpu) mod bloom_composite;
 pub(in crate::gpu) mod bloom_downsample;
 pub(in crate::gpu) mod encode;
+#[cfg(feature = "gpu")]
 pub(in crate::gpu) mod floor;
 pub(in crate::gpu) mod grade;
 pub(in crate::gpu) mod grade_stats;

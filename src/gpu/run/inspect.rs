@@ -2,7 +2,8 @@
 //! stage-by-stage tests compare with the f64 reference, never part of a
 //! measured frame.
 
-use super::renderer::{extent_of, GpuRenderer};
+use super::renderer::GpuRenderer;
+use crate::gpu::stages::extent_of;
 use crate::gpu::stages::read_buffer;
 use crate::gpu::{GpuError, HdrFormat};
 use crate::image::LinearImage;

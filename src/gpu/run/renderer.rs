@@ -11,14 +11,13 @@ use crate::conventions::{Camera, Mat3};
 use crate::gpu::config::GpuConfig;
 use crate::gpu::exec::Executor;
 use crate::gpu::sphere::FrameUniforms;
-use crate::gpu::stages::{extent_buffer, storage_buffer, upload, Extent};
+use crate::gpu::stages::{extent_buffer, extent_of, storage_buffer, upload};
 use crate::gpu::wiring::Wiring;
 use crate::gpu::GpuInput;
 use crate::gpu::{GpuContext, GpuError};
 use crate::image::HdrImage;
 use crate::perf::StageTiming;
 use crate::plan::StagePlan;
-use crate::reference::bloom_downsample::downsampled_size;
 use crate::reference::Pipeline;
 
 /// A stage plan built on one context: its passes, textures and buffers,
@@ -421,14 +420,5 @@ impl<'a> GpuRenderer<'a> {
             let _ = self.collect(t);
         }
         result
-    }
-}
-
-/// The extent of a frame of `size` with the bloom's `factor`.
-pub(in crate::gpu) fn extent_of(size: (u32, u32), bloom_factor: Option<u32>) -> Extent {
-    let low = bloom_factor.map_or(size, |f| downsampled_size(size.0, size.1, f));
-    Extent {
-        frame: [size.0, size.1],
-        low: [low.0, low.1],
     }
 }

@@ -10,8 +10,7 @@ use super::{
 use crate::gpu::adaptation::AdaptationResources;
 use crate::gpu::encode::{encode_render_bind_group, encode_render_pipeline, encode_to_storage};
 use crate::gpu::exec::Executor;
-use crate::gpu::renderer::extent_of;
-use crate::gpu::stages::{extent_buffer, Dispatch, ImageView};
+use crate::gpu::stages::{extent_buffer, extent_of, Dispatch, ImageView};
 use crate::gpu::wiring::Wiring;
 use crate::gpu::GpuInput;
 use crate::gpu::{GpuConfig, GpuError};
