@@ -71,41 +71,37 @@ pub enum Stage {
     Encode,
 }
 
-impl Stage {
-    /// Every stage's name, in plan order.
-    pub const NAMES: [&'static str; 13] = [
-        "sphere",
-        "taa_sobel",
-        "taa",
-        "luminance_stats",
-        "adaptation",
-        "tonemap",
-        "bloom_bright",
-        "bloom_downsample",
-        "bloom_blur",
-        "bloom_composite",
-        "grade_stats",
-        "grade",
-        "encode",
-    ];
+/// Stage names: one table gives [`Stage::NAMES`] and [`Stage::name`], so a
+/// stage's name is written once.
+macro_rules! stage_names {
+    ($($stage:pat => $name:literal,)*) => {
+        impl Stage {
+            /// Every stage's name, in plan order.
+            pub const NAMES: [&'static str; [$($name),*].len()] = [$($name),*];
 
-    pub fn name(&self) -> &'static str {
-        match self {
-            Stage::Sphere { .. } => "sphere",
-            Stage::TaaSobel => "taa_sobel",
-            Stage::Taa(_) => "taa",
-            Stage::LuminanceStats(_) => "luminance_stats",
-            Stage::Adaptation(_) => "adaptation",
-            Stage::Tonemap { .. } => "tonemap",
-            Stage::BloomBright { .. } => "bloom_bright",
-            Stage::BloomDownsample { .. } => "bloom_downsample",
-            Stage::BloomBlur { .. } => "bloom_blur",
-            Stage::BloomComposite => "bloom_composite",
-            Stage::GradeStats => "grade_stats",
-            Stage::Grade => "grade",
-            Stage::Encode => "encode",
+            pub fn name(&self) -> &'static str {
+                match self {
+                    $($stage => $name,)*
+                }
+            }
         }
-    }
+    };
+}
+
+stage_names! {
+    Stage::Sphere { .. } => "sphere",
+    Stage::TaaSobel => "taa_sobel",
+    Stage::Taa(_) => "taa",
+    Stage::LuminanceStats(_) => "luminance_stats",
+    Stage::Adaptation(_) => "adaptation",
+    Stage::Tonemap { .. } => "tonemap",
+    Stage::BloomBright { .. } => "bloom_bright",
+    Stage::BloomDownsample { .. } => "bloom_downsample",
+    Stage::BloomBlur { .. } => "bloom_blur",
+    Stage::BloomComposite => "bloom_composite",
+    Stage::GradeStats => "grade_stats",
+    Stage::Grade => "grade",
+    Stage::Encode => "encode",
 }
 
 /// What the `adaptation` stage runs with.

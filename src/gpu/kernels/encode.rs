@@ -88,18 +88,99 @@ pub enum Texel {
     ScRgb,
 }
 
+/// A format the encode stage writes into a caller's target: what a
+/// texture of it holds, and how a compute pass stores into it where WGSL
+/// can name the format.
+#[derive(Clone, Copy, Debug)]
+pub struct TargetFormat {
+    pub format: wgpu::TextureFormat,
+    pub texel: Texel,
+    pub store: Option<Store>,
+}
+
+/// A compute pass's store into a target: the entry point
+/// (`to_texture*` in shaders/encode.wgsl), the binding of the storage
+/// texture it writes, and the device feature storing needs.
+#[derive(Clone, Copy, Debug)]
+pub struct Store {
+    pub entry: &'static str,
+    pub binding: u32,
+    pub feature: wgpu::Features,
+}
+
+/// Every target format, once (docs/embedding.md#targets): the formats the
+/// tone mapper takes, what each holds and which a compute pass stores
+/// into are all read from here. An `…Srgb` format holds its twin's bytes,
+/// written by the render pass (WGSL names no sRGB storage format).
+pub const TARGETS: [TargetFormat; 6] = {
+    use wgpu::TextureFormat as F;
+    let none = wgpu::Features::empty();
+    [
+        TargetFormat {
+            format: F::Rgba8Unorm,
+            texel: Texel::Codes8,
+            store: Some(Store {
+                entry: "to_texture",
+                binding: 2,
+                feature: none,
+            }),
+        },
+        TargetFormat {
+            format: F::Rgba8UnormSrgb,
+            texel: Texel::Codes8Srgb,
+            store: None,
+        },
+        TargetFormat {
+            format: F::Bgra8Unorm,
+            texel: Texel::Codes8,
+            store: Some(Store {
+                entry: "to_texture_bgra8",
+                binding: 5,
+                feature: wgpu::Features::BGRA8UNORM_STORAGE,
+            }),
+        },
+        TargetFormat {
+            format: F::Bgra8UnormSrgb,
+            texel: Texel::Codes8Srgb,
+            store: None,
+        },
+        TargetFormat {
+            format: F::Rgb10a2Unorm,
+            texel: Texel::Codes10,
+            store: None,
+        },
+        TargetFormat {
+            format: F::Rgba16Float,
+            texel: Texel::ScRgb,
+            store: Some(Store {
+                entry: "to_texture_rgba16f",
+                binding: 4,
+                feature: none,
+            }),
+        },
+    ]
+};
+
+/// `format`'s row of [`TARGETS`], or `None` for a format no target takes.
+pub fn target_format(format: wgpu::TextureFormat) -> Option<&'static TargetFormat> {
+    TARGETS.iter().find(|t| t.format == format)
+}
+
+/// The formats of [`TARGETS`], in its order, as a sentence: "A, B or C".
+pub fn target_format_names() -> String {
+    let names: Vec<String> = TARGETS.iter().map(|t| format!("{:?}", t.format)).collect();
+    match names.split_last() {
+        Some((last, [])) => last.clone(),
+        Some((last, rest)) => format!("{} or {last}", rest.join(", ")),
+        None => String::new(),
+    }
+}
+
 impl Texel {
     /// What a texture of `format` holds, or `None` for a format no target
     /// takes.
     pub fn of(format: wgpu::TextureFormat) -> Option<Texel> {
-        use wgpu::TextureFormat as F;
-        match format {
-            F::Rgba8Unorm | F::Bgra8Unorm => Some(Texel::Codes8),
-            F::Rgba8UnormSrgb | F::Bgra8UnormSrgb => Some(Texel::Codes8Srgb),
-            F::Rgb10a2Unorm => Some(Texel::Codes10),
-            F::Rgba16Float => Some(Texel::ScRgb),
-            _ => None,
-        }
+        target_format(format).map(|t| t.texel)
     }
 
     fn constant(self) -> f64 {
@@ -121,25 +202,11 @@ impl Texel {
     }
 }
 
-/// The entry point that stores into a storage texture of `format`, where
-/// WGSL can name the format (`to_texture*` in shaders/encode.wgsl).
-pub fn storage_entry(format: wgpu::TextureFormat) -> Option<&'static str> {
-    use wgpu::TextureFormat as F;
-    match format {
-        F::Rgba8Unorm => Some("to_texture"),
-        F::Bgra8Unorm => Some("to_texture_bgra8"),
-        F::Rgba16Float => Some("to_texture_rgba16f"),
-        _ => None,
-    }
-}
-
-/// The binding of the storage texture `entry` writes.
-fn storage_binding(entry: &str) -> u32 {
-    match entry {
-        "to_texture" => 2,
-        "to_texture_rgba16f" => 4,
-        _ => 5,
-    }
+/// How a compute pass stores into a target of `format` on a device with
+/// `features`, or `None` where it cannot (a render pass can).
+pub fn storage(format: wgpu::TextureFormat, features: wgpu::Features) -> Option<Store> {
+    let store = target_format(format)?.store?;
+    features.contains(store.feature).then_some(store)
 }
 
 /// [`encode_constants`] and the target's texel.
@@ -153,9 +220,9 @@ pub fn target_constants(
     c
 }
 
-/// `encode` into a caller's storage texture of `target_format` (one with an
-/// entry in [`storage_entry`]) through a compute pass, the image at
-/// `origin` (a uniform of one `vec4<u32>`, xy used) in it.
+/// `encode` into a caller's storage texture of `target_format` (one a
+/// compute pass stores into: [`storage`]) through a compute pass, the
+/// image at `origin` (a uniform of one `vec4<u32>`, xy used) in it.
 #[allow(clippy::too_many_arguments)]
 pub fn encode_to_storage(
     ctx: &GpuContext,
@@ -168,14 +235,14 @@ pub fn encode_to_storage(
     origin: &wgpu::Buffer,
     extent: &wgpu::Buffer,
 ) -> Dispatch {
-    let entry = storage_entry(target_format).expect("a storage target format");
-    let texel = Texel::of(target_format).expect("a target format");
+    let target_row = self::target_format(target_format).expect("a target format");
+    let store = target_row.store.expect("a storage target format");
     let p = pipeline(
         ctx,
         "encode",
-        entry,
+        store.entry,
         format,
-        &target_constants(encoding, levels, texel),
+        &target_constants(encoding, levels, target_row.texel),
     );
     let bg = bind_group(
         ctx,
@@ -184,7 +251,7 @@ pub fn encode_to_storage(
         &[
             (0, Bind::Texture(src)),
             (3, Bind::Buffer(origin)),
-            (storage_binding(entry), Bind::View(target)),
+            (store.binding, Bind::View(target)),
         ],
     );
     dispatch_2d(p, bg, src.width(), src.height()).sized(ctx, extent)
@@ -262,4 +329,49 @@ pub fn encode_render_bind_group(
         "tonegate.encode.to_attachment",
         &[(0, Bind::Texture(src)), (3, Bind::Buffer(origin))],
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each stored target's entry point writes, through `textureStore`, the
+    /// storage texture declared at its binding, in its own format: the
+    /// table and shaders/encode.wgsl agree.
+    #[test]
+    fn the_target_table_matches_the_encode_shader() {
+        let wgsl = crate::gpu::shaders::compose("encode", HdrFormat::Rgba32Float, false);
+        let mut stored = 0;
+        for t in TARGETS {
+            let Some(store) = t.store else {
+                continue;
+            };
+            let decl = format!("@group(0) @binding({}) var ", store.binding);
+            let line = wgsl
+                .lines()
+                .find(|l| l.starts_with(&decl))
+                .unwrap_or_else(|| panic!("no binding {} in encode.wgsl", store.binding));
+            let name = line[decl.len()..].split(':').next().unwrap().trim();
+            let wgsl_format = format!("{:?}", t.format).to_lowercase();
+            assert!(
+                line.contains(&format!("texture_storage_2d<{wgsl_format}, write>")),
+                "{line}: not {wgsl_format}"
+            );
+            let body = wgsl
+                .split(&format!("fn {}(", store.entry))
+                .nth(1)
+                .unwrap_or_else(|| panic!("no entry {}", store.entry));
+            let body = &body[..body.find("\n}").unwrap()];
+            assert!(
+                body.contains(&format!("textureStore({name},")),
+                "{} does not store to {name}",
+                store.entry
+            );
+            stored += 1;
+        }
+        assert_eq!(stored, 3);
+        let formats: Vec<_> = TARGETS.iter().map(|t| t.format).collect();
+        assert_eq!(formats, crate::gpu::tone_mapper::TARGET_FORMATS);
+        assert!(target_format_names().ends_with("Rgb10a2Unorm or Rgba16Float"));
+    }
 }

@@ -3,6 +3,7 @@
 //! the errors that refuse them.
 
 use super::super::GpuError;
+use crate::gpu::encode::TARGETS;
 
 /// The HDR formats the tone mapper reads (linear, scene-referred).
 pub const INPUT_FORMATS: [wgpu::TextureFormat; 2] = [
@@ -14,14 +15,15 @@ pub const INPUT_FORMATS: [wgpu::TextureFormat; 2] = [
 /// 8-bit codes of the encoding in the four 8-bit formats (an `…Srgb`
 /// format holds the same bytes as its twin), 10-bit codes of the encoding
 /// or of PQ in `Rgb10a2Unorm`, scRGB in `Rgba16Float`.
-pub const TARGET_FORMATS: [wgpu::TextureFormat; 6] = [
-    wgpu::TextureFormat::Rgba8Unorm,
-    wgpu::TextureFormat::Rgba8UnormSrgb,
-    wgpu::TextureFormat::Bgra8Unorm,
-    wgpu::TextureFormat::Bgra8UnormSrgb,
-    wgpu::TextureFormat::Rgb10a2Unorm,
-    wgpu::TextureFormat::Rgba16Float,
-];
+pub const TARGET_FORMATS: [wgpu::TextureFormat; TARGETS.len()] = {
+    let mut formats = [wgpu::TextureFormat::Rgba8Unorm; TARGETS.len()];
+    let mut i = 0;
+    while i < TARGETS.len() {
+        formats[i] = TARGETS[i].format;
+        i += 1;
+    }
+    formats
+};
 
 /// How the tone mapper writes its target.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -161,7 +163,10 @@ pub enum ToneMapperError {
         operator: String,
     },
     /// The settings' target is not one of [`TARGET_FORMATS`].
-    #[error("target format {format:?}: the tone mapper writes Rgba8Unorm(Srgb), Bgra8Unorm(Srgb), Rgb10a2Unorm or Rgba16Float")]
+    #[error(
+        "target format {format:?}: the tone mapper writes {}",
+        crate::gpu::encode::target_format_names()
+    )]
     TargetFormat {
         /// The format asked for.
         format: wgpu::TextureFormat,
@@ -336,7 +341,5 @@ pub(super) fn check_texture(
 
 /// Can a compute pass store `format` on a device with `features`?
 pub(super) fn storable(format: wgpu::TextureFormat, features: wgpu::Features) -> bool {
-    super::super::encode::storage_entry(format).is_some()
-        && (format != wgpu::TextureFormat::Bgra8Unorm
-            || features.contains(wgpu::Features::BGRA8UNORM_STORAGE))
+    crate::gpu::encode::storage(format, features).is_some()
 }
