@@ -401,12 +401,45 @@ fn tone_mapper_record(c: &mut Criterion) {
     }
 }
 
+/// A new exposure per frame, the two ways: `set_exposure` (one word
+/// written) against `set_settings` with the operator rebuilt with its new
+/// `exposure` (what an application did before it), on AgX. No GPU work:
+/// the time of the call alone.
+fn tone_mapper_exposure(c: &mut Criterion) {
+    use tonegate::gpu::{ToneMapper, ToneMapperSettings};
+    use tonegate::operators::{Operator, Value};
+    let ctx = GpuContext::new(&AdapterChoice::default()).unwrap_or_else(|e| panic!("{e}"));
+    let agx = |e: f64| ToneMapperSettings {
+        operator: Operator::named("agx", &[("exposure", Value::Number(e))]).unwrap(),
+        ..ToneMapperSettings::default()
+    };
+    let mut mapper = ToneMapper::new(&ctx.device, &ctx.queue, agx(1.0)).unwrap();
+    let mut group = c.benchmark_group("tone_mapper_exposure");
+    let mut n = 0u32;
+    group.bench_function("set_exposure", |b| {
+        b.iter(|| {
+            n = n.wrapping_add(1);
+            mapper.set_exposure(0.5 + (n % 64) as f32 / 64.0)
+        })
+    });
+    group.bench_function("set_settings", |b| {
+        b.iter(|| {
+            n = n.wrapping_add(1);
+            mapper
+                .set_settings(agx(0.5 + f64::from(n % 64) / 64.0))
+                .unwrap()
+        })
+    });
+    group.finish();
+}
+
 criterion_group!(
     benches,
     full_plan,
     readback,
     kept_renderers,
     tone_mapper,
-    tone_mapper_record
+    tone_mapper_record,
+    tone_mapper_exposure
 );
 criterion_main!(benches);

@@ -68,6 +68,12 @@ impl ToneOperator for AcesHill {
             include_str!("../../shaders/operators/aces_hill.wgsl"),
         )
     }
+    fn gpu_exposure_word(&self) -> Option<super::ExposureWord> {
+        Some(super::ExposureWord {
+            index: 0,
+            divisor: 0.6,
+        })
+    }
     fn gpu_config(&self, v: &Values) -> Vec<f32> {
         vec![(v.num("exposure") / 0.6) as f32]
     }

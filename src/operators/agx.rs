@@ -136,6 +136,9 @@ impl ToneOperator for Agx {
     }
     /// The look is in the uniform with the exposure, so an application
     /// switches it per frame without a new pipeline.
+    fn gpu_exposure_word(&self) -> Option<super::ExposureWord> {
+        Some(super::ExposureWord::FIRST)
+    }
     fn gpu_config(&self, v: &Values) -> Vec<f32> {
         let punchy = v.word("look") == "punchy";
         vec![v.num("exposure") as f32, f32::from(u8::from(punchy))]

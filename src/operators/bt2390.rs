@@ -235,6 +235,9 @@ impl ToneOperator for Bt2390 {
     fn wgsl(&self) -> &'static str {
         include_str!("../../shaders/operators/bt2390.wgsl")
     }
+    fn gpu_exposure_word(&self) -> Option<super::ExposureWord> {
+        Some(super::ExposureWord::FIRST)
+    }
     fn gpu_config(&self, v: &Values) -> Vec<f32> {
         vec![v.num("exposure") as f32]
     }

@@ -86,6 +86,13 @@ pub trait ToneOperator: Send + Sync + 'static {
     fn wgsl(&self) -> &'static str;
     /// The `OperatorConfig` uniform's contents for these values.
     fn gpu_config(&self, values: &Values) -> Vec<f32>;
+    /// Where [`ToneOperator::gpu_config`] puts the `exposure` parameter,
+    /// for an operator that has one, so that a frame's new exposure
+    /// (`ToneMapper::set_exposure`) is one word written in place, with no
+    /// values built; `None` (the default) for an operator without one.
+    fn gpu_exposure_word(&self) -> Option<ExposureWord> {
+        None
+    }
     /// The module's override constants for these values.
     fn gpu_constants(&self, _values: &Values) -> Vec<(&'static str, f64)> {
         Vec::new()
@@ -136,5 +143,30 @@ impl DisplayLevels {
 impl std::fmt::Debug for dyn ToneOperator {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.name())
+    }
+}
+
+/// The word of the `OperatorConfig` uniform that holds an operator's
+/// `exposure`, and how: `(exposure / divisor) as f32`, exactly as its
+/// `gpu_config` writes it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ExposureWord {
+    /// The word's index in the uniform.
+    pub index: usize,
+    /// What the exposure is divided by before it is stored (three.js's
+    /// ACES fit stores exposure / 0.6).
+    pub divisor: f64,
+}
+
+impl ExposureWord {
+    /// The exposure as the first word, as it is.
+    pub const FIRST: ExposureWord = ExposureWord {
+        index: 0,
+        divisor: 1.0,
+    };
+
+    /// The word for `exposure`.
+    pub fn word(&self, exposure: f64) -> f32 {
+        (exposure / self.divisor) as f32
     }
 }

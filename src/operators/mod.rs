@@ -37,7 +37,7 @@ mod table;
 
 pub use crate::color::pq_decode;
 pub use bt2390::pq_encode;
-pub use definition::{Curve, DisplayLevels, Resolution, ToneOperator};
+pub use definition::{Curve, DisplayLevels, ExposureWord, Resolution, ToneOperator};
 pub use describe::{describe, OperatorInfo, ParamInfo, RangeInfo};
 pub use error::OperatorError;
 pub use params::{Kind, Param, Range, Value, Values};

@@ -54,6 +54,9 @@ impl ToneOperator for PbrNeutral {
     fn wgsl(&self) -> &'static str {
         include_str!("../../shaders/operators/pbr_neutral.wgsl")
     }
+    fn gpu_exposure_word(&self) -> Option<super::ExposureWord> {
+        Some(super::ExposureWord::FIRST)
+    }
     fn gpu_config(&self, v: &Values) -> Vec<f32> {
         vec![v.num("exposure") as f32]
     }

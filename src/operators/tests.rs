@@ -259,3 +259,33 @@ fn hable_refuses_constants_its_curve_cannot_use() {
     // Any E with the other defaults still maps 0 to 0 (DE/DF = E/F).
     assert!(e.is_ok());
 }
+
+/// Every operator with an `exposure` parameter says where its uniform holds
+/// it, and that word, written for a new exposure, is what `gpu_config`
+/// writes for it, with every other word unchanged; an operator without one
+/// says nothing.
+#[test]
+fn the_exposure_word_is_where_gpu_config_puts_the_exposure() {
+    for name in names() {
+        let op = Operator::named(name, &[]).unwrap();
+        let d = op.definition();
+        let has = d.params().iter().any(|p| p.name == "exposure");
+        let Some(word) = d.gpu_exposure_word() else {
+            assert!(!has, "{} has an exposure and no exposure word", op.name());
+            continue;
+        };
+        assert!(has, "{} has an exposure word and no exposure", op.name());
+        let base = d.gpu_config(op.values());
+        for e in [1e-6, 0.25, 1.0, 3.7, 1e6] {
+            let with = op.with_value("exposure", Value::Number(e)).unwrap();
+            let mut expected = base.clone();
+            expected[word.index] = word.word(e);
+            assert_eq!(
+                d.gpu_config(with.values()),
+                expected,
+                "{} at exposure {e}",
+                op.name()
+            );
+        }
+    }
+}

@@ -117,6 +117,9 @@ pub struct ToneMapper {
     stats: wgpu::Buffer,
     /// The operator's uniform words for its current parameters.
     config: Vec<f32>,
+    /// Where `config` holds the operator's exposure, and the range it is
+    /// held to, for [`ToneMapper::set_exposure`].
+    exposure: Option<(crate::operators::ExposureWord, (f64, f64))>,
     /// The inputs wired, the one used last at the end.
     bound: Vec<Bound>,
     /// Where the image goes in the target, written per record.
@@ -169,6 +172,7 @@ impl ToneMapper {
         );
         ToneMapper {
             config: OperatorShader::config_of(&settings.operator),
+            exposure: exposure_of(&settings.operator),
             settings,
             reduction,
             shader,
@@ -325,8 +329,38 @@ impl ToneMapper {
             }
         }
         self.config = config;
+        self.exposure = exposure_of(&settings.operator);
         self.settings = settings;
         Ok(())
+    }
+
+    /// Maps with `exposure` (a gain on the linear input: 2 is a stop
+    /// brighter) from the next [`ToneMapper::record`] on, for an operator
+    /// with an `exposure` parameter (every fixed curve, AgX, the ACES
+    /// curves, BT.2390): the same frames as [`ToneMapper::set_settings`]
+    /// with that parameter, bit for bit, but one word written in place,
+    /// with nothing allocated, compared or compiled, so a game can call it
+    /// every frame. It cannot fail: an exposure outside the parameter's
+    /// range (1e-6 to 1e6) is held to it, and one that is not a number
+    /// leaves the exposure as it was. False, with nothing changed, for an
+    /// operator without an exposure (the Reinhard family keys on the
+    /// frame's luminance instead: its `key` is a setting). `settings()`
+    /// keeps the operator's values as last set; the exposure in effect is
+    /// [`ToneMapper::exposure`].
+    pub fn set_exposure(&mut self, exposure: f32) -> bool {
+        let Some((word, (lo, hi))) = self.exposure else {
+            return false;
+        };
+        if !exposure.is_nan() {
+            self.config[word.index] = word.word(f64::from(exposure).clamp(lo, hi));
+        }
+        true
+    }
+
+    /// The exposure the next record maps with, for an operator with one.
+    pub fn exposure(&self) -> Option<f64> {
+        let (word, _) = self.exposure?;
+        Some(f64::from(self.config[word.index]) * word.divisor)
     }
 
     /// The seconds between the frames recorded from now on, for the
@@ -396,5 +430,24 @@ impl ToneMapper {
             .read_buffer(stamps.read_buffer())
             .map_err(ToneMapperError::Readback)?;
         Ok(Some(stamps.timings(&ticks)))
+    }
+}
+
+/// Where `op`'s uniform holds its exposure, and the exposure parameter's
+/// range.
+fn exposure_of(
+    op: &crate::operators::Operator,
+) -> Option<(crate::operators::ExposureWord, (f64, f64))> {
+    let word = op.definition().gpu_exposure_word()?;
+    let param = op
+        .definition()
+        .params()
+        .iter()
+        .find(|p| p.name == "exposure")?;
+    match param.kind {
+        crate::operators::Kind::Number(r) | crate::operators::Kind::NumberOrAuto(r) => {
+            Some((word, (r.min, r.max)))
+        }
+        _ => None,
     }
 }

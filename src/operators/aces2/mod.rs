@@ -192,6 +192,9 @@ impl ToneOperator for Aces2 {
             include_str!("../../../shaders/operators/aces2.wgsl"),
         )
     }
+    fn gpu_exposure_word(&self) -> Option<super::ExposureWord> {
+        Some(super::ExposureWord::FIRST)
+    }
     fn gpu_config(&self, v: &Values) -> Vec<f32> {
         let g = &Model::sdr().gamut;
         let mut out = vec![

@@ -31,8 +31,8 @@ fn agx(target: wgpu::TextureFormat, path: OutputPath, exposure: f64) -> ToneMapp
     }
 }
 
-/// 200 frames in the docs' loop: per frame a settings change (the
-/// exposure), a target, `record`, `submit`. Returns what frames 2…200
+/// 200 frames in the docs' loop: per frame a new exposure
+/// (`set_exposure`), a target, `record`, `submit`. Returns what frames 2…200
 /// created and the last target with the exposure it was mapped at.
 fn run_loop(
     device: &wgpu::Device,
@@ -53,7 +53,7 @@ fn run_loop(
     let mut after_first = Created::default();
     let mut last = None;
     for n in 0..200u32 {
-        mapper.set_settings(agx(target, path, exposure(n))).unwrap();
+        assert!(mapper.set_exposure(exposure(n) as f32));
         let mut encoder = device.create_command_encoder(&Default::default());
         let frame = match targets {
             Targets::NewTexture => texture(device, size, 1, target, usage),
@@ -247,5 +247,65 @@ fn the_default_settings_write_a_swap_chains_format() {
     assert!(
         swap == rgba,
         "the default target's codes differ from Rgba8Unorm's"
+    );
+}
+
+/// `set_exposure` maps as `set_settings` with that exposure does, bit for
+/// bit (AgX's word as it is, three.js's ACES fit's over 0.6), and refuses
+/// nothing: an operator without an exposure says so and keeps mapping as
+/// before, a NaN leaves the exposure, an absurd one is held to the range.
+#[test]
+fn set_exposure_maps_as_the_exposure_parameter_does() {
+    let (device, queue) = own_device("llvmpipe");
+    let img = night_and_ramp();
+    let input = hdr_input(&device, &queue, &img);
+    let size = (img.width, img.height);
+    let usage = U::STORAGE_BINDING | U::COPY_SRC;
+    let frame = |mapper: &mut ToneMapper| {
+        let output = texture(&device, size, 1, F::Rgba8Unorm, usage);
+        let mut encoder = device.create_command_encoder(&Default::default());
+        mapper
+            .record(&mut encoder, &view(&input), &view(&output))
+            .unwrap();
+        queue.submit([encoder.finish()]);
+        read(&device, &queue, &output, 0)
+    };
+    let settings = |name: &str, exposure: f64| ToneMapperSettings {
+        operator: Operator::named(name, &[("exposure", Value::Number(exposure))]).unwrap(),
+        target: F::Rgba8Unorm,
+        ..Default::default()
+    };
+    for name in ["agx", "aces-hill"] {
+        let mut fast = ToneMapper::new(&device, &queue, settings(name, 1.0)).unwrap();
+        for e in [0.5f32, 2.0, 3.7] {
+            assert!(fast.set_exposure(e));
+            let mut slow = ToneMapper::new(&device, &queue, settings(name, f64::from(e))).unwrap();
+            assert!(frame(&mut fast) == frame(&mut slow), "{name} at {e}");
+        }
+        let before = fast.exposure();
+        assert!(fast.set_exposure(f32::NAN));
+        assert_eq!(
+            fast.exposure(),
+            before,
+            "{name}: a NaN changed the exposure"
+        );
+        assert!(fast.set_exposure(f32::INFINITY));
+        let mut top = ToneMapper::new(&device, &queue, settings(name, 1e6)).unwrap();
+        assert!(
+            frame(&mut fast) == frame(&mut top),
+            "{name}: +inf is not held to 1e6"
+        );
+    }
+    let reinhard = ToneMapperSettings {
+        target: F::Rgba8Unorm,
+        ..Default::default()
+    };
+    let mut plain = ToneMapper::new(&device, &queue, reinhard.clone()).unwrap();
+    let as_set = frame(&mut plain);
+    assert!(!plain.set_exposure(4.0));
+    assert_eq!(plain.exposure(), None);
+    assert!(
+        frame(&mut plain) == as_set,
+        "an operator without an exposure changed"
     );
 }
