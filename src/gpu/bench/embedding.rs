@@ -67,6 +67,7 @@ pub fn embedding_stages(
     )?;
     let settings = ToneMapperSettings {
         operator: operator.clone(),
+        target: wgpu::TextureFormat::Rgba8Unorm,
         ..ToneMapperSettings::default()
     };
     let mut mapper = ToneMapper::new(&ctx.device, &ctx.queue, settings)?;
