@@ -1,5 +1,5 @@
 //! The gate's front end on the executor: a stage plan's resources for
-//! frames of one input, recorded by [`Executor`] with `encode`'s packed
+//! frames of one input, recorded by the executor (`exec::Executor`) with `encode`'s packed
 //! frame as the sink, submitted and read back through the ring
 //! (`readback`), frames in flight. Only the plan's stages are created,
 //! dispatched and timed; what each stage reads and writes is wired in
