@@ -132,7 +132,7 @@ fn judge(
         let Some(bytes) = history.blob(positive)? else {
             continue;
         };
-        let theirs = decode_bytes(&bytes, &input.test)?;
+        let theirs = decode_bytes(&bytes, &input.test, super::rules::alpha_of(rule))?;
         match against(image, &theirs, rule, on.compare) {
             Ok(c) => {
                 if better(&c, best.as_ref()) {

@@ -164,13 +164,17 @@ fn read(mut input: Input) -> Result<Read, FramesError> {
 /// or 16-bit with a cICP chunk saying BT.2100 PQ; anything else as EXR,
 /// Radiance or PFM light (NaN and infinities refused). `file` names it in
 /// errors.
-pub fn decode_bytes(bytes: &[u8], file: &str) -> Result<Decoded, FramesError> {
+pub fn decode_bytes(
+    bytes: &[u8],
+    file: &str,
+    alpha: crate::io::Alpha,
+) -> Result<Decoded, FramesError> {
     const PNG: [u8; 8] = [0x89, b'P', b'N', b'G', b'\r', b'\n', 0x1a, b'\n'];
     // A file named .png is read as one, so that a damaged one is reported
     // by the PNG reader, not as "not an HDR image".
     let named_png = file.to_ascii_lowercase().ends_with(".png");
     Ok(if bytes.starts_with(&PNG) || named_png {
-        Decoded::Frame(crate::io::decode_frame_png(bytes, file)?)
+        Decoded::Frame(crate::io::decode_frame_png_with(bytes, file, alpha)?)
     } else {
         Decoded::Hdr(crate::io::decode_hdr(bytes, file, &LoadOptions::default())?.0)
     })
@@ -282,7 +286,12 @@ pub fn submit(history: &History, s: Submission) -> Result<SubmissionReport, Fram
             .enumerate()
             .filter(|(i, _)| group.binary_search(i).is_ok())
             .try_for_each(|(_, r)| {
-                r.image = Some(decode_bytes(&r.bytes, &r.input.file)?);
+                let rule = s.rules.for_test(&r.input.test, &s.keys);
+                r.image = Some(decode_bytes(
+                    &r.bytes,
+                    &r.input.file,
+                    rules::alpha_of(rule),
+                )?);
                 Ok::<(), FramesError>(())
             })?;
         for &i in group {

@@ -76,6 +76,64 @@ pub struct TestRule {
     /// Bounds for an HDR file (EXR, Radiance, PFM) against a positive.
     #[serde(default)]
     pub hdr: HdrBounds,
+    /// What a PNG's alpha channel means for these tests: its colour
+    /// composited `over` the background (the default), or `ignore`d (the
+    /// colour channels as stored). Either way the frame and its positives
+    /// are read alike.
+    #[serde(default)]
+    pub alpha: AlphaRule,
+    /// The colour under a frame with alpha, `"#rrggbb"` in the frame's own
+    /// codes: black unless given.
+    #[serde(default)]
+    pub background: Option<Colour>,
+}
+
+/// What a frame's alpha channel means to the judge.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum AlphaRule {
+    /// The colour composited over the rule's background (straight alpha,
+    /// on the stored codes, as a browser draws the PNG on a page).
+    #[default]
+    Over,
+    /// The alpha channel dropped.
+    Ignore,
+}
+
+/// A colour written `"#rrggbb"`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(try_from = "String")]
+pub struct Colour(pub [u8; 3]);
+
+impl TryFrom<String> for Colour {
+    type Error = String;
+    fn try_from(text: String) -> Result<Colour, String> {
+        let hex = text
+            .strip_prefix('#')
+            .filter(|h| h.len() == 6 && h.chars().all(|c| c.is_ascii_hexdigit()))
+            .ok_or_else(|| format!("background {text:?}: expected \"#rrggbb\""))?;
+        let byte = |i: usize| u8::from_str_radix(&hex[i..i + 2], 16).unwrap_or(0);
+        Ok(Colour([byte(0), byte(2), byte(4)]))
+    }
+}
+
+/// How a frame no rule covers reads its alpha: over black.
+pub const DEFAULT_ALPHA: crate::io::Alpha = crate::io::Alpha::Over([0, 0, 0]);
+
+impl TestRule {
+    /// How the frames of its tests read their alpha channel.
+    pub fn alpha(&self) -> crate::io::Alpha {
+        match self.alpha {
+            AlphaRule::Over => crate::io::Alpha::Over(self.background.map_or([0; 3], |c| c.0)),
+            AlphaRule::Ignore => crate::io::Alpha::Ignore,
+        }
+    }
+}
+
+/// How a frame under `rule` (none: no rule covers its test) reads its
+/// alpha channel.
+pub fn alpha_of(rule: Option<&TestRule>) -> crate::io::Alpha {
+    rule.map_or(DEFAULT_ALPHA, TestRule::alpha)
 }
 
 /// How far an HDR file may be from a positive (docs/hdr-metrics.md's
@@ -141,6 +199,11 @@ impl Rules {
         let at = format!("tests[{i}] ({:?})", rule.pattern);
         if rule.pattern.is_empty() {
             return Err(format!("{at}: an empty pattern"));
+        }
+        if rule.alpha == AlphaRule::Ignore && rule.background.is_some() {
+            return Err(format!(
+                "{at}: a background with alpha = \"ignore\": the background is what alpha = \"over\" composites over"
+            ));
         }
         for c in &rule.checks {
             if !one_frame(c) {

@@ -25,6 +25,7 @@ pub use small::{
 pub mod peek;
 mod pfm;
 mod png;
+pub use png::Alpha;
 pub(crate) mod radiance;
 mod small;
 mod validate;
@@ -299,7 +300,7 @@ pub fn read_png8(path: &Path) -> Result<Rgb8Image, HdrIoError> {
 /// [`read_png8`] on bytes in memory, as `compare` reads a PNG; `name`
 /// names them in errors.
 pub fn decode_png8(bytes: &[u8], name: &str) -> Result<Rgb8Image, HdrIoError> {
-    png::decode_png8(bytes, name)
+    png::decode_png8(bytes, name, Alpha::Opaque)
 }
 
 /// Reads a 16-bit PNG (RGB, grey, or opaque RGBA/grey-alpha) as RGB.
@@ -369,11 +370,18 @@ pub fn read_frame_png(path: &Path) -> Result<Frame, HdrIoError> {
 
 /// [`read_frame_png`] on bytes in memory; `file` names them in errors.
 pub fn decode_frame_png(bytes: &[u8], file: &str) -> Result<Frame, HdrIoError> {
+    decode_frame_png_with(bytes, file, Alpha::Opaque)
+}
+
+/// [`decode_frame_png`] of a frame whose alpha channel means what `alpha`
+/// says (a submitted frame's rule: composited over a background, or
+/// dropped) instead of being refused unless opaque.
+pub fn decode_frame_png_with(bytes: &[u8], file: &str, alpha: Alpha) -> Result<Frame, HdrIoError> {
     // The IHDR chunk comes first: its bit depth is byte 24.
     if bytes.get(24) != Some(&16) {
-        return png::decode_png8(bytes, file).map(Frame::Rgb8);
+        return png::decode_png8(bytes, file, alpha).map(Frame::Rgb8);
     }
-    let image = png::decode_png16(bytes, file)?;
+    let image = png::decode_png16(bytes, file, alpha)?;
     let chunks = read_hdr_png_info(bytes, file)?;
     if chunks.cicp != Some(Cicp::BT2100_PQ) {
         return Err(HdrIoError::Unsupported {

@@ -25,6 +25,7 @@ mod display;
 mod docs_examples;
 mod fleet;
 mod frames;
+mod frames_alpha;
 mod frames_api;
 mod frames_cli;
 mod frames_decisions;

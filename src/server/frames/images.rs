@@ -65,7 +65,7 @@ fn tone(img: &HdrImage, operator: &str) -> Result<Rgb8Image, ApiError> {
 }
 
 fn decoded(bytes: &[u8], name: &str) -> Result<Decoded, ApiError> {
-    decode_bytes(bytes, name)
+    decode_bytes(bytes, name, crate::frames::rules::DEFAULT_ALPHA)
         .map_err(|e| ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, "bad_image", e.to_string()))
 }
 

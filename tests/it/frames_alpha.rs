@@ -1,0 +1,107 @@
+//! Frames with an alpha channel, as many renderers write their
+//! screenshots: judged on their colour composited over the rule's
+//! background (black by default), or with the alpha dropped, and never
+//! refused. Real RGBA PNGs through the real decoder and the real command.
+
+use crate::frames::{frame, frame8, submit, triage};
+use std::path::Path;
+
+/// `frame8(0)`'s colours with alpha: a 128-alpha band in rows 4..12 and
+/// `band` over columns 0..16 of it (the rest opaque).
+fn write_rgba(path: &Path, band: u8) {
+    let rgb = frame8(0);
+    let mut rgba = Vec::with_capacity(rgb.pixels.len() * 4);
+    for (i, p) in rgb.pixels.iter().enumerate() {
+        let (x, y) = (i as u32 % rgb.width, i as u32 / rgb.width);
+        let a = match (x, y) {
+            (0..16, 4..12) => band,
+            (_, 4..12) => 128,
+            _ => 255,
+        };
+        rgba.extend_from_slice(&[p[0], p[1], p[2], a]);
+    }
+    image::save_buffer(path, &rgba, rgb.width, rgb.height, image::ColorType::Rgba8).unwrap();
+}
+
+#[test]
+fn frames_with_alpha_are_judged_over_a_background_or_without_it() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (db, dir) = (tmp.path().join("h.sqlite"), tmp.path().join("frames"));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("hud.png");
+    write_rgba(&path, 128);
+    // Judged, not refused: untriaged (exit 1), not a bad file (exit 2).
+    let first = submit(&db, &dir, &[]);
+    assert_eq!(first.code, 1, "{}", first.stderr);
+    assert_eq!(frame(&first.report, "hud")["status"], "untriaged");
+    triage(
+        &db,
+        "hud",
+        frame(&first.report, "hud")["digest"].as_str().unwrap(),
+        "positive",
+    );
+    assert_eq!(submit(&db, &dir, &[]).code, 0);
+    // Only the alpha of 128 pixels changes (128 → 255): over black, their
+    // colour changes by up to half its code.
+    write_rgba(&path, 255);
+    let exact = tmp.path().join("exact.toml");
+    std::fs::write(
+        &exact,
+        "[[tests]]\npattern = \"*\"\nchecks = [{ max_abs_diff = 0 }]\n",
+    )
+    .unwrap();
+    let over = submit(&db, &dir, &["--rules", exact.to_str().unwrap()]);
+    assert_eq!(over.code, 1, "{}", over.report);
+    let f = frame(&over.report, "hud");
+    assert_eq!(f["status"], "untriaged");
+    let diff = f["closest"]["figures"]["max_abs_diff"].as_f64().unwrap();
+    // Each band code c was c·128/255 over black, rounded, and is c now.
+    let rgb = frame8(0);
+    let expected = (0..16)
+        .flat_map(|x| (4..12).map(move |y| (x, y)))
+        .flat_map(|(x, y)| rgb.get(x, y))
+        .map(|c| c - ((u32::from(c) * 128 * 2 + 255) / 510) as u8)
+        .max()
+        .unwrap();
+    assert_eq!(diff, f64::from(expected), "over black");
+    // Over white, by other amounts: the background is the rule's.
+    let white = tmp.path().join("white.toml");
+    std::fs::write(
+        &white,
+        "[[tests]]\npattern = \"*\"\nbackground = \"#ffffff\"\nchecks = [{ max_abs_diff = 0 }]\n",
+    )
+    .unwrap();
+    let on_white = submit(&db, &dir, &["--rules", white.to_str().unwrap()]);
+    let w = frame(&on_white.report, "hud")["closest"]["figures"]["max_abs_diff"]
+        .as_f64()
+        .unwrap();
+    assert!(w > 0.0 && w != diff, "over white: {w}, over black: {diff}");
+    // Alpha ignored: the colour channels are the positive's, exactly.
+    let ignore = tmp.path().join("ignore.toml");
+    std::fs::write(
+        &ignore,
+        "[[tests]]\npattern = \"*\"\nalpha = \"ignore\"\nchecks = [{ max_abs_diff = 0 }]\n",
+    )
+    .unwrap();
+    let ignored = submit(&db, &dir, &["--rules", ignore.to_str().unwrap()]);
+    assert_eq!(ignored.code, 0, "{}", ignored.report);
+    assert_eq!(frame(&ignored.report, "hud")["status"], "matched");
+    // A background with alpha ignored, or one that is no colour, is a
+    // rules error that names its line.
+    for (text, says) in [
+        (
+            "[[tests]]\npattern = \"*\"\nalpha = \"ignore\"\nbackground = \"#000000\"\n",
+            "line 1",
+        ),
+        (
+            "untriaged = \"fail\"\n[[tests]]\npattern = \"*\"\nbackground = \"#12\"\n",
+            "#rrggbb",
+        ),
+    ] {
+        let bad = tmp.path().join("bad.toml");
+        std::fs::write(&bad, text).unwrap();
+        let refused = submit(&db, &dir, &["--rules", bad.to_str().unwrap()]);
+        assert_eq!(refused.code, 2, "{text}");
+        assert!(refused.stderr.contains(says), "{text}: {}", refused.stderr);
+    }
+}
