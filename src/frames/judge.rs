@@ -133,7 +133,8 @@ fn judge(
             continue;
         };
         let theirs = decode_bytes(&bytes, &input.test, super::rules::alpha_of(rule))?;
-        match against(image, &theirs, rule, on.compare) {
+        let adapter = on.keys.get("adapter").map_or("", String::as_str);
+        match against(image, &theirs, rule, adapter, on.compare) {
             Ok(c) => {
                 if better(&c, best.as_ref()) {
                     best = Some(Closest {
@@ -203,6 +204,7 @@ fn against(
     ours: &Decoded,
     theirs: &Decoded,
     rule: Option<&TestRule>,
+    adapter: &str,
     by: Option<crate::metrics::CompareBy>,
 ) -> Result<Closest, String> {
     let mut figures = BTreeMap::new();
@@ -221,7 +223,20 @@ fn against(
             ] {
                 figures.insert(k.to_owned(), v);
             }
-            for check in rule.map_or(&[][..], |r| &r.checks) {
+            let specs = rule.map_or(&[][..], |r| &r.checks);
+            // Which bounds apply: those for the submission's `adapter` key
+            // override the ones for every adapter, as in a scene.
+            let on = crate::check::spec::Judged {
+                adapter,
+                spp: 1,
+                reference_spp: 1,
+                options: &[],
+            };
+            for (i, spec) in specs.iter().enumerate() {
+                if crate::check::spec::not_applied(specs, i, on).is_some() {
+                    continue;
+                }
+                let check = &spec.check;
                 let value = match check {
                     Check::MinPsnr(_) => m.psnr,
                     Check::MinSsim(_) => m.ssim,
@@ -244,7 +259,7 @@ fn against(
                 };
                 let r = check.rule();
                 if r.fails(value) {
-                    failed.push(format!("{} (was {})", r.label(), figure(value)));
+                    failed.push(format!("{} (was {})", spec.label(), figure(value)));
                 }
             }
             if rule.is_some_and(|r| r.checks.is_empty()) {

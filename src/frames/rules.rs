@@ -3,7 +3,7 @@
 //! digest and still pass, in the check vocabulary, and what an untriaged
 //! digest does.
 
-use crate::check::spec::Check;
+use crate::check::spec::{Check, CheckSpec};
 use serde::Deserialize;
 use std::path::Path;
 
@@ -70,9 +70,12 @@ pub struct TestRule {
     #[serde(default)]
     pub keys: std::collections::BTreeMap<String, String>,
     /// Checks of an 8-bit or PQ PNG against a positive (the checks a
-    /// scene's `[[checks]]` has for one frame against its golden).
+    /// scene's `[[checks]]` has for one frame against its golden), each
+    /// with the `adapter` it is for, if any: a substring of the
+    /// submission's `adapter` key, any case, which overrides a bound of the
+    /// same kind for every adapter (as in a scene).
     #[serde(default)]
-    pub checks: Vec<Check>,
+    pub checks: Vec<CheckSpec>,
     /// Bounds for an HDR file (EXR, Radiance, PFM) against a positive.
     #[serde(default)]
     pub hdr: HdrBounds,
@@ -205,7 +208,14 @@ impl Rules {
                 "{at}: a background with alpha = \"ignore\": the background is what alpha = \"over\" composites over"
             ));
         }
-        for c in &rule.checks {
+        for spec in &rule.checks {
+            let c = &spec.check;
+            if !spec.options.is_empty() || spec.spp.is_some() {
+                return Err(format!(
+                    "{at}: {}: options and spp are about tonegate's own renders; a frames rule is chosen by the submission's keys",
+                    c.rule().kind
+                ));
+            }
             if !one_frame(c) {
                 return Err(format!(
                     "{at}: {} is not a check of a frame against another",
@@ -360,12 +370,14 @@ mod tests {
             |b: &str| std::collections::BTreeMap::from([("backend".to_owned(), b.to_owned())]);
         let bound = |b: &str| {
             rules.for_test("ui/x", &keys(b)).unwrap().checks[0]
+                .check
                 .rule()
                 .bound
         };
         assert_eq!((bound("dx12"), bound("vulkan")), (8.0, 1.0));
         assert_eq!(
             rules.for_test("ui/x", &Default::default()).unwrap().checks[0]
+                .check
                 .rule()
                 .bound,
             1.0

@@ -1,10 +1,14 @@
-//! Frames with an alpha channel, as many renderers write their
-//! screenshots: judged on their colour composited over the rule's
-//! background (black by default), or with the alpha dropped, and never
-//! refused. Real RGBA PNGs through the real decoder and the real command.
+//! Rules as teams write them, through the real command and decoders:
+//! frames with an alpha channel, as many renderers write their
+//! screenshots, judged on their colour composited over the rule's
+//! background (black by default) or with the alpha dropped, never refused;
+//! and a check for one adapter (the scene vocabulary's `adapter = "…"`,
+//! against the submission's `adapter` key) overriding the bound for all.
 
 use crate::frames::{frame, frame8, submit, triage};
 use std::path::Path;
+use tonegate::image::Frame;
+use tonegate::io::write_frame_png;
 
 /// `frame8(0)`'s colours with alpha: a 128-alpha band in rows 4..12 and
 /// `band` over columns 0..16 of it (the rest opaque).
@@ -104,4 +108,65 @@ fn frames_with_alpha_are_judged_over_a_background_or_without_it() {
         assert_eq!(refused.code, 2, "{text}");
         assert!(refused.stderr.contains(says), "{text}: {}", refused.stderr);
     }
+}
+
+#[test]
+fn a_check_for_one_adapter_overrides_the_bound_for_all() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (db, dir) = (tmp.path().join("h.sqlite"), tmp.path().join("frames"));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("scene.png");
+    write_frame_png(&path, &Frame::Rgb8(frame8(0))).unwrap();
+    let first = submit(&db, &dir, &[]);
+    let digest = frame(&first.report, "scene")["digest"]
+        .as_str()
+        .unwrap()
+        .to_owned();
+    triage(&db, "scene", &digest, "positive");
+    // Three codes off on a few pixels.
+    let mut off = frame8(0);
+    for x in 0..8 {
+        off.pixels[x * 3][1] += 3;
+    }
+    write_frame_png(&path, &Frame::Rgb8(off)).unwrap();
+    let rules = tmp.path().join("rules.toml");
+    std::fs::write(
+        &rules,
+        "[[tests]]\npattern = \"*\"\nchecks = [\n  { max_abs_diff = 1 },\n  \
+         { max_abs_diff = 4, adapter = \"llvmpipe\", set_by = \"llvmpipe's FMA, 2026-12-07\" },\n]\n",
+    )
+    .unwrap();
+    let r = rules.to_str().unwrap();
+    let on_llvmpipe = submit(
+        &db,
+        &dir,
+        &["--rules", r, "--key", "adapter=llvmpipe (LLVM 15)"],
+    );
+    assert_eq!(on_llvmpipe.code, 0, "{}", on_llvmpipe.report);
+    assert_eq!(frame(&on_llvmpipe.report, "scene")["status"], "matched");
+    for keys in [&["--key", "adapter=NVIDIA H200"][..], &[]] {
+        let mut args = vec!["--rules", r];
+        args.extend_from_slice(keys);
+        let elsewhere = submit(&db, &dir, &args);
+        assert_eq!(elsewhere.code, 1, "{keys:?}: {}", elsewhere.report);
+        let detail = frame(&elsewhere.report, "scene")["detail"]
+            .as_str()
+            .unwrap()
+            .to_owned();
+        assert!(detail.contains("max abs diff <= 1 (was 3"), "{detail}");
+        assert!(!detail.contains("llvmpipe"), "{keys:?}: {detail}");
+    }
+    // What is about tonegate's own renders is refused, naming the line.
+    std::fs::write(
+        &rules,
+        "[[tests]]\npattern = \"*\"\nchecks = [{ max_abs_diff = 4, spp = 4 }]\n",
+    )
+    .unwrap();
+    let refused = submit(&db, &dir, &["--rules", r]);
+    assert_eq!(refused.code, 2);
+    assert!(
+        refused.stderr.contains("line 1") && refused.stderr.contains("spp"),
+        "{}",
+        refused.stderr
+    );
 }
