@@ -49,6 +49,7 @@ fn scene(name: &str, i: usize, shift: f64) -> SceneResult {
                 ssim_definition: String::new(),
             },
             fraction_over: BTreeMap::new(),
+            pixels_over: BTreeMap::new(),
             flip_percentiles: BTreeMap::new(),
             adaptation: None,
             failed_checks: Vec::new(),

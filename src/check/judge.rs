@@ -52,6 +52,7 @@ pub fn evaluate(
     match rule.subject {
         Subject::Frame(_)
         | Subject::FractionOver(_)
+        | Subject::PixelsOver(_)
         | Subject::FlipPercentile(_)
         | Subject::Adaptation => {
             let lower_is_worse = rule.side == super::spec::Side::Min;
@@ -290,6 +291,16 @@ pub fn judge(
         .collect();
     lsbs.sort_unstable();
     lsbs.dedup();
+    let mut count_lsbs: Vec<u8> = on
+        .checks
+        .iter()
+        .filter_map(|c| match c.check.rule().subject {
+            Subject::PixelsOver(lsb) => Some(lsb),
+            _ => None,
+        })
+        .collect();
+    count_lsbs.sort_unstable();
+    count_lsbs.dedup();
     let flip_ps: Vec<f64> = on
         .checks
         .iter()
@@ -322,6 +333,11 @@ pub fn judge(
             for &k in &lsbs {
                 fraction.insert(k, frame_fraction_over(frame, golden, k).map_err(err)?);
             }
+            let mut pixels_over = BTreeMap::new();
+            for &k in &count_lsbs {
+                let f = frame_fraction_over(frame, golden, k).map_err(err)?;
+                pixels_over.insert(k, pixels_of(f, frame));
+            }
             let adaptation = on.adaptation_curve.map(|c| {
                 AdaptationPoint::new(
                     adapted.get(n as usize).copied().unwrap_or(f64::NAN),
@@ -332,6 +348,7 @@ pub fn judge(
                 frame: n,
                 metrics,
                 fraction_over: fraction,
+                pixels_over,
                 flip_percentiles,
                 adaptation,
                 failed_checks: Vec::new(),
@@ -440,6 +457,12 @@ pub fn judge(
         },
         kept,
     ))
+}
+
+/// The pixel count a fraction of `frame`'s pixels stands for: exact, as
+/// the fraction is a count over the frame's pixels (below 2^53 of them).
+pub(crate) fn pixels_of(fraction: f64, frame: &crate::image::Frame) -> u64 {
+    (fraction * f64::from(frame.width()) * f64::from(frame.height())).round() as u64
 }
 
 #[cfg(test)]

@@ -37,6 +37,10 @@ pub struct FrameResult {
     /// about (1 is in `metrics`).
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub fraction_over: BTreeMap<u8, f64>,
+    /// How many pixels are off by more than k LSB, for each k a check asks
+    /// about.
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub pixels_over: BTreeMap<u8, u64>,
     /// FLIP's weighted percentiles, for each p (as written) a check asks about.
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub flip_percentiles: BTreeMap<String, f64>,
@@ -81,6 +85,9 @@ impl FrameResult {
             Subject::FractionOver(1) => Some(self.metrics.fraction_over_1lsb),
             Subject::FractionOver(lsb) => {
                 Some(self.fraction_over.get(&lsb).copied().unwrap_or(f64::NAN))
+            }
+            Subject::PixelsOver(lsb) => {
+                Some(self.pixels_over.get(&lsb).map_or(f64::NAN, |&n| n as f64))
             }
             Subject::FlipPercentile(p) => Some(
                 self.flip_percentiles

@@ -30,6 +30,13 @@ pub enum Check {
         lsb: u8,
         fraction: f64,
     },
+    /// At most `pixels` pixels may be off by more than `lsb` (a pixel is
+    /// off when any of its channels is): a count, whatever the frame's size
+    /// (Playwright's `maxDiffPixels`, Skia Gold's "max different pixels").
+    MaxPixelsOver {
+        lsb: u8,
+        pixels: u64,
+    },
     MaxStageMs {
         stage: String,
         ms: f64,
@@ -78,6 +85,9 @@ pub enum Subject<'a> {
     Frame(&'static FrameMetric),
     /// The fraction of a judged frame's pixels off by more than this many LSB.
     FractionOver(u8),
+    /// How many of a judged frame's pixels are off by more than this many
+    /// LSB.
+    PixelsOver(u8),
     /// A stage's median GPU time over the sequence.
     StageMs(&'a str),
     /// Frames per second with readback over the sequence.
@@ -97,6 +107,7 @@ impl Subject<'_> {
         match self {
             Subject::Frame(m) => m.title.into(),
             Subject::FractionOver(lsb) => format!("fraction over {lsb} LSB"),
+            Subject::PixelsOver(lsb) => format!("pixels over {lsb} LSB"),
             Subject::StageMs(stage) => (*stage).into(),
             Subject::Fps => "FPS".into(),
             Subject::FlipPercentile(p) => format!("FLIP weighted percentile {p}"),
@@ -110,6 +121,7 @@ impl Subject<'_> {
         match self {
             Subject::Frame(m) => (m.show)(v),
             Subject::FractionOver(lsb) => format!("fraction over {lsb} LSB {v:.5}"),
+            Subject::PixelsOver(lsb) => format!("pixels over {lsb} LSB {v}"),
             Subject::StageMs(stage) => format!("{stage} median {v:.3} ms"),
             Subject::Fps => format!("{v:.1} FPS with readback"),
             Subject::FlipPercentile(p) => format!("FLIP weighted percentile {p} {v:.5}"),
@@ -124,6 +136,7 @@ impl Subject<'_> {
             Subject::StageMs(_) => " ms",
             Subject::GainOver(_) => " dB",
             Subject::FractionOver(_)
+            | Subject::PixelsOver(_)
             | Subject::Fps
             | Subject::FlipPercentile(_)
             | Subject::Adaptation => "",
@@ -134,6 +147,7 @@ impl Subject<'_> {
         match self {
             Subject::Frame(m) => (m.valid_bound)(bound),
             Subject::FractionOver(_) => (0.0..=1.0).contains(&bound),
+            Subject::PixelsOver(_) => bound >= 0.0,
             Subject::StageMs(_) => bound.is_finite() && bound > 0.0,
             Subject::Fps => !bound.is_nan(),
             Subject::FlipPercentile(p) => (0.0..=1.0).contains(p) && (0.0..=1.0).contains(&bound),
@@ -151,6 +165,7 @@ impl Subject<'_> {
             self,
             Subject::Frame(_)
                 | Subject::FractionOver(_)
+                | Subject::PixelsOver(_)
                 | Subject::FlipPercentile(_)
                 | Subject::Adaptation
         )
@@ -238,6 +253,12 @@ impl Check {
                 Subject::FractionOver(*lsb),
                 Max,
                 *fraction,
+            ),
+            Check::MaxPixelsOver { lsb, pixels } => Rule::new(
+                format!("max_pixels_over:{lsb}"),
+                Subject::PixelsOver(*lsb),
+                Max,
+                *pixels as f64,
             ),
             Check::MaxStageMs { stage, ms } => Rule::new(
                 format!("max_stage_ms:{stage}"),

@@ -248,6 +248,12 @@ fn against(
                         figures.insert(format!("fraction_over_{lsb}lsb"), v);
                         v
                     }
+                    Check::MaxPixelsOver { lsb, .. } => {
+                        let f = frame_fraction_over(a, b, *lsb).map_err(|e| e.to_string())?;
+                        let v = crate::check::judge::pixels_of(f, a) as f64;
+                        figures.insert(format!("pixels_over_{lsb}lsb"), v);
+                        v
+                    }
                     Check::MaxFlipMean(_) => m.flip_mean,
                     Check::MaxFlipPercentile { p, .. } => {
                         let v = flip.weighted_percentile(*p);

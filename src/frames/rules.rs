@@ -267,6 +267,7 @@ fn one_frame(c: &Check) -> bool {
             | Check::MaxAbsDiff(_)
             | Check::MaxMeanAbsDiff(_)
             | Check::MaxFractionOver { .. }
+            | Check::MaxPixelsOver { .. }
             | Check::MaxFlipMean(_)
             | Check::MaxFlipPercentile { .. }
     )

@@ -156,6 +156,22 @@ fn a_check_for_one_adapter_overrides_the_bound_for_all() {
         assert!(detail.contains("max abs diff <= 1 (was 3"), "{detail}");
         assert!(!detail.contains("llvmpipe"), "{keys:?}: {detail}");
     }
+    // A count of differing pixels: the 8 pixels are 3 codes off.
+    for (pixels, code) in [(8, 0), (7, 1)] {
+        std::fs::write(
+            &rules,
+            format!("[[tests]]\npattern = \"*\"\nchecks = [{{ max_pixels_over = {{ lsb = 2, pixels = {pixels} }} }}]\n"),
+        )
+        .unwrap();
+        let counted = submit(&db, &dir, &["--rules", r]);
+        assert_eq!(counted.code, code, "{pixels}: {}", counted.report);
+        let f = frame(&counted.report, "scene");
+        assert_eq!(f["closest"]["figures"]["pixels_over_2lsb"], 8.0, "{f}");
+        if code == 1 {
+            let detail = f["detail"].as_str().unwrap();
+            assert!(detail.contains("pixels over 2 LSB <= 7 (was 8"), "{detail}");
+        }
+    }
     // What is about tonegate's own renders is refused, naming the line.
     std::fs::write(
         &rules,

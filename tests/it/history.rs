@@ -205,6 +205,7 @@ fn a_version_1_file_is_migrated_without_losing_its_runs() {
             ssim_definition: String::new(),
         },
         fraction_over: BTreeMap::new(),
+        pixels_over: BTreeMap::new(),
         flip_percentiles: BTreeMap::new(),
         adaptation: None,
         failed_checks: Vec::new(),

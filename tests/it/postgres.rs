@@ -40,6 +40,7 @@ fn frame(i: u32, psnr: f64, ssim: f64) -> FrameResult {
             ssim_definition: String::new(),
         },
         fraction_over: BTreeMap::new(),
+        pixels_over: BTreeMap::new(),
         flip_percentiles: BTreeMap::new(),
         adaptation: None,
         failed_checks: Vec::new(),

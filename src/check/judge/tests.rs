@@ -22,6 +22,7 @@ fn frame(n: u32, psnr: f64) -> FrameResult {
             ssim_definition: String::new(),
         },
         fraction_over: BTreeMap::new(),
+        pixels_over: BTreeMap::new(),
         flip_percentiles: BTreeMap::new(),
         adaptation: None,
         failed_checks: Vec::new(),
@@ -366,4 +367,41 @@ fn judge_decides_a_gain_check_with_the_earlier_scenes() {
     assert_eq!(r.checks[0].passed, Some(false), "{}", r.checks[0].detail);
     assert_eq!(r.frames[0].failed_checks, [0]);
     assert!(r.problems.is_empty(), "{:?}", r.problems);
+}
+
+#[test]
+fn a_pixel_count_check_reads_its_own_count_and_a_fraction_is_read_back_exactly() {
+    let mut f = frame(0, 60.0);
+    f.pixels_over.insert(2, 7);
+    let specs: Vec<_> = [7, 6]
+        .map(|pixels| spec(Check::MaxPixelsOver { lsb: 2, pixels }, None))
+        .into();
+    let judged = [&f];
+    let r = evaluate(&specs, 0, &judged, on("x"), &[], None);
+    assert_eq!(r.passed, Some(true), "{}", r.detail);
+    assert_eq!(r.detail, "worst pixels over 2 LSB 7 at frame 0");
+    assert_eq!(
+        evaluate(&specs, 1, &judged, on("x"), &[], None).passed,
+        Some(false)
+    );
+    assert_eq!(specs[1].label(), "pixels over 2 LSB <= 6");
+    // Not measured: NaN, which fails.
+    let other = vec![spec(
+        Check::MaxPixelsOver {
+            lsb: 3,
+            pixels: 100,
+        },
+        None,
+    )];
+    assert_eq!(
+        evaluate(&other, 0, &judged, on("x"), &[], None).passed,
+        Some(false)
+    );
+    // A count over a frame's pixels comes back from its fraction exactly.
+    let frame =
+        crate::image::Frame::Rgb8(crate::image::Image::from_fn(1921, 1081, |_, _| [0u8; 3]));
+    for over in [0u64, 1, 7, 1_000_003, 1921 * 1081] {
+        let fraction = over as f64 / (1921.0 * 1081.0);
+        assert_eq!(super::pixels_of(fraction, &frame), over);
+    }
 }
