@@ -112,6 +112,7 @@ pub enum Source {
 
 /// A submitted image decoded: a display frame (8-bit, or 16-bit PQ), or
 /// scene-referred light.
+#[derive(Clone)]
 pub enum Decoded {
     Frame(Frame),
     Hdr(HdrImage),

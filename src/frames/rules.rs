@@ -89,7 +89,36 @@ pub struct TestRule {
     /// codes: black unless given.
     #[serde(default)]
     pub background: Option<Colour>,
+    /// Regions left out of the comparison (a clock, a cursor, a video).
+    #[serde(default)]
+    pub masks: Vec<Mask>,
 }
+
+/// A rectangle of a frame, in pixels from its top-left corner, that no
+/// figure sees: filled with black in the frame and in each positive
+/// before the two are compared (as Playwright fills its masks), so what
+/// differs there differs nowhere. The part outside the frame is ignored.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Mask {
+    pub x: u32,
+    pub y: u32,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl Mask {
+    /// Whether pixel (`px`, `py`) is inside.
+    pub fn covers(&self, px: u32, py: u32) -> bool {
+        px >= self.x
+            && py >= self.y
+            && u64::from(px) < u64::from(self.x) + u64::from(self.width)
+            && u64::from(py) < u64::from(self.y) + u64::from(self.height)
+    }
+}
+
+/// The most masks a rule may hold.
+pub const MAX_MASKS: usize = 64;
 
 /// What a frame's alpha channel means to the judge.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
@@ -202,6 +231,18 @@ impl Rules {
         let at = format!("tests[{i}] ({:?})", rule.pattern);
         if rule.pattern.is_empty() {
             return Err(format!("{at}: an empty pattern"));
+        }
+        if rule.masks.len() > MAX_MASKS {
+            return Err(format!(
+                "{at}: {} masks: at most {MAX_MASKS}",
+                rule.masks.len()
+            ));
+        }
+        if let Some(m) = rule.masks.iter().find(|m| m.width == 0 || m.height == 0) {
+            return Err(format!(
+                "{at}: a mask of {}x{} pixels covers nothing",
+                m.width, m.height
+            ));
         }
         if rule.alpha == AlphaRule::Ignore && rule.background.is_some() {
             return Err(format!(

@@ -186,3 +186,62 @@ fn a_check_for_one_adapter_overrides_the_bound_for_all() {
         refused.stderr
     );
 }
+
+/// A mask leaves a region (a clock, say) out of every figure: a frame that
+/// differs only there matches exactly, one that differs outside it does
+/// not, and the same frame without the mask is off by the clock's change.
+#[test]
+fn a_mask_leaves_its_region_out_of_every_figure() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (db, dir) = (tmp.path().join("h.sqlite"), tmp.path().join("frames"));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("status-bar.png");
+    write_frame_png(&path, &Frame::Rgb8(frame8(0))).unwrap();
+    let first = submit(&db, &dir, &[]);
+    let digest = frame(&first.report, "status-bar")["digest"]
+        .as_str()
+        .unwrap()
+        .to_owned();
+    triage(&db, "status-bar", &digest, "positive");
+    // The clock, pixels 50..60 × 2..8, shows another time.
+    let clock = |x: u32, y: u32| (50..60).contains(&x) && (2..8).contains(&y);
+    let mut ticked = frame8(0);
+    for (i, p) in ticked.pixels.iter_mut().enumerate() {
+        if clock(i as u32 % 64, i as u32 / 64) {
+            *p = [255, 255, 255];
+        }
+    }
+    write_frame_png(&path, &Frame::Rgb8(ticked.clone())).unwrap();
+    let rules = tmp.path().join("rules.toml");
+    let exact = "checks = [{ max_abs_diff = 0 }]\n";
+    std::fs::write(&rules, format!("[[tests]]\npattern = \"*\"\n{exact}")).unwrap();
+    let r = rules.to_str().unwrap();
+    let unmasked = submit(&db, &dir, &["--rules", r]);
+    assert_eq!(unmasked.code, 1, "{}", unmasked.report);
+    let masks = "masks = [{ x = 48, y = 0, width = 16, height = 10 }]\n";
+    std::fs::write(
+        &rules,
+        format!("[[tests]]\npattern = \"*\"\n{masks}{exact}"),
+    )
+    .unwrap();
+    let masked = submit(&db, &dir, &["--rules", r]);
+    assert_eq!(masked.code, 0, "{}", masked.report);
+    let f = frame(&masked.report, "status-bar");
+    assert_eq!(f["status"], "matched");
+    assert_eq!(f["closest"]["figures"]["max_abs_diff"], 0.0, "{f}");
+    // A change outside the mask still counts.
+    ticked.pixels[30 * 64 + 5] = [0, 0, 0];
+    write_frame_png(&path, &Frame::Rgb8(ticked)).unwrap();
+    let outside = submit(&db, &dir, &["--rules", r]);
+    assert_eq!(outside.code, 1, "{}", outside.report);
+    // A mask that covers nothing is a rules error naming its line.
+    let empty = "masks = [{ x = 0, y = 0, width = 0, height = 4 }]\n";
+    std::fs::write(&rules, format!("\n[[tests]]\npattern = \"*\"\n{empty}")).unwrap();
+    let refused = submit(&db, &dir, &["--rules", r]);
+    assert_eq!(refused.code, 2);
+    assert!(
+        refused.stderr.contains("line 2") && refused.stderr.contains("covers nothing"),
+        "{}",
+        refused.stderr
+    );
+}
