@@ -109,7 +109,7 @@ fn untriaged(
         if new.is_empty() {
             continue;
         }
-        let good = h.last_passing_main_submission(id)?;
+        let good = h.last_passing_main_submission(id, &keys)?;
         let (good_commit, bad_commit) = (
             good.as_ref().and_then(|g| commit_of(&g.1)),
             commit_of(&keys),

@@ -104,3 +104,36 @@ fn old_submissions_are_pruned_and_labelled_digests_kept() {
     assert_eq!(frame(&next.report, "kept")["status"], "positive");
     assert_eq!(frame(&next.report, "loose")["status"], "untriaged");
 }
+
+/// The last good commit an alert names is the same trace's (every key but
+/// `commit`): a red submission of `device=a` gets `device=a`'s last passing
+/// commit, not that of `device=b`, submitted in between.
+#[test]
+fn the_last_good_submission_is_the_same_devices() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (db, dir) = (tmp.path().join("h.sqlite"), tmp.path().join("frames"));
+    std::fs::create_dir_all(&dir).unwrap();
+    write_frame_png(&dir.join("scene.png"), &Frame::Rgb8(frame8(0))).unwrap();
+    let warn = tmp.path().join("warn.toml");
+    std::fs::write(&warn, "untriaged = \"warn\"\n").unwrap();
+    let w = warn.to_str().unwrap();
+    for (device, commit) in [("a", "a1"), ("b", "b1"), ("a", "a2")] {
+        let d = format!("device={device}");
+        let c = format!("commit={commit}");
+        let run = submit(&db, &dir, &["--rules", w, "--key", &d, "--key", &c]);
+        assert_eq!(run.code, 0, "{}", run.stderr);
+    }
+    let h = History::open(&db).unwrap();
+    let subs = h.main_submissions_since(0, 10).unwrap();
+    let (last, keys) = subs.iter().max_by_key(|(id, _)| *id).unwrap();
+    let (_, good) = h
+        .last_passing_main_submission(*last, keys)
+        .unwrap()
+        .unwrap();
+    let good: serde_json::Value = serde_json::from_str(&good).unwrap();
+    assert_eq!(good["commit"], "a1", "{good}");
+    assert_eq!(good["device"], "a");
+    // A trace with no passing submission before it has none.
+    let other = serde_json::json!({"device": "c", "commit": "c1"}).to_string();
+    assert_eq!(h.last_passing_main_submission(*last, &other).unwrap(), None);
+}
