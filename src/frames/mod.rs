@@ -311,7 +311,28 @@ pub fn submit(history: &History, s: Submission) -> Result<SubmissionReport, Fram
         });
     }
     let verdicts = judged;
+    // Tests the last submission of this trace had and this one has not.
+    let keys = serde_json::to_string(&s.keys).unwrap_or_default();
+    let (vanished, since) = match history.last_of_trace(&branch, &keys)? {
+        Some(last) => {
+            let now: std::collections::BTreeSet<&str> =
+                read.iter().map(|r| r.input.test.as_str()).collect();
+            let gone: Vec<String> = history
+                .submission_frames(last, None)?
+                .into_iter()
+                .map(|f| f.test)
+                .filter(|t| !now.contains(t.as_str()))
+                .collect();
+            (gone, Some(last))
+        }
+        None => (Vec::new(), None),
+    };
     let mut report = SubmissionReport::new(s.keys, shown, verdicts);
+    if !vanished.is_empty() {
+        report.vanished_since = since;
+        report.passed &= s.rules.vanished == rules::Vanished::Warn;
+        report.vanished = vanished;
+    }
     let frames: Vec<NewFrame> = read
         .iter()
         .zip(&report.frames)

@@ -82,6 +82,12 @@ pub struct SubmissionReport {
     /// the history, pending (`history pending --upload` offers them again).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub pending_images: Vec<String>,
+    /// Tests the last submission of the same trace on the same branch had
+    /// and this one has not, and that submission.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub vanished: Vec<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vanished_since: Option<i64>,
 }
 
 impl SubmissionReport {
@@ -101,6 +107,8 @@ impl SubmissionReport {
                 .count(),
             frames,
             pending_images: Vec::new(),
+            vanished: Vec::new(),
+            vanished_since: None,
         }
     }
 
@@ -132,6 +140,14 @@ impl SubmissionReport {
                 f.detail
             ));
         }
+        if let (false, Some(since)) = (self.vanished.is_empty(), self.vanished_since) {
+            out.push_str(&format!(
+                "VANISHED {} test{} submission {since} had: {}\n",
+                self.vanished.len(),
+                if self.vanished.len() == 1 { "" } else { "s" },
+                self.vanished.join(", ")
+            ));
+        }
         let failed = self.frames.iter().filter(|f| !f.passed).count();
         out.push_str(&format!(
             "submission {}: {} frames, {} failed, {} untriaged: {}\n",
@@ -159,6 +175,13 @@ impl SubmissionReport {
         );
         if let Some(link) = triage {
             out.push_str(&format!("Triage them at <{link}>.\n"));
+        }
+        if let (false, Some(since)) = (self.vanished.is_empty(), self.vanished_since) {
+            let names: Vec<String> = self.vanished.iter().map(|t| format!("`{t}`")).collect();
+            out.push_str(&format!(
+                "\nVanished since submission {since}: {}.\n",
+                names.join(", ")
+            ));
         }
         let cell = |t: &str| t.replace('|', "\\|").replace('\n', " ");
         let rows: Vec<&FrameVerdict> = self

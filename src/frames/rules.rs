@@ -22,6 +22,19 @@ pub enum Untriaged {
     AcceptNew,
 }
 
+/// What a test that vanished does to its submission: one the last
+/// submission of the same trace (the same keys but `commit`) on the same
+/// branch had, and this one has not.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Vanished {
+    /// Listed in the report, and the submission passes.
+    #[default]
+    Warn,
+    /// Fails it (exit 1).
+    Fail,
+}
+
 /// The most `[[tests]]` rules a file may hold: each frame is matched
 /// against them in turn.
 pub const MAX_RULES: usize = 256;
@@ -34,6 +47,9 @@ pub use crate::history::MAX_PATTERN_CHARS;
 pub struct Rules {
     #[serde(default)]
     pub untriaged: Untriaged,
+    /// What a test that vanished from the folder does.
+    #[serde(default)]
+    pub vanished: Vanished,
     /// The branch whose triage every other branch falls back to (a
     /// submission's `branch` key; one without it is on this branch).
     #[serde(default = "main_branch")]
@@ -51,6 +67,7 @@ impl Default for Rules {
     fn default() -> Rules {
         Rules {
             untriaged: Untriaged::default(),
+            vanished: Vanished::default(),
             main_branch: main_branch(),
             tests: Vec::new(),
         }

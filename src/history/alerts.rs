@@ -215,13 +215,14 @@ impl History {
     /// The last main-line submission before `id` that passed on the same
     /// trace as `keys` (a submission's keys as stored): id and keys. A
     /// trace is every key but `commit`: a device's last good commit is its
-    /// own, not another device's. The last [`TRACE_SCAN`] passing
-    /// submissions are looked at.
+    /// own, not another device's. The last `submissions::TRACE_SCAN`
+    /// passing submissions are looked at.
     pub fn last_passing_main_submission(
         &self,
         id: i64,
         keys: &str,
     ) -> Result<Option<(i64, String)>, HistoryError> {
+        use super::submissions::{trace_of, TRACE_SCAN};
         let trace = trace_of(keys);
         let rows = self.db().query(
             "SELECT id, keys FROM frame_submissions WHERE branch = '' AND id < $1 AND passed <> 0
@@ -406,16 +407,4 @@ fn deliveries(db: &dyn Sql, event: i64) -> Result<Vec<AlertDelivery>, HistoryErr
         });
     }
     Ok(out)
-}
-
-/// How many passing submissions [`History::last_passing_main_submission`]
-/// looks back through for one of the same trace.
-pub const TRACE_SCAN: i64 = 1000;
-
-/// A submission's trace: its keys (JSON, as stored) without `commit`.
-fn trace_of(keys: &str) -> std::collections::BTreeMap<String, serde_json::Value> {
-    let mut map: std::collections::BTreeMap<String, serde_json::Value> =
-        serde_json::from_str(keys).unwrap_or_default();
-    map.remove("commit");
-    map
 }

@@ -112,4 +112,33 @@ impl History {
             })
             .collect()
     }
+
+    /// The last submission on `branch` (`''` for the main line) of the
+    /// same trace as `keys` (a submission's keys as stored; its trace is
+    /// every key but `commit`), among the last [`TRACE_SCAN`]: its id.
+    pub fn last_of_trace(&self, branch: &str, keys: &str) -> Result<Option<i64>, HistoryError> {
+        let trace = trace_of(keys);
+        let rows = self.db().query(
+            "SELECT id, keys FROM frame_submissions WHERE branch = $1 ORDER BY id DESC LIMIT $2",
+            args![branch, TRACE_SCAN],
+        )?;
+        for r in rows {
+            if trace_of(&r.text(1)?) == trace {
+                return Ok(Some(r.int(0)?));
+            }
+        }
+        Ok(None)
+    }
+}
+
+/// How many submissions a search for one of the same trace looks back
+/// through.
+pub const TRACE_SCAN: i64 = 1000;
+
+/// A submission's trace: its keys (JSON, as stored) without `commit`.
+pub(super) fn trace_of(keys: &str) -> std::collections::BTreeMap<String, serde_json::Value> {
+    let mut map: std::collections::BTreeMap<String, serde_json::Value> =
+        serde_json::from_str(keys).unwrap_or_default();
+    map.remove("commit");
+    map
 }

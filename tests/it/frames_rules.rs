@@ -245,3 +245,73 @@ fn a_mask_leaves_its_region_out_of_every_figure() {
         refused.stderr
     );
 }
+
+/// A test the last submission of the same trace had and this one has not
+/// is listed (by default the submission still passes), fails it under
+/// `vanished = "fail"`, and another device's tests are not this one's.
+#[test]
+fn a_test_that_vanished_is_listed_and_can_fail_the_submission() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (db, dir) = (tmp.path().join("h.sqlite"), tmp.path().join("frames"));
+    std::fs::create_dir_all(&dir).unwrap();
+    for (name, seed) in [("menu", 0), ("map", 9)] {
+        write_frame_png(&dir.join(format!("{name}.png")), &Frame::Rgb8(frame8(seed))).unwrap();
+    }
+    let rules = tmp.path().join("rules.toml");
+    std::fs::write(&rules, "untriaged = \"warn\"\n").unwrap();
+    let r = rules.to_str().unwrap();
+    let first = submit(
+        &db,
+        &dir,
+        &["--rules", r, "--key", "device=a", "--key", "commit=1"],
+    );
+    assert_eq!(first.code, 0, "{}", first.stderr);
+    assert!(first.report.get("vanished").is_none(), "{}", first.report);
+    std::fs::remove_file(dir.join("map.png")).unwrap();
+    let second = submit(
+        &db,
+        &dir,
+        &["--rules", r, "--key", "device=a", "--key", "commit=2"],
+    );
+    assert_eq!(second.code, 0, "{}", second.stderr);
+    assert_eq!(second.report["vanished"], serde_json::json!(["map"]));
+    assert_eq!(second.report["vanished_since"], first.report["submission"]);
+    let shown: tonegate::frames::SubmissionReport =
+        serde_json::from_value(second.report.clone()).unwrap();
+    let (console, summary) = (shown.console(), shown.markdown(None));
+    let since = first.report["submission"].as_i64().unwrap();
+    assert!(
+        console.contains(&format!("VANISHED 1 test submission {since} had: map")),
+        "{console}"
+    );
+    assert!(
+        summary.contains(&format!("Vanished since submission {since}: `map`.")),
+        "{summary}"
+    );
+    // Another device's first submission lost nothing.
+    let other = submit(
+        &db,
+        &dir,
+        &["--rules", r, "--key", "device=b", "--key", "commit=2"],
+    );
+    assert!(other.report.get("vanished").is_none(), "{}", other.report);
+    // Under `vanished = "fail"` it fails; against the last submission of
+    // device a (which no longer had `map`) nothing vanished.
+    std::fs::write(&rules, "untriaged = \"warn\"\nvanished = \"fail\"\n").unwrap();
+    let again = submit(
+        &db,
+        &dir,
+        &["--rules", r, "--key", "device=a", "--key", "commit=3"],
+    );
+    assert_eq!(again.code, 0, "{}", again.report);
+    std::fs::remove_file(dir.join("menu.png")).unwrap();
+    write_frame_png(&dir.join("settings.png"), &Frame::Rgb8(frame8(3))).unwrap();
+    let failing = submit(
+        &db,
+        &dir,
+        &["--rules", r, "--key", "device=a", "--key", "commit=4"],
+    );
+    assert_eq!(failing.code, 1, "{}", failing.report);
+    assert_eq!(failing.report["vanished"], serde_json::json!(["menu"]));
+    assert_eq!(failing.report["passed"], false);
+}
