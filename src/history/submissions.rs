@@ -115,7 +115,7 @@ impl History {
 
     /// The last submission on `branch` (`''` for the main line) of the
     /// same trace as `keys` (a submission's keys as stored; its trace is
-    /// every key but `commit`), among the last [`TRACE_SCAN`]: its id.
+    /// every key but `commit`), among the last `TRACE_SCAN` (1,000): its id.
     pub fn last_of_trace(&self, branch: &str, keys: &str) -> Result<Option<i64>, HistoryError> {
         let trace = trace_of(keys);
         let rows = self.db().query(
