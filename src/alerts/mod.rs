@@ -27,16 +27,25 @@ pub enum Kind {
     Untriaged,
     /// A change point in a scene's FPS series.
     ChangePoint,
+    /// A main-line submission brought back a digest someone marked
+    /// negative (a known-wrong image came back).
+    Negative,
 }
 
 impl Kind {
-    pub const ALL: [Kind; 3] = [Kind::GateRed, Kind::Untriaged, Kind::ChangePoint];
+    pub const ALL: [Kind; 4] = [
+        Kind::GateRed,
+        Kind::Untriaged,
+        Kind::ChangePoint,
+        Kind::Negative,
+    ];
 
     pub fn as_str(self) -> &'static str {
         match self {
             Kind::GateRed => "gate_red",
             Kind::Untriaged => "untriaged",
             Kind::ChangePoint => "change_point",
+            Kind::Negative => "negative",
         }
     }
 }

@@ -1,5 +1,5 @@
 //! Finding events in the history. Each has a key that names what it is
-//! about (`gate_red:<run>`, `untriaged:<submission>`,
+//! about (`gate_red:<run>`, `untriaged:<submission>`, `negative:<submission>`,
 //! `change_point:fps:<scene>:<adapter>:<run>`), and the history stores an
 //! event once per key: a scan may see the same run again, and several
 //! servers may scan one history, and still each fires once. Only what was
@@ -21,6 +21,7 @@ pub fn scan(h: &History, alerts: &Alerts) -> Result<usize, HistoryError> {
     let mut events = Vec::new();
     gate_red(h, alerts, since_run, &mut events)?;
     untriaged(h, alerts, since_submission, &mut events)?;
+    negatives(h, alerts, since_submission, &mut events)?;
     change_points(h, alerts, since_run, &mut events)?;
     let mut raised = 0;
     for (kind, key, summary, event) in events {
@@ -109,35 +110,89 @@ fn untriaged(
         if new.is_empty() {
             continue;
         }
-        let good = h.last_passing_main_submission(id, &keys)?;
-        let (good_commit, bad_commit) = (
-            good.as_ref().and_then(|g| commit_of(&g.1)),
-            commit_of(&keys),
-        );
-        let summary = format!(
-            "tonegate: {} new untriaged digest{} on the main line in submission {id} ({})",
+        let what = format!(
+            "{} new untriaged digest{} on the main line",
             new.len(),
-            if new.len() == 1 { "" } else { "s" },
-            short(bad_commit.as_deref()),
+            if new.len() == 1 { "" } else { "s" }
         );
-        let link = |id: i64| {
-            json!({
-                "dashboard": format!("{}/#/frames/{id}", alerts.public_url),
-                "api": format!("{}/api/v1/frames/submissions/{id}", alerts.public_url),
-            })
-        };
-        let event = json!({
-            "kind": "untriaged",
-            "summary": summary,
-            "digests": new.iter().map(|(t, d)| json!({"test": t, "digest": d})).collect::<Vec<_>>(),
-            "keys": serde_json::from_str::<Value>(&keys).unwrap_or_default(),
-            "commits": {"last_good": good_commit, "first_bad": bad_commit},
-            "submissions": {"last_good": good.as_ref().map(|g| g.0), "first_bad": id},
-            "links": {"last_good": good.as_ref().map(|g| link(g.0)), "first_bad": link(id)},
-        });
-        out.push((Kind::Untriaged, format!("untriaged:{id}"), summary, event));
+        out.push(submission_event(
+            h,
+            alerts,
+            Kind::Untriaged,
+            (id, &keys),
+            &what,
+            &new,
+        )?);
     }
     Ok(())
+}
+
+/// A main-line submission that brought back a digest marked negative.
+fn negatives(
+    h: &History,
+    alerts: &Alerts,
+    since: i64,
+    out: &mut Vec<Event>,
+) -> Result<(), HistoryError> {
+    for (id, keys) in h.main_submissions_since(since, WINDOW)? {
+        let back: Vec<(String, String)> = h
+            .submission_frames(id, Some("negative"))?
+            .into_iter()
+            .map(|f| (f.test, f.digest))
+            .collect();
+        if back.is_empty() {
+            continue;
+        }
+        let what = format!(
+            "{} digest{} marked negative came back on the main line",
+            back.len(),
+            if back.len() == 1 { "" } else { "s" }
+        );
+        out.push(submission_event(
+            h,
+            alerts,
+            Kind::Negative,
+            (id, &keys),
+            &what,
+            &back,
+        )?);
+    }
+    Ok(())
+}
+
+/// The event of `kind` about submission `id` (with `keys`) and its
+/// `digests` (test, digest): `what` happened, the commit range from the
+/// last passing main-line submission of its trace, links.
+fn submission_event(
+    h: &History,
+    alerts: &Alerts,
+    kind: Kind,
+    (id, keys): (i64, &str),
+    what: &str,
+    digests: &[(String, String)],
+) -> Result<Event, HistoryError> {
+    let good = h.last_passing_main_submission(id, keys)?;
+    let (good_commit, bad_commit) = (good.as_ref().and_then(|g| commit_of(&g.1)), commit_of(keys));
+    let summary = format!(
+        "tonegate: {what} in submission {id} ({})",
+        short(bad_commit.as_deref()),
+    );
+    let link = |id: i64| {
+        json!({
+            "dashboard": format!("{}/#/frames/{id}", alerts.public_url),
+            "api": format!("{}/api/v1/frames/submissions/{id}", alerts.public_url),
+        })
+    };
+    let event = json!({
+        "kind": kind.as_str(),
+        "summary": summary,
+        "digests": digests.iter().map(|(t, d)| json!({"test": t, "digest": d})).collect::<Vec<_>>(),
+        "keys": serde_json::from_str::<Value>(keys).unwrap_or_default(),
+        "commits": {"last_good": good_commit, "first_bad": bad_commit},
+        "submissions": {"last_good": good.as_ref().map(|g| g.0), "first_bad": id},
+        "links": {"last_good": good.as_ref().map(|g| link(g.0)), "first_bad": link(id)},
+    });
+    Ok((kind, format!("{}:{id}", kind.as_str()), summary, event))
 }
 
 fn change_points(
