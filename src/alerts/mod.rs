@@ -30,14 +30,18 @@ pub enum Kind {
     /// A main-line submission brought back a digest someone marked
     /// negative (a known-wrong image came back).
     Negative,
+    /// An ignore rule expires within `IGNORE_NOTICE` (three days): the
+    /// failures it passes will fail again.
+    IgnoreExpiring,
 }
 
 impl Kind {
-    pub const ALL: [Kind; 4] = [
+    pub const ALL: [Kind; 5] = [
         Kind::GateRed,
         Kind::Untriaged,
         Kind::ChangePoint,
         Kind::Negative,
+        Kind::IgnoreExpiring,
     ];
 
     pub fn as_str(self) -> &'static str {
@@ -46,6 +50,7 @@ impl Kind {
             Kind::Untriaged => "untriaged",
             Kind::ChangePoint => "change_point",
             Kind::Negative => "negative",
+            Kind::IgnoreExpiring => "ignore_expiring",
         }
     }
 }

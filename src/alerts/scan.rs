@@ -22,6 +22,7 @@ pub fn scan(h: &History, alerts: &Alerts) -> Result<usize, HistoryError> {
     gate_red(h, alerts, since_run, &mut events)?;
     untriaged(h, alerts, since_submission, &mut events)?;
     negatives(h, alerts, since_submission, &mut events)?;
+    expiring(h, alerts, &mut events)?;
     change_points(h, alerts, since_run, &mut events)?;
     let mut raised = 0;
     for (kind, key, summary, event) in events {
@@ -123,6 +124,46 @@ fn untriaged(
             &what,
             &new,
         )?);
+    }
+    Ok(())
+}
+
+/// How long before an ignore rule expires its `ignore_expiring` event is
+/// raised: three days, a weekend and a working day to act.
+pub const IGNORE_NOTICE: std::time::Duration = std::time::Duration::from_secs(3 * 24 * 3600);
+
+/// The ignore rules that expire within [`IGNORE_NOTICE`]: one event per rule
+/// and expiry (a rule extended later warns again before its new expiry).
+fn expiring(h: &History, alerts: &Alerts, out: &mut Vec<Event>) -> Result<(), HistoryError> {
+    let now = chrono::Utc::now();
+    let notice = chrono::Duration::from_std(IGNORE_NOTICE).unwrap_or_default();
+    for rule in h.active_ignore_rules()? {
+        let Ok(at) = chrono::DateTime::parse_from_rfc3339(&rule.expires_at) else {
+            continue;
+        };
+        if at.with_timezone(&chrono::Utc) - now > notice {
+            continue;
+        }
+        let summary = format!(
+            "tonegate: ignore rule {} ({:?}, {}) expires at {}: the failures it passes will fail again",
+            rule.id, rule.pattern, rule.reason, rule.expires_at
+        );
+        let event = json!({
+            "kind": Kind::IgnoreExpiring.as_str(),
+            "summary": summary,
+            "rule": rule,
+            "links": {
+                "dashboard": format!("{}/#/frames", alerts.public_url),
+                "api": format!("{}/api/v1/frames/ignores", alerts.public_url),
+            },
+        });
+        let key = format!(
+            "{}:{}:{}",
+            Kind::IgnoreExpiring.as_str(),
+            rule.id,
+            rule.expires_at
+        );
+        out.push((Kind::IgnoreExpiring, key, summary, event));
     }
     Ok(())
 }

@@ -13,7 +13,7 @@ mod aces2;
 mod adaptation;
 mod adapters;
 mod alerts;
-mod alerts_negative;
+mod alerts_frames;
 mod alerts_stuck;
 mod api;
 mod architecture;

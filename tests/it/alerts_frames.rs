@@ -1,6 +1,7 @@
-//! A digest someone marked negative coming back on the main line raises a
-//! `negative` alert once, with the same trace's commit range; a
-//! submission that brings back none raises nothing.
+//! The frames' own alerts: a digest someone marked negative coming back
+//! on the main line raises a `negative` alert once, with the same trace's
+//! commit range; an ignore rule about to expire raises `ignore_expiring`
+//! once per expiry.
 
 use crate::frames::{frame, frame8, submit, triage};
 use serde_json::Value;
@@ -10,12 +11,9 @@ use tonegate::history::History;
 use tonegate::image::Frame;
 use tonegate::io::write_frame_png;
 
-#[test]
-fn a_negative_that_comes_back_raises_an_alert_once() {
-    let tmp = tempfile::tempdir().unwrap();
-    let (db, dir) = (tmp.path().join("h.sqlite"), tmp.path().join("frames"));
-    std::fs::create_dir_all(&dir).unwrap();
-    let alerts = Alerts {
+/// Alerts with one webhook that takes `kind`.
+fn alerts_for(kind: Kind) -> Alerts {
+    Alerts {
         public_url: "http://tonegate.test".into(),
         scan_every: Duration::from_secs(1),
         retry: Retry {
@@ -28,9 +26,17 @@ fn a_negative_that_comes_back_raises_an_alert_once() {
             url: "http://127.0.0.1:9/".into(),
             format: Format::Json,
             secret: b"a secret of sixteen bytes or more".to_vec(),
-            events: vec![Kind::Negative],
+            events: vec![kind],
         }],
-    };
+    }
+}
+
+#[test]
+fn a_negative_that_comes_back_raises_an_alert_once() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (db, dir) = (tmp.path().join("h.sqlite"), tmp.path().join("frames"));
+    std::fs::create_dir_all(&dir).unwrap();
+    let alerts = alerts_for(Kind::Negative);
     let path = dir.join("scene.png");
     write_frame_png(&path, &Frame::Rgb8(frame8(0))).unwrap();
     let key = |commit: &str| format!("commit={commit}");
@@ -77,4 +83,40 @@ fn a_negative_that_comes_back_raises_an_alert_once() {
         .as_str()
         .unwrap()
         .contains("marked negative came back"));
+}
+
+#[test]
+fn an_ignore_rule_about_to_expire_raises_an_alert_once() {
+    let tmp = tempfile::tempdir().unwrap();
+    let h = History::open(&tmp.path().join("h.sqlite")).unwrap();
+    let alerts = alerts_for(Kind::IgnoreExpiring);
+    assert_eq!(tonegate::alerts::scan(&h, &alerts).unwrap(), 0);
+    let hours = |n: u64| Duration::from_secs(n * 3600);
+    let soon = h
+        .add_ignore_rule(
+            "ui/*",
+            "{}",
+            hours(48),
+            ("ada", "font hinting, fixed in 2.1"),
+        )
+        .unwrap();
+    h.add_ignore_rule("hud/*", "{}", hours(30 * 24), ("ada", "a month away"))
+        .unwrap();
+    assert_eq!(tonegate::alerts::scan(&h, &alerts).unwrap(), 1);
+    assert_eq!(
+        tonegate::alerts::scan(&h, &alerts).unwrap(),
+        0,
+        "raised twice"
+    );
+    let due = h.claim_due_deliveries(Duration::from_secs(60), 10).unwrap();
+    assert_eq!(due.len(), 1);
+    assert_eq!(due[0].kind, "ignore_expiring");
+    let event: Value = serde_json::from_str(&due[0].payload).unwrap();
+    assert_eq!(event["rule"]["id"], soon.id);
+    assert_eq!(event["rule"]["pattern"], "ui/*");
+    assert_eq!(event["rule"]["expires_at"], soon.expires_at.as_str());
+    assert!(
+        event["summary"].as_str().unwrap().contains("font hinting"),
+        "{event}"
+    );
 }
