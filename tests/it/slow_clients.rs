@@ -177,8 +177,12 @@ async fn one_address_slow_uploads_leave_places_for_the_others() {
     let slow: Vec<_> = (0..260)
         .map(|i| slow_upload(&s.base, i % 2 == 0, flood))
         .collect();
-    // Until the server holds the flood's share, and has refused the rest.
+    // Until the server holds the flood's share and the flood has settled:
+    // its other uploads refused, the count still for a second. (Under a
+    // loaded test run one of the 260 connects can fail, seen 2026-12-07:
+    // 227 refused and 32 held, so the count is not required to reach 228.)
     let deadline = Instant::now() + Duration::from_secs(60);
+    let mut settled = (0, Instant::now());
     loop {
         let m = s.get("/metrics").await.text().await.unwrap();
         let refused = m
@@ -186,7 +190,11 @@ async fn one_address_slow_uploads_leave_places_for_the_others() {
             .find_map(|l| l.strip_prefix("tonegate_tonemap_uploads_refused_total "))
             .and_then(|v| v.trim().parse::<u64>().ok())
             .unwrap_or(0);
-        if m.contains("tonegate_tonemap_uploads 32\n") && refused >= 228 {
+        if refused != settled.0 {
+            settled = (refused, Instant::now());
+        }
+        let still = settled.1.elapsed() >= Duration::from_secs(1);
+        if m.contains("tonegate_tonemap_uploads 32\n") && refused >= 200 && still {
             break;
         }
         assert!(
