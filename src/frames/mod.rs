@@ -330,7 +330,8 @@ pub fn submit(history: &History, s: Submission) -> Result<SubmissionReport, Fram
     let mut report = SubmissionReport::new(s.keys, shown, verdicts);
     if !vanished.is_empty() {
         report.vanished_since = since;
-        report.passed &= s.rules.vanished == rules::Vanished::Warn;
+        report.vanished_fail = s.rules.vanished == rules::Vanished::Fail;
+        report.passed &= !report.vanished_fail;
         report.vanished = vanished;
     }
     let frames: Vec<NewFrame> = read

@@ -88,6 +88,9 @@ pub struct SubmissionReport {
     pub vanished: Vec<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub vanished_since: Option<i64>,
+    /// Whether the vanished tests fail the submission (`vanished = "fail"`).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub vanished_fail: bool,
 }
 
 impl SubmissionReport {
@@ -109,6 +112,7 @@ impl SubmissionReport {
             pending_images: Vec::new(),
             vanished: Vec::new(),
             vanished_since: None,
+            vanished_fail: false,
         }
     }
 
@@ -238,6 +242,22 @@ impl SubmissionReport {
             if f.warning {
                 case.set_system_err(format!("WARNING: {}: {}", f.test, f.detail));
             }
+            suite.add_test_case(case);
+        }
+        // A vanished test is a case too: failed under `vanished = "fail"`,
+        // skipped otherwise, so a CI's test view shows it either way.
+        for test in &self.vanished {
+            let why = format!(
+                "vanished: submission {} had it, this one has not",
+                self.vanished_since.unwrap_or_default()
+            );
+            let mut status = match self.vanished_fail {
+                true => TestCaseStatus::non_success(NonSuccessKind::Failure),
+                false => TestCaseStatus::skipped(),
+            };
+            status.set_message(why);
+            let mut case = TestCase::new(test.clone(), status);
+            case.set_classname("tonegate.frames");
             suite.add_test_case(case);
         }
         report.add_test_suite(suite);

@@ -288,6 +288,13 @@ fn a_test_that_vanished_is_listed_and_can_fail_the_submission() {
         summary.contains(&format!("Vanished since submission {since}: `map`.")),
         "{summary}"
     );
+    // In the JUnit, a skipped case (it does not fail this submission).
+    let junit = shown.junit().unwrap();
+    let case = &junit[junit.find("name=\"map\"").expect("a case for map")..];
+    assert!(
+        case.contains("<skipped") && case.contains(&format!("vanished: submission {since} had it")),
+        "{junit}"
+    );
     // Another device's first submission lost nothing.
     let other = submit(
         &db,
@@ -314,4 +321,9 @@ fn a_test_that_vanished_is_listed_and_can_fail_the_submission() {
     assert_eq!(failing.code, 1, "{}", failing.report);
     assert_eq!(failing.report["vanished"], serde_json::json!(["menu"]));
     assert_eq!(failing.report["passed"], false);
+    let failed: tonegate::frames::SubmissionReport =
+        serde_json::from_value(failing.report.clone()).unwrap();
+    let junit = failed.junit().unwrap();
+    let case = &junit[junit.find("name=\"menu\"").expect("a case for menu")..];
+    assert!(case.contains("<failure"), "{junit}");
 }
