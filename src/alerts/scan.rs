@@ -20,8 +20,7 @@ pub fn scan(h: &History, alerts: &Alerts) -> Result<usize, HistoryError> {
     let since_submission = h.alert_mark("submissions", submissions_now)?;
     let mut events = Vec::new();
     gate_red(h, alerts, since_run, &mut events)?;
-    untriaged(h, alerts, since_submission, &mut events)?;
-    negatives(h, alerts, since_submission, &mut events)?;
+    submissions(h, alerts, since_submission, &mut events)?;
     expiring(h, alerts, &mut events)?;
     change_points(h, alerts, since_run, &mut events)?;
     let mut raised = 0;
@@ -100,30 +99,47 @@ fn commit_of(keys: &str) -> Option<String> {
         .map(str::to_owned)
 }
 
-fn untriaged(
+/// Each main-line submission's frames events: digests nobody has triaged
+/// that no earlier submission of their test had (`untriaged`), and digests
+/// someone marked negative that came back (`negative`).
+fn submissions(
     h: &History,
     alerts: &Alerts,
     since: i64,
     out: &mut Vec<Event>,
 ) -> Result<(), HistoryError> {
     for (id, keys) in h.main_submissions_since(since, WINDOW)? {
-        let new = h.new_untriaged(id)?;
-        if new.is_empty() {
-            continue;
+        let negative: Vec<(String, String)> = h
+            .submission_frames(id, Some("negative"))?
+            .into_iter()
+            .map(|f| (f.test, f.digest))
+            .collect();
+        for (kind, digests, what) in [
+            (
+                Kind::Untriaged,
+                h.new_untriaged(id)?,
+                "new untriaged digest",
+            ),
+            (Kind::Negative, negative, "digest"),
+        ] {
+            if digests.is_empty() {
+                continue;
+            }
+            let plural = if digests.len() == 1 { "" } else { "s" };
+            let how = match kind {
+                Kind::Negative => " marked negative came back",
+                _ => "",
+            };
+            let what = format!("{} {what}{plural}{how} on the main line", digests.len());
+            out.push(submission_event(
+                h,
+                alerts,
+                kind,
+                (id, &keys),
+                &what,
+                &digests,
+            )?);
         }
-        let what = format!(
-            "{} new untriaged digest{} on the main line",
-            new.len(),
-            if new.len() == 1 { "" } else { "s" }
-        );
-        out.push(submission_event(
-            h,
-            alerts,
-            Kind::Untriaged,
-            (id, &keys),
-            &what,
-            &new,
-        )?);
     }
     Ok(())
 }
@@ -164,39 +180,6 @@ fn expiring(h: &History, alerts: &Alerts, out: &mut Vec<Event>) -> Result<(), Hi
             rule.expires_at
         );
         out.push((Kind::IgnoreExpiring, key, summary, event));
-    }
-    Ok(())
-}
-
-/// A main-line submission that brought back a digest marked negative.
-fn negatives(
-    h: &History,
-    alerts: &Alerts,
-    since: i64,
-    out: &mut Vec<Event>,
-) -> Result<(), HistoryError> {
-    for (id, keys) in h.main_submissions_since(since, WINDOW)? {
-        let back: Vec<(String, String)> = h
-            .submission_frames(id, Some("negative"))?
-            .into_iter()
-            .map(|f| (f.test, f.digest))
-            .collect();
-        if back.is_empty() {
-            continue;
-        }
-        let what = format!(
-            "{} digest{} marked negative came back on the main line",
-            back.len(),
-            if back.len() == 1 { "" } else { "s" }
-        );
-        out.push(submission_event(
-            h,
-            alerts,
-            Kind::Negative,
-            (id, &keys),
-            &what,
-            &back,
-        )?);
     }
     Ok(())
 }
