@@ -209,33 +209,13 @@ fn against(
 ) -> Result<Closest, String> {
     let masks = rule.map_or(&[][..], |r| &r.masks);
     if !masks.is_empty() {
-        let (ours, theirs) = (masked(ours, masks), masked(theirs, masks));
+        let (ours, theirs) = (
+            super::pixels::masked(ours, masks),
+            super::pixels::masked(theirs, masks),
+        );
         return compared(&ours, &theirs, rule, adapter, by);
     }
     compared(ours, theirs, rule, adapter, by)
-}
-
-/// `d` with every pixel a mask covers black.
-fn masked(d: &Decoded, masks: &[super::rules::Mask]) -> Decoded {
-    fn fill<P: Copy>(img: &mut crate::image::Image<P>, masks: &[super::rules::Mask], black: P) {
-        let w = img.width.max(1);
-        for (i, p) in img.pixels.iter_mut().enumerate() {
-            let (x, y) = (
-                (i as u64 % u64::from(w)) as u32,
-                (i as u64 / u64::from(w)) as u32,
-            );
-            if masks.iter().any(|m| m.covers(x, y)) {
-                *p = black;
-            }
-        }
-    }
-    let mut d = d.clone();
-    match &mut d {
-        Decoded::Frame(crate::image::Frame::Rgb8(img)) => fill(img, masks, [0; 3]),
-        Decoded::Frame(crate::image::Frame::Pq16(img)) => fill(img, masks, [0; 3]),
-        Decoded::Hdr(img) => fill(img, masks, [0.0; 3]),
-    }
-    d
 }
 
 /// [`against`] on the frames as the rule's masks leave them.

@@ -8,6 +8,7 @@
 //! (`tonegate frames triage`); every action is logged.
 
 pub mod budget;
+mod pixels;
 pub mod report;
 pub mod rules;
 

@@ -3,6 +3,7 @@
 //! digest and still pass, in the check vocabulary, and what an untriaged
 //! digest does.
 
+pub use super::pixels::{AlphaRule, Colour, Mask, DEFAULT_ALPHA, MAX_MASKS};
 use crate::check::spec::{Check, CheckSpec};
 use serde::Deserialize;
 use std::path::Path;
@@ -110,64 +111,6 @@ pub struct TestRule {
     #[serde(default)]
     pub masks: Vec<Mask>,
 }
-
-/// A rectangle of a frame, in pixels from its top-left corner, that no
-/// figure sees: filled with black in the frame and in each positive
-/// before the two are compared (as Playwright fills its masks), so what
-/// differs there differs nowhere. The part outside the frame is ignored.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Mask {
-    pub x: u32,
-    pub y: u32,
-    pub width: u32,
-    pub height: u32,
-}
-
-impl Mask {
-    /// Whether pixel (`px`, `py`) is inside.
-    pub fn covers(&self, px: u32, py: u32) -> bool {
-        px >= self.x
-            && py >= self.y
-            && u64::from(px) < u64::from(self.x) + u64::from(self.width)
-            && u64::from(py) < u64::from(self.y) + u64::from(self.height)
-    }
-}
-
-/// The most masks a rule may hold.
-pub const MAX_MASKS: usize = 64;
-
-/// What a frame's alpha channel means to the judge.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum AlphaRule {
-    /// The colour composited over the rule's background (straight alpha,
-    /// on the stored codes, as a browser draws the PNG on a page).
-    #[default]
-    Over,
-    /// The alpha channel dropped.
-    Ignore,
-}
-
-/// A colour written `"#rrggbb"`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
-#[serde(try_from = "String")]
-pub struct Colour(pub [u8; 3]);
-
-impl TryFrom<String> for Colour {
-    type Error = String;
-    fn try_from(text: String) -> Result<Colour, String> {
-        let hex = text
-            .strip_prefix('#')
-            .filter(|h| h.len() == 6 && h.chars().all(|c| c.is_ascii_hexdigit()))
-            .ok_or_else(|| format!("background {text:?}: expected \"#rrggbb\""))?;
-        let byte = |i: usize| u8::from_str_radix(&hex[i..i + 2], 16).unwrap_or(0);
-        Ok(Colour([byte(0), byte(2), byte(4)]))
-    }
-}
-
-/// How a frame no rule covers reads its alpha: over black.
-pub const DEFAULT_ALPHA: crate::io::Alpha = crate::io::Alpha::Over([0, 0, 0]);
 
 impl TestRule {
     /// How the frames of its tests read their alpha channel.
