@@ -216,6 +216,24 @@ fn a_mapper_sharing_pipelines_compiles_nothing_the_first_has() {
     assert_eq!(own.created().pipelines as usize, compiled);
 }
 
+/// One record by `mapper` of `input` (of `size`) into a new target of
+/// (format, usage), submitted and read back.
+fn mapped(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    mapper: &mut ToneMapper,
+    (input, size): (&wgpu::Texture, (u32, u32)),
+    (format, usage): (wgpu::TextureFormat, wgpu::TextureUsages),
+) -> Vec<Texel> {
+    let output = texture(device, size, 1, format, usage);
+    let mut encoder = device.create_command_encoder(&Default::default());
+    mapper
+        .record(&mut encoder, &view(input), &view(&output))
+        .unwrap();
+    queue.submit([encoder.finish()]);
+    read(device, queue, &output, 0)
+}
+
 /// The default settings map into a swap chain's format: a render
 /// attachment with no storage binding, written by the fullscreen triangle,
 /// with the bytes the compute path writes into `Rgba8Unorm` in RGBA order.
@@ -228,14 +246,9 @@ fn the_default_settings_write_a_swap_chains_format() {
     let input = hdr_input(&device, &queue, &img);
     let size = (img.width, img.height);
     let frame = |settings: ToneMapperSettings, usage| {
-        let output = texture(&device, size, 1, settings.target, usage);
+        let target = (settings.target, usage);
         let mut mapper = ToneMapper::new(&device, &queue, settings).unwrap();
-        let mut encoder = device.create_command_encoder(&Default::default());
-        mapper
-            .record(&mut encoder, &view(&input), &view(&output))
-            .unwrap();
-        queue.submit([encoder.finish()]);
-        read(&device, &queue, &output, 0)
+        mapped(&device, &queue, &mut mapper, (&input, size), target)
     };
     let swap = frame(settings.clone(), U::RENDER_ATTACHMENT | U::COPY_SRC);
     let storage = ToneMapperSettings {
@@ -262,13 +275,13 @@ fn set_exposure_maps_as_the_exposure_parameter_does() {
     let size = (img.width, img.height);
     let usage = U::STORAGE_BINDING | U::COPY_SRC;
     let frame = |mapper: &mut ToneMapper| {
-        let output = texture(&device, size, 1, F::Rgba8Unorm, usage);
-        let mut encoder = device.create_command_encoder(&Default::default());
-        mapper
-            .record(&mut encoder, &view(&input), &view(&output))
-            .unwrap();
-        queue.submit([encoder.finish()]);
-        read(&device, &queue, &output, 0)
+        mapped(
+            &device,
+            &queue,
+            mapper,
+            (&input, size),
+            (F::Rgba8Unorm, usage),
+        )
     };
     let settings = |name: &str, exposure: f64| ToneMapperSettings {
         operator: Operator::named(name, &[("exposure", Value::Number(exposure))]).unwrap(),
