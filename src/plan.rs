@@ -46,9 +46,13 @@ pub enum Stage {
     Taa(TaaParams),
     /// Reduces the HDR frame to the statistics the operator needs.
     LuminanceStats(StatsNeeds),
-    /// Eye adaptation (docs/adaptation.md): the measured log average moved
-    /// toward by the frame's step from the one the frames before adapted
-    /// to, in place of the measurement.
+    /// Eye adaptation's metering by histogram (docs/adaptation.md): the
+    /// frame's weighted log2-luminance histogram.
+    Histogram(AdaptationStage),
+    /// Eye adaptation (docs/adaptation.md): the frame's metered luminance
+    /// (its log average or histogram), compensated and clamped, moved
+    /// toward from the one the frames before adapted to, in place of the
+    /// measurement.
     Adaptation(AdaptationStage),
     /// The operator, by name (its module is the pipeline's key).
     Tonemap {
@@ -93,6 +97,7 @@ stage_names! {
     Stage::TaaSobel => "taa_sobel",
     Stage::Taa(_) => "taa",
     Stage::LuminanceStats(_) => "luminance_stats",
+    Stage::Histogram(_) => "histogram",
     Stage::Adaptation(_) => "adaptation",
     Stage::Tonemap { .. } => "tonemap",
     Stage::BloomBright { .. } => "bloom_bright",
@@ -249,11 +254,15 @@ impl StagePlan {
 
     /// The plan with `adaptation` right after `luminance_stats`, which then
     /// measures the log average too (and runs for an operator that needs
-    /// nothing measured); unchanged when it has adaptation already.
+    /// nothing measured) under log-average metering; under histogram
+    /// metering with `histogram` and `adaptation` where the statistics are
+    /// (or would be), the statistics left to what the operator needs.
+    /// Unchanged when it has adaptation already.
     pub fn with_adaptation(mut self, stage: AdaptationStage) -> StagePlan {
         if self.contains("adaptation") {
             return self;
         }
+        let by_histogram = stage.adaptation.metering == crate::scene::Metering::Histogram;
         let at = match self
             .stages
             .iter()
@@ -261,7 +270,9 @@ impl StagePlan {
         {
             Some(i) => {
                 if let Stage::LuminanceStats(needs) = &mut self.stages[i] {
-                    *needs = needs.with_log_average();
+                    if !by_histogram {
+                        *needs = needs.with_log_average();
+                    }
                 }
                 i + 1
             }
@@ -271,14 +282,19 @@ impl StagePlan {
                     .iter()
                     .position(|s| matches!(s, Stage::Tonemap { .. }))
                     .unwrap_or(0);
-                self.stages.insert(
-                    tonemap,
-                    Stage::LuminanceStats(StatsNeeds::default().with_log_average()),
-                );
-                tonemap + 1
+                if !by_histogram {
+                    self.stages.insert(
+                        tonemap,
+                        Stage::LuminanceStats(StatsNeeds::default().with_log_average()),
+                    );
+                }
+                tonemap + usize::from(!by_histogram)
             }
         };
         self.stages.insert(at, Stage::Adaptation(stage));
+        if by_histogram {
+            self.stages.insert(at, Stage::Histogram(stage));
+        }
         self
     }
 
@@ -364,12 +380,35 @@ impl fmt::Display for StagePlan {
                     parts.join(", ")
                 }
                 Stage::Tonemap { operator } => (*operator).to_owned(),
-                Stage::Adaptation(a) => format!(
-                    "up {} s, down {} s, {:.4} s a frame",
-                    a.adaptation.up.get(),
-                    a.adaptation.down.get(),
-                    a.frame_seconds
-                ),
+                Stage::Histogram(a) => format!(
+                    "{} bins over {}…{} EV, {:?} mask, {}…{} kept",
+                    crate::scene::HISTOGRAM_BINS,
+                    a.adaptation.min_ev,
+                    a.adaptation.max_ev,
+                    a.adaptation.mask,
+                    a.adaptation.low,
+                    a.adaptation.high
+                )
+                .to_lowercase(),
+                Stage::Adaptation(a) => {
+                    let speed = match a.adaptation.speed {
+                        crate::scene::Speed::Stops => format!(
+                            "{} stops/s up, {} down, exponential within {} stops",
+                            a.adaptation.stops_up.get(),
+                            a.adaptation.stops_down.get(),
+                            a.adaptation.transition
+                        ),
+                        crate::scene::Speed::TimeConstant => format!(
+                            "up {} s, down {} s",
+                            a.adaptation.up.get(),
+                            a.adaptation.down.get()
+                        ),
+                    };
+                    format!(
+                        "{speed}, clamp {}…{} EV, {:.4} s a frame",
+                        a.adaptation.min_ev, a.adaptation.max_ev, a.frame_seconds
+                    )
+                }
                 Stage::BloomBright { source } => format!("from {source:?}").to_lowercase(),
                 Stage::BloomDownsample { factor } => format!("1/{factor}"),
                 Stage::BloomBlur { radius } => format!("radius {radius}, 2 passes"),

@@ -137,7 +137,7 @@ fn bloom_and_grade_appear_only_when_active() {
 #[test]
 fn adaptation_goes_after_the_statistics_which_then_measure_the_log_average() {
     let stage = |op: &Operator| AdaptationStage {
-        adaptation: crate::scene::Adaptation::default(),
+        adaptation: crate::scene::Adaptation::new(0.4, 1.6, 0.18).unwrap(),
         frame_seconds: 1.0 / 60.0,
         operator_needs: op.needs(),
     };
@@ -185,5 +185,36 @@ fn adaptation_goes_after_the_statistics_which_then_measure_the_log_average() {
         }
     );
     // Once only.
+    assert_eq!(adapted.clone().with_adaptation(stage(&auto)), adapted);
+}
+
+#[test]
+fn histogram_metering_adds_its_stage_and_leaves_the_statistics_to_the_operator() {
+    let stage = |op: &Operator| AdaptationStage {
+        adaptation: crate::scene::Adaptation::default(),
+        frame_seconds: 1.0 / 60.0,
+        operator_needs: op.needs(),
+    };
+    let agx = Operator::named("agx", &[]).unwrap();
+    let plan =
+        StagePlan::build(Input::Sphere { spp: 4 }, &agx, None, None).with_adaptation(stage(&agx));
+    assert_eq!(
+        plan.names(),
+        ["sphere", "histogram", "adaptation", "tonemap", "encode"]
+    );
+    let auto = Operator::named("reinhard-auto-key", &[]).unwrap();
+    let plain = StagePlan::build(Input::Flat, &auto, None, None);
+    let adapted = plain.clone().with_adaptation(stage(&auto));
+    assert_eq!(
+        adapted.names(),
+        [
+            "luminance_stats",
+            "histogram",
+            "adaptation",
+            "tonemap",
+            "encode"
+        ]
+    );
+    assert_eq!(adapted.stages()[0], plain.stages()[0]);
     assert_eq!(adapted.clone().with_adaptation(stage(&auto)), adapted);
 }

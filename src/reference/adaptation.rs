@@ -1,6 +1,7 @@
-//! `adaptation`: the luminance the eye is adapted to, carried across frames
-//! (scene::Adaptation; docs/adaptation.md), in f64.
+//! `adaptation`: the luminance the eye is adapted to, carried across
+//! frames (scene::Adaptation; docs/adaptation.md), in f64.
 
+use super::histogram::Histogram;
 use crate::operators::{LuminanceStats, StatsNeeds};
 use crate::scene::Adaptation;
 
@@ -12,27 +13,56 @@ pub struct Adapted {
     pub weighted_log_average: Option<f64>,
 }
 
+/// A frame's measurement, natural logarithms: the log average and the
+/// weighted one (where the operator reads it). Not finite: no measurement.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Metered {
+    pub log_average: f64,
+    pub weighted_log_average: Option<f64>,
+}
+
+impl Metered {
+    /// The log-average metering of `stats` (which measured the log
+    /// average, and the weighted one where the operator reads it).
+    pub fn log_average(stats: &LuminanceStats) -> Metered {
+        Metered {
+            log_average: stats.log_average.map_or(f64::NAN, f64::ln),
+            weighted_log_average: stats.weighted_log_average.map(f64::ln),
+        }
+    }
+
+    /// The histogram's metering (NaN when it kept no weight), for an
+    /// operator with `needs`: a weighted log average reads the same value.
+    pub fn histogram(h: &Histogram, a: &Adaptation, needs: StatsNeeds) -> Metered {
+        let m = h
+            .metered_ev(a)
+            .map_or(f64::NAN, |ev| ev * std::f64::consts::LN_2);
+        Metered {
+            log_average: m,
+            weighted_log_average: needs.weighted_log_average.then_some(m),
+        }
+    }
+}
+
 /// One frame's step: `before` (None on the first frame, or after a reset)
-/// moved toward the frame's `measured` statistics by the fraction of the
-/// gap `steps` gives (up, down: [`Adaptation::steps`]).
-pub fn adapt(measured: &LuminanceStats, before: Option<&Adapted>, steps: (f64, f64)) -> Adapted {
-    // A non-finite measurement (a NaN or infinite pixel) never enters the
-    // state: the adapted value stays, and a first frame takes ln 1 = 0
+/// moved toward the target of the frame's measurement (compensated and
+/// clamped, [`Adaptation::target`]) by the rule of `a.speed` for a frame of
+/// `dt` seconds; a first frame takes the target.
+pub fn adapt(measured: Metered, before: Option<&Adapted>, a: &Adaptation, dt: f64) -> Adapted {
+    // A non-finite measurement (a NaN or infinite pixel in a log average,
+    // a histogram that kept nothing) never enters the state: the adapted
+    // value stays, and a first frame takes ln 1, clamped
     // (docs/adaptation.md#bad-pixels).
-    let step = |a: Option<f64>, m: f64| match a {
-        _ if !m.is_finite() => a.unwrap_or(0.0),
-        None => m,
-        Some(a) => a + (m - a) * if m > a { steps.0 } else { steps.1 },
+    let step = |before: Option<f64>, m: f64| match before {
+        _ if !m.is_finite() => before.unwrap_or_else(|| a.target(0.0)),
+        None => a.target(m),
+        Some(b) => a.follow(b, a.target(m), dt),
     };
-    let m = measured
-        .log_average
-        .expect("adaptation measures the log average")
-        .ln();
     Adapted {
-        log_average: step(before.map(|b| b.log_average), m),
+        log_average: step(before.map(|b| b.log_average), measured.log_average),
         weighted_log_average: measured
             .weighted_log_average
-            .map(|w| step(before.and_then(|b| b.weighted_log_average), w.ln())),
+            .map(|w| step(before.and_then(|b| b.weighted_log_average), w)),
     }
 }
 
@@ -59,67 +89,5 @@ impl Adapted {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn stats(l: f64) -> LuminanceStats {
-        LuminanceStats {
-            log_average: Some(l),
-            ..Default::default()
-        }
-    }
-
-    /// An infinite or NaN measurement leaves the state where it was, and a
-    /// first frame's is ln 1.
-    #[test]
-    fn a_non_finite_measurement_never_enters_the_state() {
-        let a = Adaptation::default();
-        let steps = a.steps(1.0 / 60.0);
-        let before = adapt(&stats(0.5), None, steps);
-        for bad in [f64::INFINITY, f64::NAN, 0.0] {
-            let after = adapt(&stats(bad), Some(&before), steps);
-            assert_eq!(after.log_average, before.log_average, "{bad}");
-            assert_eq!(adapt(&stats(bad), None, steps).log_average, 0.0, "{bad}");
-        }
-    }
-
-    #[test]
-    fn the_first_frame_takes_the_measurement_and_later_ones_close_the_gap_by_the_step() {
-        let a = Adaptation::new(0.5, 2.0, 0.18).unwrap();
-        let steps = a.steps(1.0 / 60.0);
-        let first = adapt(&stats(0.01), None, steps);
-        assert_eq!(first.log_average, 0.01f64.ln());
-        // Brighter: the up step; n frames leave (1 - α)^n of the gap.
-        let mut s = first;
-        for _ in 0..60 {
-            s = adapt(&stats(1.0), Some(&s), steps);
-        }
-        let gap = 0.01f64.ln() * (1.0 - steps.0).powi(60);
-        assert!(
-            (s.log_average - gap).abs() < 1e-12,
-            "{} {gap}",
-            s.log_average
-        );
-        // One second at τ = 0.5 s leaves e^-2 of the gap.
-        assert!((gap / 0.01f64.ln() - (-2f64).exp()).abs() < 1e-12);
-        // Darker: the slower down step.
-        let down = adapt(&stats(0.01), Some(&s), steps);
-        let up = adapt(&stats(s.log_average.exp().powi(2) * 50.0), Some(&s), steps);
-        assert!((down.log_average - s.log_average).abs() < (up.log_average - s.log_average).abs());
-        assert!((steps.1 - (-(-1.0f64 / 120.0).exp_m1())).abs() < 1e-15);
-    }
-
-    #[test]
-    fn operators_that_key_on_nothing_get_key_over_the_adapted_luminance() {
-        let a = Adaptation::new(0.5, 2.0, 0.18).unwrap();
-        let s = adapt(&stats(0.09), None, a.steps(0.1));
-        let none = StatsNeeds::default();
-        assert!((s.exposure(&a, none) - 2.0).abs() < 1e-12);
-        let reinhard = StatsNeeds {
-            log_average: true,
-            ..none
-        };
-        assert_eq!(s.exposure(&a, reinhard), 1.0);
-        assert!((s.statistics(&stats(5.0)).log_average.unwrap() - 0.09).abs() < 1e-15);
-    }
-}
+#[path = "adaptation_tests.rs"]
+mod tests;

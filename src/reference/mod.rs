@@ -10,6 +10,7 @@ pub mod bloom_downsample;
 pub mod encode;
 pub mod grade;
 pub mod grade_stats;
+pub mod histogram;
 pub mod luminance_stats;
 #[cfg(feature = "reference")]
 mod scene_frame;
@@ -25,9 +26,9 @@ use crate::image::{Frame, HdrImage, LinearImage, Rgb8Image};
 use crate::operators::Operator;
 use crate::operators::Tone;
 use crate::plan::{BloomSource, PlanError, Stage, StagePlan};
-#[cfg(feature = "reference")]
-use crate::scene::Scene;
 use crate::scene::{Bloom, Encoding, Grade};
+#[cfg(feature = "reference")]
+use crate::scene::{Metering, Scene};
 use luminance_stats::LuminanceStats;
 use serde::Serialize;
 use tonemap::ToneParams;
@@ -198,6 +199,7 @@ fn run_stages_until(
     let mut grade_mean = None;
     let mut frame = None;
     let mut adapted = None;
+    let mut metered_histogram = None;
     // Adaptation's auto-exposure of the operator's input, when it gives one.
     let mut exposure = None;
     for stage in plan.stages() {
@@ -214,11 +216,25 @@ fn run_stages_until(
                 let hdr = hdr.as_ref().ok_or_else(hdr_gone)?;
                 stats = luminance_stats::luminance_stats(hdr, *needs, weights, delta);
             }
+            Stage::Histogram(a) => {
+                let hdr = hdr.as_ref().ok_or_else(hdr_gone)?;
+                metered_histogram = Some(histogram::histogram(hdr, weights, &a.adaptation));
+            }
             Stage::Adaptation(a) => {
-                if stats.log_average.is_none() {
-                    return Err(PlanError::order(name, "luminance_stats"));
-                }
-                let next = adaptation::adapt(&stats, before, a.adaptation.steps(a.frame_seconds));
+                let measured = match a.adaptation.metering {
+                    Metering::LogAverage if stats.log_average.is_none() => {
+                        return Err(PlanError::order(name, "luminance_stats"));
+                    }
+                    Metering::LogAverage => adaptation::Metered::log_average(&stats),
+                    Metering::Histogram => adaptation::Metered::histogram(
+                        metered_histogram
+                            .as_ref()
+                            .ok_or_else(|| PlanError::order(name, "histogram"))?,
+                        &a.adaptation,
+                        a.operator_needs,
+                    ),
+                };
+                let next = adaptation::adapt(measured, before, &a.adaptation, a.frame_seconds);
                 stats = next.statistics(&stats);
                 exposure = (!a.operator_needs.keys_on_average())
                     .then(|| next.exposure(&a.adaptation, a.operator_needs));

@@ -288,6 +288,10 @@ impl Scene {
                 self.operator.name()
             ));
         }
+        if let Some(a) = &self.adaptation {
+            a.check()
+                .map_err(|(key, reason)| format!("{}: {reason}", at(key)))?;
+        }
         for c in &self.checks {
             c.validate()
                 .map_err(|message| format!("{}: {message}", at("checks")))?;

@@ -15,7 +15,10 @@ mod units;
 
 pub use crate::conventions::MAX_SPP;
 pub use crate::operators::reinhard::{ColourPath, DEFAULT_KEY, DEFAULT_WHITE_FRACTION};
-pub use adaptation::{Adaptation, DEFAULT_ADAPTATION_KEY, DEFAULT_DOWN, DEFAULT_UP};
+pub use adaptation::{
+    Adaptation, Compensation, Mask, Metering, Speed, COMPENSATION_POINTS, DEFAULT_ADAPTATION_KEY,
+    DEFAULT_DOWN, DEFAULT_UP, HISTOGRAM_BINS, MAX_COMPENSATION, MAX_EV,
+};
 pub use display::{
     Bloom, BrightPass, Encoding, Grade, FACTOR_MAX, GAMMA_RANGE, GRADE_MAX, SPAN_MAX,
 };

@@ -11,6 +11,8 @@ mod common;
 
 mod aces2;
 mod adaptation;
+mod adaptation_bevy;
+mod adaptation_scenes;
 mod adapters;
 mod alerts;
 mod alerts_frames;

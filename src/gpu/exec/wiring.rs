@@ -313,6 +313,23 @@ impl<'p> Wiring<'_, 'p> {
                 &self.stats,
                 &self.extent,
             ),
+            Stage::Histogram(stage) => {
+                let made = self.adaptation.take().unwrap_or_else(|| {
+                    crate::gpu::adaptation::AdaptationResources::new(ctx, *stage)
+                });
+                let d = crate::gpu::adaptation::histogram(
+                    ctx,
+                    format,
+                    self.weights,
+                    &self.hdr_view.view,
+                    (self.hdr_view.width, self.hdr_view.height),
+                    &made.bins,
+                    &made.steps,
+                    &self.extent,
+                );
+                self.adaptation = Some(made);
+                vec![d]
+            }
             Stage::Adaptation(stage) => {
                 let made = self.adaptation.take().unwrap_or_else(|| {
                     crate::gpu::adaptation::AdaptationResources::new(ctx, *stage)

@@ -5,29 +5,76 @@
 use crate::gpu::stages::{bind_group, pipeline, storage_buffer, Bind, Dispatch};
 use crate::gpu::{GpuContext, HdrFormat};
 use crate::operators::StatsNeeds;
-use crate::scene::Adaptation;
+use crate::scene::{Adaptation, Mask, Metering, Speed, HISTOGRAM_BINS};
 
-/// Mirrors `Steps` in shaders/adaptation.wgsl: one frame's step.
+/// Mirrors `Steps` in shaders/shared/adaptation.wgsl: one frame's
+/// parameters (every number computed in f64, then rounded once to f32).
 #[repr(C)]
-#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Steps {
     pub up: f32,
     pub down: f32,
+    pub near_up: f32,
+    pub near_down: f32,
     pub key: f32,
-    /// 1: the frame takes its measurement (the first, or after a reset).
+    /// 1: the frame takes its target (the first, or after a reset).
     pub reset: u32,
+    /// 0: time constants; 1: stops per second.
+    pub model: u32,
+    /// 0: the log average; 1: the histogram.
+    pub metering: u32,
+    pub min_ev: f32,
+    pub max_ev: f32,
+    pub bins_per_ev: f32,
+    /// 0: uniform; 1: centre-weighted.
+    pub mask: u32,
+    pub low: f32,
+    pub high: f32,
+    pub points: u32,
+    pub pad: u32,
+    /// The compensation curve, (EV, stops) pairs, two a row.
+    pub curve: [[f32; 4]; 4],
 }
 
 impl Steps {
-    /// The step of a frame `dt` seconds after the one before (the
-    /// fractions computed in f64, then rounded once to f32).
-    pub fn new(adaptation: &Adaptation, dt: f64, reset: bool) -> Steps {
-        let (up, down) = adaptation.steps(dt);
+    /// The parameters of a frame `dt` seconds after the one before.
+    pub fn new(a: &Adaptation, dt: f64, reset: bool) -> Steps {
+        let (up, down, near_up, near_down) = match a.speed {
+            Speed::TimeConstant => {
+                let (up, down) = a.steps(dt);
+                (up, down, 0.0, 0.0)
+            }
+            Speed::Stops => {
+                let ((up, down), (near_up, near_down)) = a.stop_steps(dt);
+                (up, down, near_up, near_down)
+            }
+        };
+        // The transition's fraction is unbounded when it is 0: f32's
+        // largest, which a gap of 0 still multiplies to 0.
+        let near = |v: f64| v.min(f64::from(f32::MAX)) as f32;
+        let mut curve = [[0.0f32; 4]; 4];
+        for (i, [ev, stops]) in a.compensation.points().iter().enumerate() {
+            curve[i / 2][2 * (i % 2)] = *ev as f32;
+            curve[i / 2][2 * (i % 2) + 1] = *stops as f32;
+        }
         Steps {
             up: up as f32,
             down: down as f32,
-            key: adaptation.key.get() as f32,
+            near_up: near(near_up),
+            near_down: near(near_down),
+            key: a.key.get() as f32,
             reset: u32::from(reset),
+            model: u32::from(a.speed == Speed::Stops),
+            metering: u32::from(a.metering == Metering::Histogram),
+            min_ev: a.min_ev as f32,
+            max_ev: a.max_ev as f32,
+            bins_per_ev: (HISTOGRAM_BINS as f64 / (a.max_ev - a.min_ev)) as f32,
+            mask: u32::from(a.mask == Mask::Centre),
+            low: a.low as f32,
+            high: a.high as f32,
+            points: a.compensation.points().len() as u32,
+            pad: 0,
+            curve,
         }
     }
 }
@@ -36,6 +83,12 @@ impl Steps {
 /// log average and weighted log average, f32 each.
 pub fn adapted_buffer(ctx: &GpuContext) -> wgpu::Buffer {
     storage_buffer(ctx, "tonegate.adaptation.adapted", 16)
+}
+
+/// The histogram's bins, u32 each: `histogram` adds a frame's into them,
+/// `adaptation` reads and clears them.
+pub fn bins_buffer(ctx: &GpuContext) -> wgpu::Buffer {
+    storage_buffer(ctx, "tonegate.adaptation.bins", (HISTOGRAM_BINS * 4) as u64)
 }
 
 /// The uniform of [`Steps`], written per frame.
@@ -65,6 +118,7 @@ pub fn adaptation(
     stats: &wgpu::Buffer,
     adapted: &wgpu::Buffer,
     steps: &wgpu::Buffer,
+    bins: &wgpu::Buffer,
 ) -> Dispatch {
     let p = pipeline(ctx, "adaptation", "main", format, &constants(needs));
     let bg = bind_group(
@@ -75,9 +129,43 @@ pub fn adaptation(
             (0, Bind::Buffer(stats)),
             (1, Bind::Buffer(adapted)),
             (2, Bind::Buffer(steps)),
+            (3, Bind::Buffer(bins)),
         ],
     );
     Dispatch::new(p, bg, (1, 1))
+}
+
+/// The histogram pass over `hdr` (a texture of `size`, the frame within
+/// `extent`), into `bins`: a workgroup per 16×64 tile.
+#[allow(clippy::too_many_arguments)]
+pub fn histogram(
+    ctx: &GpuContext,
+    format: HdrFormat,
+    weights: [f64; 3],
+    hdr: &wgpu::TextureView,
+    size: (u32, u32),
+    bins: &wgpu::Buffer,
+    steps: &wgpu::Buffer,
+    extent: &wgpu::Buffer,
+) -> Dispatch {
+    let constants = [
+        ("LUM_R", weights[0]),
+        ("LUM_G", weights[1]),
+        ("LUM_B", weights[2]),
+    ];
+    let p = pipeline(ctx, "histogram", "main", format, &constants);
+    let bg = bind_group(
+        ctx,
+        &p,
+        "tonegate.histogram",
+        &[
+            (0, Bind::View(hdr)),
+            (1, Bind::Buffer(bins)),
+            (2, Bind::Buffer(steps)),
+        ],
+    );
+    let groups = (size.0.div_ceil(16), size.1.div_ceil(64));
+    Dispatch::new(p, bg, groups).sized(ctx, extent)
 }
 
 /// A renderer's adaptation: the state buffer, the step uniform, and what
@@ -87,6 +175,7 @@ pub struct AdaptationResources {
     pub stage: crate::plan::AdaptationStage,
     pub adapted: wgpu::Buffer,
     pub steps: wgpu::Buffer,
+    pub bins: wgpu::Buffer,
 }
 
 impl AdaptationResources {
@@ -95,6 +184,7 @@ impl AdaptationResources {
             stage,
             adapted: adapted_buffer(ctx),
             steps: steps_buffer(ctx),
+            bins: bins_buffer(ctx),
         }
     }
 
@@ -113,6 +203,7 @@ impl AdaptationResources {
             stats,
             &self.adapted,
             &self.steps,
+            &self.bins,
         )
     }
 

@@ -29,7 +29,7 @@ pub use target::{
 };
 pub use timing::MapperTimings;
 
-use super::adaptation::{adapted_buffer, steps_buffer};
+use super::adaptation::{adapted_buffer, bins_buffer, steps_buffer};
 use super::config::ReductionMethod;
 use super::stages::{shared_buffer, uniform_buffer, Dispatch, ImageView};
 use super::tonemap::OperatorShader;
@@ -130,6 +130,8 @@ pub struct ToneMapper {
     adapted: wgpu::Buffer,
     /// The adaptation's step, copied in by each record.
     steps: wgpu::Buffer,
+    /// The histogram's bins, between its pass and adaptation's.
+    bins: wgpu::Buffer,
     /// Seconds between frames, for the adaptation's step.
     frame_seconds: f64,
     /// The next frame takes its measurement as it is.
@@ -182,6 +184,7 @@ impl ToneMapper {
             ring: uniforms::UniformRing::new(&ctx),
             adapted: adapted_buffer(&ctx),
             steps: steps_buffer(&ctx),
+            bins: bins_buffer(&ctx),
             frame_seconds: DEFAULT_FRAME_SECONDS,
             reset: true,
             stamps: None,
@@ -316,7 +319,8 @@ impl ToneMapper {
             && (settings.encoding != Encoding::Pq || op.display_levels() == was.display_levels())
             && settings.target == self.settings.target
             && settings.path == self.settings.path
-            && settings.adaptation.is_some() == self.settings.adaptation.is_some()
+            && settings.adaptation.map(|a| a.metering)
+                == self.settings.adaptation.map(|a| a.metering)
             && settings.bloom == self.settings.bloom
             && settings.grade == self.settings.grade
             && settings.taa == self.settings.taa

@@ -93,6 +93,14 @@ pub(super) fn check_settings(
                 reason,
             })?;
     }
+    if let Some(a) = &settings.adaptation {
+        a.check()
+            .map_err(|(key, reason)| ToneMapperError::Display {
+                table: "adaptation",
+                key,
+                reason,
+            })?;
+    }
     if let Some(g) = &settings.grade {
         g.check()
             .map_err(|(key, reason)| ToneMapperError::Display {

@@ -217,6 +217,7 @@ impl ToneMapper {
             stage,
             adapted: self.adapted.clone(),
             steps: self.steps.clone(),
+            bins: self.bins.clone(),
         });
         wiring.motion = motion.cloned();
         wiring.taa = self.history.resources.clone();

@@ -4,7 +4,7 @@
 "use strict";
 
 const API = "/api/v1";
-const STAGES = ["sphere", "taa_sobel", "taa", "luminance_stats", "adaptation", "tonemap", "bloom_bright", "bloom_downsample", "bloom_blur", "bloom_composite", "grade_stats", "grade", "encode"];
+const STAGES = ["sphere", "taa_sobel", "taa", "luminance_stats", "histogram", "adaptation", "tonemap", "bloom_bright", "bloom_downsample", "bloom_blur", "bloom_composite", "grade_stats", "grade", "encode"];
 
 // ---- small DOM helpers ----------------------------------------------------
 function h(tag, attrs, ...children) {
