@@ -67,6 +67,7 @@ fn full_plan(c: &mut Criterion) {
                 ..TaaParams::default()
             },
             None,
+            None,
         )
         .unwrap_or_else(|e| panic!("{e}"));
         let mut n = 0u32;

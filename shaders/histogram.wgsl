@@ -2,9 +2,12 @@
 // adaptation meters under `metering = "histogram"` (reference/histogram.rs,
 // docs/adaptation.md). 64 bins over [min_ev, max_ev): below it (zero
 // included) the first, above it the last; a NaN, infinite or negative
-// luminance is not binned. Each workgroup counts a 16-wide, 64-tall tile
-// into shared memory, then adds its non-empty bins to the frame's, which
-// `adaptation` reads and clears.
+// luminance is not binned. Two ways to count, each adding its non-empty
+// bins to the frame's, which `adaptation` reads and clears: `main`, a
+// workgroup per 16-wide, 64-tall tile counting into shared memory (for
+// GPUs), and `block`, one invocation per 32×32 block counting into its own
+// array, no barriers (for CPU adapters, where a workgroup barrier costs
+// more than the atomics it saves, as for the statistics' block method).
 //#include shared/colour.wgsl
 //#include shared/extent.wgsl
 //#include shared/adaptation.wgsl
@@ -74,6 +77,35 @@ fn main(
         let n = atomicLoad(&tile_bins[li]);
         if (n != 0u) {
             atomicAdd(&bins[li], n);
+        }
+    }
+}
+
+const BLOCK: u32 = 32u;
+
+@compute @workgroup_size(64)
+fn block(@builtin(global_invocation_id) id: vec3<u32>) {
+    let dims = extent.frame;
+    let across = (dims.x + BLOCK - 1u) / BLOCK;
+    let down = (dims.y + BLOCK - 1u) / BLOCK;
+    if (id.x >= across * down) {
+        return;
+    }
+    let x0 = (id.x % across) * BLOCK;
+    let y0 = (id.x / across) * BLOCK;
+    var counts: array<u32, HISTOGRAM_BINS>;
+    for (var y = y0; y < min(y0 + BLOCK, dims.y); y = y + 1u) {
+        for (var x = x0; x < min(x0 + BLOCK, dims.x); x = x + 1u) {
+            let c = textureLoad(hdr, vec2<u32>(x, y), 0).rgb;
+            let b = bin_of(luminance_with(c, vec3<f32>(LUM_R, LUM_G, LUM_B)));
+            if (b < HISTOGRAM_BINS) {
+                counts[b] = counts[b] + weight(vec2<u32>(x, y));
+            }
+        }
+    }
+    for (var i = 0u; i < HISTOGRAM_BINS; i = i + 1u) {
+        if (counts[i] != 0u) {
+            atomicAdd(&bins[i], counts[i]);
         }
     }
 }

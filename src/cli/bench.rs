@@ -39,6 +39,11 @@ pub struct BenchArgs {
     pub operator: Option<String>,
     #[command(flatten)]
     pub params: tonegate::toning::OperatorParams,
+    /// Eye adaptation in the plan, metered by `histogram` or
+    /// `log-average`, the other keys at their defaults
+    /// (docs/adaptation.md).
+    #[arg(long)]
+    pub adaptation: Option<String>,
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
@@ -76,6 +81,19 @@ pub fn bench(a: BenchArgs) -> Result<ExitCode> {
                 .map_err(|e| invalid(e.to_string()))
         })
         .transpose()?;
+    let adaptation = match a.adaptation.as_deref() {
+        None => None,
+        Some("histogram") => Some(tonegate::scene::Adaptation::default()),
+        Some("log-average") => Some(tonegate::scene::Adaptation {
+            metering: tonegate::scene::Metering::LogAverage,
+            ..Default::default()
+        }),
+        Some(other) => {
+            return Err(invalid(format!(
+                "--adaptation: {other:?} is no metering; expected histogram or log-average"
+            )))
+        }
+    };
     let opts = tonegate::gpu::bench::BenchOptions {
         width: a.size.width,
         height: a.size.height,
@@ -90,6 +108,7 @@ pub fn bench(a: BenchArgs) -> Result<ExitCode> {
             ..Default::default()
         },
         operator,
+        adaptation,
     };
     let report = tonegate::gpu::bench::run(&ctx, &opts)?;
     let flip = a

@@ -38,6 +38,9 @@ pub struct BenchOptions {
     /// the automatic key), to time one operator's `tonemap` stage against
     /// the floors.
     pub operator: Option<Operator>,
+    /// Eye adaptation after the statistics (`histogram` and `adaptation`
+    /// under histogram metering), stepped every frame at 60 a second.
+    pub adaptation: Option<crate::scene::Adaptation>,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -151,6 +154,7 @@ pub fn full_plan_renderer<'a>(
     config: GpuConfig,
     taa: TaaParams,
     operator: Option<&Operator>,
+    adaptation: Option<crate::scene::Adaptation>,
 ) -> Result<GpuRenderer<'a>, GpuError> {
     let (default_op, bloom) = bench_operator();
     let op = operator.cloned().unwrap_or(default_op);
@@ -173,6 +177,14 @@ pub fn full_plan_renderer<'a>(
         None,
     )
     .with_taa(taa);
+    let plan = match adaptation {
+        Some(adaptation) => plan.with_adaptation(crate::plan::AdaptationStage {
+            adaptation,
+            frame_seconds: 1.0 / 60.0,
+            operator_needs: op.needs(),
+        }),
+        None => plan,
+    };
     GpuRenderer::new(
         ctx,
         plan,
@@ -196,6 +208,7 @@ pub fn run(ctx: &GpuContext, opts: &BenchOptions) -> Result<BenchReport, GpuErro
         opts.config,
         opts.taa,
         opts.operator.as_ref(),
+        opts.adaptation,
     )?;
     let plan = r.plan.clone();
     let angle = |n: u32| rotation_matrix([1.0, 0.0, 0.0], (n as f64 * 2.0).to_radians());
@@ -203,6 +216,7 @@ pub fn run(ctx: &GpuContext, opts: &BenchOptions) -> Result<BenchReport, GpuErro
     let set = |n: u32| {
         let now = angle(n);
         r.set_frame(&now, crate::conventions::taa_jitter(n));
+        r.set_adaptation(n == 0);
         r.set_taa_history(Some(&crate::conventions::reprojection(
             &angle(n.saturating_sub(1)),
             &now,

@@ -320,6 +320,7 @@ impl<'p> Wiring<'_, 'p> {
                 let d = crate::gpu::adaptation::histogram(
                     ctx,
                     format,
+                    self.reduction,
                     self.weights,
                     &self.hdr_view.view,
                     (self.hdr_view.width, self.hdr_view.height),

@@ -3,7 +3,7 @@
 //! reference is `reference::adaptation`).
 
 use crate::gpu::stages::{bind_group, pipeline, storage_buffer, Bind, Dispatch};
-use crate::gpu::{GpuContext, HdrFormat};
+use crate::gpu::{GpuContext, HdrFormat, ReductionMethod};
 use crate::operators::StatsNeeds;
 use crate::scene::{Adaptation, Mask, Metering, Speed, HISTOGRAM_BINS};
 
@@ -136,11 +136,14 @@ pub fn adaptation(
 }
 
 /// The histogram pass over `hdr` (a texture of `size`, the frame within
-/// `extent`), into `bins`: a workgroup per 16×64 tile.
+/// `extent`), into `bins`: by blocks, one invocation each, where the
+/// statistics reduce by blocks (a CPU adapter), else a workgroup per 16×64
+/// tile counting in shared memory.
 #[allow(clippy::too_many_arguments)]
 pub fn histogram(
     ctx: &GpuContext,
     format: HdrFormat,
+    reduction: ReductionMethod,
     weights: [f64; 3],
     hdr: &wgpu::TextureView,
     size: (u32, u32),
@@ -153,7 +156,9 @@ pub fn histogram(
         ("LUM_G", weights[1]),
         ("LUM_B", weights[2]),
     ];
-    let p = pipeline(ctx, "histogram", "main", format, &constants);
+    let by_blocks = reduction == ReductionMethod::BlockPartials;
+    let entry = if by_blocks { "block" } else { "main" };
+    let p = pipeline(ctx, "histogram", entry, format, &constants);
     let bg = bind_group(
         ctx,
         &p,
@@ -164,7 +169,12 @@ pub fn histogram(
             (2, Bind::Buffer(steps)),
         ],
     );
-    let groups = (size.0.div_ceil(16), size.1.div_ceil(64));
+    let groups = if by_blocks {
+        let blocks = size.0.div_ceil(32) * size.1.div_ceil(32);
+        (blocks.div_ceil(64), 1)
+    } else {
+        (size.0.div_ceil(16), size.1.div_ceil(64))
+    };
     Dispatch::new(p, bg, groups).sized(ctx, extent)
 }
 
