@@ -57,7 +57,7 @@ pub use readback::{GpuFrame, Ticket, FRAMES_IN_FLIGHT};
 pub use renderer::GpuRenderer;
 pub use tone_mapper::{
     MapperTimings, MotionUnits, MotionVectors, OutputPath, SourceView, TargetView, TextureRole,
-    ToneMapper, ToneMapperError, ToneMapperSettings, MOTION_FORMATS,
+    ToneMapper, ToneMapperError, ToneMapperSettings, MAX_CAMERAS, MOTION_FORMATS,
 };
 // The stages' override constants, for the range-safety proof
 // (`stress::range_safety`), which evaluates the shaders with them.

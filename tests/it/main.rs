@@ -12,6 +12,7 @@ mod common;
 mod aces2;
 mod adaptation;
 mod adaptation_bevy;
+mod adaptation_cameras;
 mod adaptation_scenes;
 mod adapters;
 mod alerts;

@@ -14,6 +14,7 @@
 //! `Rgba32Float` gives the bytes `tonegate tonemap --gpu` writes on the
 //! same adapter, in every 8-bit target and by either path.
 
+mod cameras;
 mod record;
 mod settings;
 mod taa;
@@ -22,6 +23,7 @@ mod timing;
 mod uniforms;
 mod wire;
 
+pub use cameras::MAX_CAMERAS;
 pub use settings::ToneMapperSettings;
 pub use taa::{MotionUnits, MotionVectors, MOTION_FORMATS};
 pub use target::{
@@ -134,8 +136,8 @@ pub struct ToneMapper {
     bins: wgpu::Buffer,
     /// Seconds between frames, for the adaptation's step.
     frame_seconds: f64,
-    /// The next frame takes its measurement as it is.
-    reset: bool,
+    /// Each camera's adapted state, and which the next records adapt.
+    cameras: cameras::Cameras,
     /// Timestamp queries around the passes, once enabled.
     stamps: Option<timing::Stamps>,
     /// The TAA history, carried between records.
@@ -186,7 +188,7 @@ impl ToneMapper {
             steps: steps_buffer(&ctx),
             bins: bins_buffer(&ctx),
             frame_seconds: DEFAULT_FRAME_SECONDS,
-            reset: true,
+            cameras: cameras::Cameras::new(&ctx),
             stamps: None,
             history: taa::History::default(),
             ctx,
@@ -281,8 +283,9 @@ impl ToneMapper {
     /// A second mapper on the same device and queue, with its own
     /// `settings`, adaptation state and TAA history, sharing this one's
     /// compiled pipelines: another camera compiles nothing this mapper
-    /// has. (One mapper already gives each record its own settings; a
-    /// second one is for a second adaptation state or history.)
+    /// has. (One mapper already gives each record its own settings and,
+    /// by [`ToneMapper::set_camera`], each camera its own adaptation
+    /// state; a second one is for a second TAA history.)
     pub fn sharing_pipelines(
         &self,
         settings: ToneMapperSettings,
@@ -379,18 +382,48 @@ impl ToneMapper {
         Ok(())
     }
 
-    /// The next frame adapts at once to its own measurement (a cut, a
-    /// teleport); the first frame after `new` does anyway.
+    /// The current camera's next frame adapts at once to its own
+    /// measurement (a cut, a teleport); each camera's first frame does
+    /// anyway.
     pub fn reset_adaptation(&mut self) {
-        self.reset = true;
+        self.cameras.reset[self.cameras.current] = true;
     }
 
-    /// The luminance the last frame recorded was adapted to, in scene
-    /// units (exp of the adapted log average), or `None` without
-    /// adaptation or before a frame. It waits for the device: for tests
-    /// and debugging overlays, not for every frame.
+    /// The camera the records from now on adapt (0 until set; at most
+    /// [`MAX_CAMERAS`]): each keeps its own adapted state and reset, so
+    /// one mapper serves several views, in one submission too, each
+    /// adapting to its own frames. Settings, exposure and frame time stay
+    /// the mapper's.
+    pub fn set_camera(&mut self, camera: usize) -> Result<(), ToneMapperError> {
+        if camera >= MAX_CAMERAS {
+            return Err(ToneMapperError::Camera { camera });
+        }
+        self.cameras.current = camera;
+        Ok(())
+    }
+
+    /// The camera the next records adapt.
+    pub fn camera(&self) -> usize {
+        self.cameras.current
+    }
+
+    /// The buffer the `adaptation` pass leaves the adapted values in, for
+    /// a later pass of the caller's in the same submission to bind as
+    /// storage (read-only): after a record, the natural logarithm of the
+    /// luminance that record's camera is adapted to (f32 at offset 0; the
+    /// weighted log average's at offset 4, where the operator reads one).
+    /// A later record overwrites it.
+    pub fn adaptation_buffer(&self) -> &wgpu::Buffer {
+        &self.adapted
+    }
+
+    /// The luminance the current camera's last recorded frame was adapted
+    /// to, in scene units (exp of the adapted log average), or `None`
+    /// without adaptation or before that camera's first frame. It waits
+    /// for the device: for tests and debugging overlays, not for every
+    /// frame.
     pub fn read_adapted_luminance(&self) -> Result<Option<f64>, ToneMapperError> {
-        if self.settings.adaptation.is_none() || self.reset {
+        if self.settings.adaptation.is_none() || self.cameras.reset[self.cameras.current] {
             return Ok(None);
         }
         let staging = self.ctx.create_buffer(&wgpu::BufferDescriptor {
@@ -400,7 +433,7 @@ impl ToneMapper {
             mapped_at_creation: false,
         });
         let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
-        encoder.copy_buffer_to_buffer(&self.adapted, 0, &staging, 0, 16);
+        self.cameras.copy_current(&mut encoder, &staging);
         self.ctx.queue.submit([encoder.finish()]);
         let bytes = self
             .ctx

@@ -87,11 +87,14 @@ impl ToneMapper {
         let origin = [sink.origin.0, sink.origin.1, 0, 0];
         self.ring
             .stage(ctx, encoder, &self.origin, bytemuck::cast_slice(&origin));
+        let adapting = self.settings.adaptation.is_some();
         if let Some(adaptation) = &self.settings.adaptation {
-            let steps = Steps::new(adaptation, self.frame_seconds, self.reset);
+            let reset = &mut self.cameras.reset[self.cameras.current];
+            let steps = Steps::new(adaptation, self.frame_seconds, *reset);
             self.ring
                 .stage(ctx, encoder, &self.steps, bytemuck::bytes_of(&steps));
-            self.reset = false;
+            *reset = false;
+            self.cameras.load(encoder, &self.adapted);
         }
         let odd = self.step_history(encoder, motion.as_ref(), size);
         let store = sink.compute.then(|| self.store_for(sink.view));
@@ -109,6 +112,9 @@ impl ToneMapper {
             compute,
             "tonegate.tone_mapper",
         );
+        if adapting {
+            self.cameras.store(encoder, &self.adapted);
+        }
         if let (false, Some((pipeline, bind_group))) = (sink.compute, &bound.wired.draw) {
             let draw = Draw {
                 pipeline,

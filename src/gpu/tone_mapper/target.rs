@@ -234,6 +234,12 @@ pub enum ToneMapperError {
         /// The output level's width and height.
         output: (u32, u32),
     },
+    /// A camera past the last one a mapper adapts.
+    #[error("camera {camera}: a ToneMapper adapts cameras 0 to {}", super::cameras::MAX_CAMERAS - 1)]
+    Camera {
+        /// The camera asked for.
+        camera: usize,
+    },
     /// A frame time that is negative, infinite or NaN.
     #[error("frame time {seconds} s: must be a finite number >= 0")]
     FrameSeconds {
