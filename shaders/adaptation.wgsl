@@ -10,10 +10,13 @@
 //#include shared/stats.wgsl
 //#include shared/adaptation.wgsl
 
-// ln of the adapted log average and weighted log average.
+// ln of the adapted log average, weighted log average and largest
+// luminance (the white point's, once a frame had a finite one: has_max).
 struct Adapted {
     log_average: f32,
     weighted_log_average: f32,
+    max_y: f32,
+    has_max: u32,
 }
 
 @group(0) @binding(0) var<storage, read_write> stats: Stats;
@@ -25,6 +28,9 @@ struct Adapted {
 // measured), and whether it keys on none (auto-exposure).
 override WEIGHTED: bool = false;
 override EXPOSE: bool = false;
+// Whether the white point the operator reads from the largest luminance
+// follows it (`adapt_white`, an operator that reads the max).
+override WHITE: bool = false;
 
 const LN2: f32 = 0.6931471805599453;
 
@@ -70,6 +76,11 @@ fn follow(a: f32, m: f32, ok: bool) -> f32 {
     if (steps.reset != 0u) {
         return t;
     }
+    return toward(a, t);
+}
+
+// The model's move from `a` toward `t`, both ln.
+fn toward(a: f32, t: f32) -> f32 {
     let gap = t - a;
     let up = gap > 0.0;
     if (steps.model == 0u) {
@@ -124,6 +135,25 @@ fn main() {
         let w = follow(adapted.weighted_log_average, mw, ok);
         adapted.weighted_log_average = w;
         stats.weighted_log_average = exp(w);
+    }
+    if (WHITE) {
+        // The white point: unclamped, uncompensated; a non-finite largest
+        // luminance leaves it (or, before any, the frame its own).
+        let m = log(stats.max_y);
+        let fresh = steps.reset != 0u || adapted.has_max == 0u;
+        if (finite(m)) {
+            var w = m;
+            if (!fresh) {
+                w = toward(adapted.max_y, m);
+            }
+            adapted.max_y = w;
+            adapted.has_max = 1u;
+            stats.max_y = exp(w);
+        } else if (!fresh) {
+            stats.max_y = exp(adapted.max_y);
+        } else {
+            adapted.has_max = 0u;
+        }
     }
     stats.exposure = 1.0;
     if (EXPOSE) {

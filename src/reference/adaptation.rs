@@ -11,6 +11,9 @@ use crate::scene::Adaptation;
 pub struct Adapted {
     pub log_average: f64,
     pub weighted_log_average: Option<f64>,
+    /// ln of the adapted largest luminance (`adapt_white`, for an operator
+    /// that reads one), once a frame had a finite one.
+    pub max: Option<f64>,
 }
 
 /// A frame's measurement, natural logarithms: the log average and the
@@ -19,6 +22,8 @@ pub struct Adapted {
 pub struct Metered {
     pub log_average: f64,
     pub weighted_log_average: Option<f64>,
+    /// ln of the frame's largest luminance, where its white point adapts.
+    pub max: Option<f64>,
 }
 
 impl Metered {
@@ -28,6 +33,16 @@ impl Metered {
         Metered {
             log_average: stats.log_average.map_or(f64::NAN, f64::ln),
             weighted_log_average: stats.weighted_log_average.map(f64::ln),
+            max: None,
+        }
+    }
+
+    /// With the frame's largest luminance from `stats` where `a` adapts the
+    /// white point of an operator that reads it (`needs`).
+    pub fn with_white(self, stats: &LuminanceStats, a: &Adaptation, needs: StatsNeeds) -> Metered {
+        Metered {
+            max: (a.adapt_white && needs.max).then(|| stats.max.map_or(f64::NAN, f64::ln)),
+            ..self
         }
     }
 
@@ -40,6 +55,7 @@ impl Metered {
         Metered {
             log_average: m,
             weighted_log_average: needs.weighted_log_average.then_some(m),
+            max: None,
         }
     }
 }
@@ -63,6 +79,18 @@ pub fn adapt(measured: Metered, before: Option<&Adapted>, a: &Adaptation, dt: f6
         weighted_log_average: measured
             .weighted_log_average
             .map(|w| step(before.and_then(|b| b.weighted_log_average), w)),
+        // The white point follows the frame's largest luminance by the same
+        // rule, unclamped and uncompensated; a non-finite one (a NaN or
+        // infinite pixel, an all-black frame) leaves it, and until a frame
+        // had a finite one each frame keeps its own.
+        max: measured.max.and_then(|m| {
+            let b = before.and_then(|b| b.max);
+            match b {
+                _ if !m.is_finite() => b,
+                None => Some(m),
+                Some(b) => Some(a.follow(b, m, dt)),
+            }
+        }),
     }
 }
 
@@ -73,6 +101,7 @@ impl Adapted {
         LuminanceStats {
             log_average: Some(self.log_average.exp()),
             weighted_log_average: self.weighted_log_average.map(f64::exp),
+            max: self.max.map(f64::exp).or(measured.max),
             ..*measured
         }
     }

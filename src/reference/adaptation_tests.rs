@@ -8,6 +8,7 @@ fn stats(l: f64) -> Metered {
     Metered {
         log_average: l.ln(),
         weighted_log_average: None,
+        max: None,
     }
 }
 
@@ -198,4 +199,35 @@ fn the_percentile_filter_drops_the_brightest_and_darkest_weight() {
     let want = (Histogram::centre(0, &a) + Histogram::centre(10, &a)) / 2.0;
     assert!((mid - want).abs() < 1e-12, "{mid} {want}");
     assert_eq!(Histogram { bins: [0; BINS] }.metered_ev(&a), None);
+}
+
+/// The white point follows the largest luminance by the same rule; a
+/// non-finite one leaves it, and before any finite one each frame keeps
+/// its own.
+#[test]
+fn the_white_point_follows_the_largest_luminance_and_skips_a_non_finite_one() {
+    let a = Adaptation::default();
+    let with_max = |max: f64| Metered {
+        max: Some(max.ln()),
+        ..stats(0.5)
+    };
+    let dt = 1.0 / 60.0;
+    assert_eq!(adapt(with_max(f64::INFINITY), None, &a, dt).max, None);
+    let first = adapt(with_max(100.0), None, &a, dt);
+    assert_eq!(first.max, Some(100f64.ln()));
+    let spike = adapt(with_max(1e6), Some(&first), &a, dt);
+    let moved = (spike.max.unwrap() - first.max.unwrap()) / LN2;
+    assert!((moved - a.stops_up.get() * dt).abs() < 1e-12, "{moved}");
+    let held = adapt(with_max(f64::INFINITY), Some(&spike), &a, dt);
+    assert_eq!(held.max, spike.max);
+    let measured = LuminanceStats {
+        max: Some(7.0),
+        ..Default::default()
+    };
+    assert_eq!(
+        first.statistics(&measured).max,
+        Some(first.max.unwrap().exp())
+    );
+    let unadapted = Adapted { max: None, ..first };
+    assert_eq!(unadapted.statistics(&measured).max, Some(7.0));
 }

@@ -234,6 +234,7 @@ fn run_stages_until(
                         a.operator_needs,
                     ),
                 };
+                let measured = measured.with_white(&stats, &a.adaptation, a.operator_needs);
                 let next = adaptation::adapt(measured, before, &a.adaptation, a.frame_seconds);
                 stats = next.statistics(&stats);
                 exposure = (!a.operator_needs.keys_on_average())

@@ -150,6 +150,10 @@ pub struct Adaptation {
     pub high: f64,
     pub mask: Mask,
     pub compensation: Compensation,
+    /// Whether the white point an operator reads from the frame's largest
+    /// luminance (`reinhard-global`) follows it at the same speed, so one
+    /// bright pixel cannot swing a frame; false: each frame's own.
+    pub adapt_white: bool,
     pub speed: Speed,
     /// Stops per second as the scene brightens (`speed = "stops"`).
     pub stops_up: Positive,
@@ -188,6 +192,7 @@ impl Default for Adaptation {
             high: 0.9,
             mask: Mask::Uniform,
             compensation: Compensation::default(),
+            adapt_white: true,
             speed: Speed::Stops,
             stops_up: Positive(12.0),
             stops_down: Positive(3.0),
@@ -201,14 +206,15 @@ impl Default for Adaptation {
 
 impl Adaptation {
     /// The first model: the log average followed with time constants `up`
-    /// and `down` seconds, mapped to `key`, unclamped (±64 EV); or which
-    /// is out of range.
+    /// and `down` seconds, mapped to `key`, unclamped (±64 EV), each
+    /// frame's own white point; or which is out of range.
     pub fn new(up: f64, down: f64, key: f64) -> Result<Adaptation, (&'static str, String)> {
         Ok(Adaptation {
             metering: Metering::LogAverage,
             min_ev: -MAX_EV,
             max_ev: MAX_EV,
             speed: Speed::TimeConstant,
+            adapt_white: false,
             up: Positive::try_from(up).map_err(|e| ("up", e))?,
             down: Positive::try_from(down).map_err(|e| ("down", e))?,
             key: Positive::try_from(key).map_err(|e| ("key", e))?,

@@ -14,6 +14,7 @@ mod adaptation;
 mod adaptation_bevy;
 mod adaptation_cameras;
 mod adaptation_scenes;
+mod adaptation_white;
 mod adapters;
 mod alerts;
 mod alerts_frames;

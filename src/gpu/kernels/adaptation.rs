@@ -101,26 +101,30 @@ pub fn steps_buffer(ctx: &GpuContext) -> wgpu::Buffer {
     })
 }
 
-/// The constants of the pass for an operator with `needs`.
-fn constants(needs: StatsNeeds) -> [(&'static str, f64); 2] {
+/// The constants of the pass for an operator with `needs`, the white
+/// point adapting where `white`.
+fn constants(needs: StatsNeeds, white: bool) -> [(&'static str, f64); 3] {
     [
         ("WEIGHTED", f64::from(u8::from(needs.weighted_log_average))),
         ("EXPOSE", f64::from(u8::from(!needs.keys_on_average()))),
+        ("WHITE", f64::from(u8::from(white && needs.max))),
     ]
 }
 
 /// The one-invocation pass, between `luminance_stats` (which measured at
 /// least the log average) and `tonemap`'s resolve step.
+#[allow(clippy::too_many_arguments)]
 pub fn adaptation(
     ctx: &GpuContext,
     format: HdrFormat,
     needs: StatsNeeds,
+    white: bool,
     stats: &wgpu::Buffer,
     adapted: &wgpu::Buffer,
     steps: &wgpu::Buffer,
     bins: &wgpu::Buffer,
 ) -> Dispatch {
-    let p = pipeline(ctx, "adaptation", "main", format, &constants(needs));
+    let p = pipeline(ctx, "adaptation", "main", format, &constants(needs, white));
     let bg = bind_group(
         ctx,
         &p,
@@ -210,6 +214,7 @@ impl AdaptationResources {
             ctx,
             format,
             self.stage.operator_needs,
+            self.stage.adaptation.adapt_white,
             stats,
             &self.adapted,
             &self.steps,
