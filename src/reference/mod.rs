@@ -26,9 +26,9 @@ use crate::image::{Frame, HdrImage, LinearImage, Rgb8Image};
 use crate::operators::Operator;
 use crate::operators::Tone;
 use crate::plan::{BloomSource, PlanError, Stage, StagePlan};
-use crate::scene::{Bloom, Encoding, Grade};
 #[cfg(feature = "reference")]
-use crate::scene::{Metering, Scene};
+use crate::scene::Scene;
+use crate::scene::{Bloom, Encoding, Grade, Metering};
 use luminance_stats::LuminanceStats;
 use serde::Serialize;
 use tonemap::ToneParams;
