@@ -7,7 +7,7 @@
 //! exit's frames beside tonegate's histogram mode with the same
 //! parameters (`Adaptation::bevy()`).
 
-use crate::adaptation_scenes::{run, scaled, sky, Input};
+use crate::adaptation_scenes::{run, tunnel};
 use tonegate::image::HdrImage;
 use tonegate::operators::Operator;
 use tonegate::scene::Adaptation;
@@ -79,18 +79,7 @@ fn bevy_curve(frames: &[&HdrImage], weights: [f64; 3], dt: f64) -> Vec<f64> {
 
 #[test]
 fn tonegate_histogram_mode_follows_bevys_rule_written_from_its_description() {
-    let day = sky();
-    let inputs = [
-        Input {
-            image: scaled(&day, 1e-3),
-            half: false,
-        },
-        Input {
-            image: day,
-            half: false,
-        },
-    ];
-    let frames: Vec<usize> = (0..300).map(|n| usize::from(n >= 120)).collect();
+    let (inputs, frames) = tunnel();
     let a = Adaptation::bevy();
     let run = run(&inputs, &frames, a, "agx", |_| false);
     let weights = Operator::named("agx", &[]).unwrap().luminance().weights;

@@ -240,10 +240,9 @@ pub(crate) fn print_curve(name: &str, run: &Run, every: usize) {
     }
 }
 
-/// Out of a tunnel into daylight, 1,000 times brighter: settled in the
-/// tunnel for 2 s, then 3 s outside.
-#[test]
-fn a_tunnel_exit_clips_for_at_most_ten_frames_and_follows_its_f64_curve() {
+/// Out of a tunnel into daylight, 1,000 times brighter: the two inputs,
+/// and the frames, 2 s in the tunnel (input 0), then 3 s outside.
+pub(crate) fn tunnel() -> ([Input; 2], Vec<usize>) {
     let day = sky();
     let inputs = [
         Input {
@@ -255,7 +254,12 @@ fn a_tunnel_exit_clips_for_at_most_ten_frames_and_follows_its_f64_curve() {
             half: false,
         },
     ];
-    let frames: Vec<usize> = (0..300).map(|n| usize::from(n >= 120)).collect();
+    (inputs, (0..300).map(|n| usize::from(n >= 120)).collect())
+}
+
+#[test]
+fn a_tunnel_exit_clips_for_at_most_ten_frames_and_follows_its_f64_curve() {
+    let (inputs, frames) = tunnel();
     let run = run(&inputs, &frames, Adaptation::default(), "agx", |n| n >= 110);
     let worst = check_curve("tunnel", &run);
     print_curve("tunnel", &run, 5);
