@@ -294,14 +294,14 @@ fn after_ten_seconds_of_black_the_first_bright_frame_clips_at_most_five_percent(
             half: false,
         },
     ];
-    let frames: Vec<usize> = (0..720)
+    let frames: Vec<usize> = (0..661)
         .map(|n| usize::from((60..660).contains(&n)))
         .collect();
     let a = Adaptation::default();
     let mut table = Vec::new();
-    for min_ev in [a.min_ev, -8.0, -6.0, -4.0] {
+    for min_ev in [a.min_ev, -8.0, -4.0] {
         let a = Adaptation { min_ev, ..a };
-        let run = run(&inputs, &frames, a, "agx", |n| n == 59 || n >= 660);
+        let run = run(&inputs, &frames, a, "agx", |n| n == 59 || n == 660);
         check_curve("black", &run);
         assert!((run.gpu[659] - a.min_ev).abs() < 0.2, "{}", run.gpu[659]);
         table.push((
