@@ -13,6 +13,7 @@ mod aces2;
 mod adaptation;
 mod adaptation_bevy;
 mod adaptation_cameras;
+mod adaptation_gate;
 mod adaptation_scenes;
 mod adaptation_white;
 mod adapters;
