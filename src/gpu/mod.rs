@@ -34,7 +34,7 @@ use kernels::floor;
 pub use kernels::{adaptation, sphere};
 use kernels::{
     bloom_blur, bloom_bright, bloom_composite, bloom_downsample, encode, grade, grade_stats,
-    luminance_stats, taa, taa_sobel, tonemap,
+    histogram, luminance_stats, taa, taa_sobel, tonemap,
 };
 #[cfg(feature = "gpu")]
 pub use metrics::{compare, flip};

@@ -134,12 +134,19 @@ fn bloom_and_grade_appear_only_when_active() {
     assert!(StagePlan::build(Input::Flat, &op, None, Some(&contrast)).contains("grade_stats"));
 }
 
-#[test]
-fn adaptation_goes_after_the_statistics_which_then_measure_the_log_average() {
-    let stage = |op: &Operator| AdaptationStage {
-        adaptation: crate::scene::Adaptation::new(0.4, 1.6, 0.18).unwrap(),
+/// The adaptation stage of `op` with `adaptation` at 60 frames a second.
+fn adaptation_stage(op: &Operator, adaptation: crate::scene::Adaptation) -> AdaptationStage {
+    AdaptationStage {
+        adaptation,
         frame_seconds: 1.0 / 60.0,
         operator_needs: op.needs(),
+    }
+}
+
+#[test]
+fn adaptation_goes_after_the_statistics_which_then_measure_the_log_average() {
+    let stage = |op: &Operator| {
+        adaptation_stage(op, crate::scene::Adaptation::new(0.4, 1.6, 0.18).unwrap())
     };
     // An operator that measures nothing gets the statistics it then needs.
     let agx = Operator::named("agx", &[]).unwrap();
@@ -190,11 +197,7 @@ fn adaptation_goes_after_the_statistics_which_then_measure_the_log_average() {
 
 #[test]
 fn histogram_metering_adds_its_stage_and_leaves_the_statistics_to_the_operator() {
-    let stage = |op: &Operator| AdaptationStage {
-        adaptation: crate::scene::Adaptation::default(),
-        frame_seconds: 1.0 / 60.0,
-        operator_needs: op.needs(),
-    };
+    let stage = |op: &Operator| adaptation_stage(op, crate::scene::Adaptation::default());
     let agx = Operator::named("agx", &[]).unwrap();
     let plan =
         StagePlan::build(Input::Sphere { spp: 4 }, &agx, None, None).with_adaptation(stage(&agx));

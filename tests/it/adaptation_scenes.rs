@@ -15,7 +15,7 @@ use tonegate::reference::histogram::{histogram, mask_weight, BINS};
 use tonegate::scene::Adaptation;
 use tonegate::{ToneMapper, ToneMapperSettings};
 
-const DT: f64 = 1.0 / 60.0;
+pub(crate) const DT: f64 = 1.0 / 60.0;
 const W: u32 = 128;
 const H: u32 = 72;
 const LN2: f64 = std::f64::consts::LN_2;
@@ -119,6 +119,28 @@ fn metering_bound(img: &HdrImage, weights: [f64; 3], a: &Adaptation) -> f64 {
     2.0 * ambiguous as f64 * range / kept + f32_sums
 }
 
+/// A mapper of `op` with `a`, into `Rgba8Unorm`, at 60 frames a second.
+pub(crate) fn adapting_mapper(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    op: &Operator,
+    a: Adaptation,
+) -> ToneMapper {
+    let mut mapper = ToneMapper::new(
+        device,
+        queue,
+        ToneMapperSettings {
+            operator: op.clone(),
+            adaptation: Some(a),
+            target: wgpu::TextureFormat::Rgba8Unorm,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    mapper.set_frame_seconds(DT).unwrap();
+    mapper
+}
+
 /// Runs `frames` (indices into `inputs`) through one mapper with `a` and
 /// `operator`, reading the output of the frames `read_at` says.
 pub(crate) fn run(
@@ -141,18 +163,7 @@ pub(crate) fn run(
     let out = view(&output);
     let op = Operator::named(operator, &[]).unwrap();
     let weights = op.luminance().weights;
-    let mut mapper = ToneMapper::new(
-        &device,
-        &queue,
-        ToneMapperSettings {
-            operator: op.clone(),
-            adaptation: Some(a),
-            target: wgpu::TextureFormat::Rgba8Unorm,
-            ..Default::default()
-        },
-    )
-    .unwrap();
-    mapper.set_frame_seconds(DT).unwrap();
+    let mut mapper = adapting_mapper(&device, &queue, &op, a);
     // The reference's metering of each input, once.
     let metered: Vec<(Metered, f64)> = inputs
         .iter()

@@ -6,16 +6,13 @@
 //! one frame of `stops_up` allows, and its bytes are the f64 pipeline's
 //! with the reference's adapted statistics.
 
-use crate::adaptation_scenes::sky;
+use crate::adaptation_scenes::{adapting_mapper, sky, DT};
 use crate::tone_mapper::{hdr_input, own_device, read, texture, view, Texel};
 use tonegate::operators::Operator;
 use tonegate::reference::adaptation::{adapt, Adapted, Metered};
 use tonegate::reference::histogram::histogram;
 use tonegate::reference::{encode, luminance_stats, tonemap};
 use tonegate::scene::{Adaptation, Encoding};
-use tonegate::{ToneMapper, ToneMapperSettings};
-
-const DT: f64 = 1.0 / 60.0;
 
 fn mean_code(texels: &[Texel]) -> f64 {
     let sum: u64 = texels
@@ -58,18 +55,7 @@ fn one_bright_pixel_moves_reinhard_globals_white_by_one_frame_of_speed() {
             adapt_white,
             ..Adaptation::default()
         };
-        let mut mapper = ToneMapper::new(
-            &device,
-            &queue,
-            ToneMapperSettings {
-                operator: op.clone(),
-                adaptation: Some(a),
-                target: wgpu::TextureFormat::Rgba8Unorm,
-                ..Default::default()
-            },
-        )
-        .unwrap();
-        mapper.set_frame_seconds(DT).unwrap();
+        let mut mapper = adapting_mapper(&device, &queue, &op, a);
         let mut cpu: Option<Adapted> = None;
         let mut means = Vec::new();
         for (n, &k) in frames.iter().enumerate() {

@@ -317,7 +317,7 @@ impl<'p> Wiring<'_, 'p> {
                 let made = self.adaptation.take().unwrap_or_else(|| {
                     crate::gpu::adaptation::AdaptationResources::new(ctx, *stage)
                 });
-                let d = crate::gpu::adaptation::histogram(
+                let d = crate::gpu::histogram::histogram(
                     ctx,
                     format,
                     self.reduction,

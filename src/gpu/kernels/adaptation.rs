@@ -3,7 +3,7 @@
 //! reference is `reference::adaptation`).
 
 use crate::gpu::stages::{bind_group, pipeline, storage_buffer, Bind, Dispatch};
-use crate::gpu::{GpuContext, HdrFormat, ReductionMethod};
+use crate::gpu::{GpuContext, HdrFormat};
 use crate::operators::StatsNeeds;
 use crate::scene::{Adaptation, Mask, Metering, Speed, HISTOGRAM_BINS};
 
@@ -85,12 +85,6 @@ pub fn adapted_buffer(ctx: &GpuContext) -> wgpu::Buffer {
     storage_buffer(ctx, "tonegate.adaptation.adapted", 16)
 }
 
-/// The histogram's bins, u32 each: `histogram` adds a frame's into them,
-/// `adaptation` reads and clears them.
-pub fn bins_buffer(ctx: &GpuContext) -> wgpu::Buffer {
-    storage_buffer(ctx, "tonegate.adaptation.bins", (HISTOGRAM_BINS * 4) as u64)
-}
-
 /// The uniform of [`Steps`], written per frame.
 pub fn steps_buffer(ctx: &GpuContext) -> wgpu::Buffer {
     ctx.create_buffer(&wgpu::BufferDescriptor {
@@ -139,49 +133,6 @@ pub fn adaptation(
     Dispatch::new(p, bg, (1, 1))
 }
 
-/// The histogram pass over `hdr` (a texture of `size`, the frame within
-/// `extent`), into `bins`: by blocks, one invocation each, where the
-/// statistics reduce by blocks (a CPU adapter), else a workgroup per 16×64
-/// tile counting in shared memory.
-#[allow(clippy::too_many_arguments)]
-pub fn histogram(
-    ctx: &GpuContext,
-    format: HdrFormat,
-    reduction: ReductionMethod,
-    weights: [f64; 3],
-    hdr: &wgpu::TextureView,
-    size: (u32, u32),
-    bins: &wgpu::Buffer,
-    steps: &wgpu::Buffer,
-    extent: &wgpu::Buffer,
-) -> Dispatch {
-    let constants = [
-        ("LUM_R", weights[0]),
-        ("LUM_G", weights[1]),
-        ("LUM_B", weights[2]),
-    ];
-    let by_blocks = reduction == ReductionMethod::BlockPartials;
-    let entry = if by_blocks { "block" } else { "main" };
-    let p = pipeline(ctx, "histogram", entry, format, &constants);
-    let bg = bind_group(
-        ctx,
-        &p,
-        "tonegate.histogram",
-        &[
-            (0, Bind::View(hdr)),
-            (1, Bind::Buffer(bins)),
-            (2, Bind::Buffer(steps)),
-        ],
-    );
-    let groups = if by_blocks {
-        let blocks = size.0.div_ceil(32) * size.1.div_ceil(32);
-        (blocks.div_ceil(64), 1)
-    } else {
-        (size.0.div_ceil(16), size.1.div_ceil(64))
-    };
-    Dispatch::new(p, bg, groups).sized(ctx, extent)
-}
-
 /// A renderer's adaptation: the state buffer, the step uniform, and what
 /// the plan's stage runs with.
 #[derive(Clone)]
@@ -198,7 +149,7 @@ impl AdaptationResources {
             stage,
             adapted: adapted_buffer(ctx),
             steps: steps_buffer(ctx),
-            bins: bins_buffer(ctx),
+            bins: super::histogram::bins_buffer(ctx),
         }
     }
 

@@ -13,6 +13,7 @@ pub(in crate::gpu) mod encode;
 pub(in crate::gpu) mod floor;
 pub(in crate::gpu) mod grade;
 pub(in crate::gpu) mod grade_stats;
+pub(in crate::gpu) mod histogram;
 pub(in crate::gpu) mod luminance_stats;
 pub mod sphere;
 pub(in crate::gpu) mod taa;

@@ -31,8 +31,9 @@ pub use target::{
 };
 pub use timing::MapperTimings;
 
-use super::adaptation::{adapted_buffer, bins_buffer, steps_buffer};
+use super::adaptation::{adapted_buffer, steps_buffer};
 use super::config::ReductionMethod;
+use super::histogram::bins_buffer;
 use super::stages::{shared_buffer, uniform_buffer, Dispatch, ImageView};
 use super::tonemap::OperatorShader;
 use super::{GpuContext, GpuStats};
